@@ -1,0 +1,71 @@
+"""Level-bench capture: installation angles from still samples (seed 000 §3).
+
+The tool lies on a bench levelled with an electronic level (true inclination
+zero); the mean sensor reading then gives the axis tilts of Eqs. 11-12 and the
+installation angles of Eqs. 13-14.  A capture is refused, with a reason, when
+its samples cannot give a trustworthy answer.
+"""
+
+from dataclasses import dataclass
+import math
+
+import numpy as np
+
+from inclino_ros.installation import (
+    installation_angles, level_axis_angles, pseudo_inclination)
+from inclino_ros.model import Installation, utc_now_iso
+
+
+class CaptureRefused(Exception):
+    """A capture whose samples cannot give a trustworthy calibration."""
+
+
+@dataclass(frozen=True)
+class LevelLimits:
+    """Acceptance limits of a level capture."""
+
+    max_std_deg: float
+    max_tilt_deg: float
+    gravity_mps2: float
+    g_total_tolerance_mps2: float
+
+
+def solve_level_capture(samples, axes, limits):
+    """Return the Installation of a level capture, or raise CaptureRefused.
+
+    ``samples`` are accepted raw readings, shape (N, 3), m/s^2 (for a
+    two-axis sensor the z column is ignored and ``v_g`` is the configured
+    gravity).  Checks, in order: enough samples; the tool is still (standard
+    deviation of the per-sample axis tilts of Eqs. 11-12 at most
+    ``max_std_deg``); G-total within tolerance (three axes); the bench level
+    (false tilt theta of Eq. 4 at most ``max_tilt_deg``).
+    """
+    samples = np.asarray(samples, dtype=float)
+    if samples.shape[0] < 2:
+        raise CaptureRefused(f'only {samples.shape[0]} sample(s) captured, need at least 2')
+    if axes == 3:
+        g_per_sample = np.linalg.norm(samples, axis=1)
+    else:
+        g_per_sample = np.full(samples.shape[0], limits.gravity_mps2)
+    tilt_x, tilt_y = level_axis_angles(samples, g_per_sample)
+    std_deg = math.degrees(max(np.std(tilt_x, ddof=1), np.std(tilt_y, ddof=1)))
+    if std_deg > limits.max_std_deg:
+        raise CaptureRefused(
+            f'tool is moving: spread of the axis tilts {std_deg:.4f} deg exceeds '
+            f'level_capture.max_std_deg {limits.max_std_deg} deg')
+    mean = samples.mean(axis=0)
+    g_total = float(np.linalg.norm(mean)) if axes == 3 else limits.gravity_mps2
+    if abs(g_total - limits.gravity_mps2) > limits.g_total_tolerance_mps2:
+        raise CaptureRefused(
+            f'implausible G-total {g_total:.4f} m/s^2: expected {limits.gravity_mps2} '
+            f'+/- {limits.g_total_tolerance_mps2} m/s^2 (sensor scale or units wrong?)')
+    gamma, beta = installation_angles(*level_axis_angles(mean, g_total))
+    theta_deg = math.degrees(float(pseudo_inclination(gamma, beta)))
+    if theta_deg > limits.max_tilt_deg:
+        raise CaptureRefused(
+            f'bench is not level: tilt {theta_deg:.3f} deg exceeds '
+            f'level_capture.max_tilt_deg {limits.max_tilt_deg} deg')
+    return Installation(
+        gamma_deg=math.degrees(float(gamma)), beta_deg=math.degrees(float(beta)),
+        captured_at=utc_now_iso(), sample_count=int(samples.shape[0]),
+        std_deg=std_deg, g_total_mps2=g_total)

@@ -1,0 +1,74 @@
+"""The processing chain shared by the node and the command line.
+
+raw specific force -> screening -> (two-axis completion) -> calibration model
+-> inclination, gravity toolface, orientation.  One batch of N samples at a
+time; the node passes batches of one.
+"""
+
+from dataclasses import dataclass
+import math
+
+import numpy as np
+
+from inclino_ros.attitude import (
+    complete_two_axis, inclination, orientation_quaternion, TOOLFACE_CONVENTIONS)
+from inclino_ros.screening import ACCEPTED, screen
+
+
+@dataclass(frozen=True)
+class Settings:
+    """Sensor and output settings of the chain (the node's parameters)."""
+
+    accelerometer_axes: int = 3
+    gravity_mps2: float = 9.80665
+    accelerometer_range_mps2: float = 2.0 * 9.80665
+    toolface_convention: str = 'seed000'
+    toolface_min_inclination_deg: float = 0.01
+
+    def __post_init__(self):
+        """Refuse settings the chain cannot honour."""
+        if self.accelerometer_axes not in (2, 3):
+            raise ValueError(f'accelerometer_axes must be 2 or 3, not {self.accelerometer_axes}')
+        if self.toolface_convention not in TOOLFACE_CONVENTIONS:
+            raise ValueError(f'toolface_convention must be one of '
+                             f'{sorted(TOOLFACE_CONVENTIONS)}, not {self.toolface_convention!r}')
+
+
+@dataclass(frozen=True)
+class Survey:
+    """Results for the accepted samples of a batch, in input order."""
+
+    codes: np.ndarray            # (N,) screening code per input sample
+    corrected_mps2: np.ndarray   # (M, 3) corrected specific force, tool frame
+    inclination_deg: np.ndarray  # (M,)
+    toolface_deg: np.ndarray     # (M,), NaN below the minimum inclination
+    orientation_wxyz: np.ndarray  # (M, 4)
+    g_total_mps2: np.ndarray     # (M,)
+
+    @property
+    def accepted(self):
+        """Boolean mask of the input samples that produced a result."""
+        return self.codes == ACCEPTED
+
+
+def sensor_vectors(raw, settings):
+    """Return full 3-vectors from raw readings (two-axis: z completed)."""
+    raw = np.asarray(raw, dtype=float)
+    if settings.accelerometer_axes == 2:
+        return complete_two_axis(raw[:, 0], raw[:, 1], settings.gravity_mps2)
+    return raw
+
+
+def run(raw, model, settings):
+    """Screen, correct and resolve a batch of raw readings (N x 3, m/s^2)."""
+    raw = np.asarray(raw, dtype=float).reshape(-1, 3)
+    codes = screen(raw, settings.accelerometer_axes,
+                   settings.accelerometer_range_mps2, settings.gravity_mps2)
+    corrected = model.apply(sensor_vectors(raw[codes == ACCEPTED], settings))
+    incl_deg = np.degrees(inclination(corrected))
+    toolface_deg = np.degrees(TOOLFACE_CONVENTIONS[settings.toolface_convention](corrected))
+    toolface_deg[incl_deg < settings.toolface_min_inclination_deg] = math.nan
+    return Survey(codes=codes, corrected_mps2=corrected, inclination_deg=incl_deg,
+                  toolface_deg=toolface_deg,
+                  orientation_wxyz=orientation_quaternion(corrected),
+                  g_total_mps2=np.linalg.norm(corrected, axis=1))
