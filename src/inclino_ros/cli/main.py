@@ -1,0 +1,32 @@
+"""``inclino``: the command line of inclino_ros, one subcommand per module.
+
+Each module in ``inclino_ros.cli`` named in COMMANDS has ``register(subparsers)``
+adding its parser (with ``func`` set to its ``run(args)`` returning an exit code).
+"""
+
+import argparse
+import importlib
+import sys
+
+COMMANDS = ('simulate', 'process', 'play', 'calibrate', 'demo')
+
+
+def build_parser():
+    """Return the ``inclino`` argument parser with every subcommand."""
+    parser = argparse.ArgumentParser(
+        prog='inclino',
+        description='Inclinometer correction tools of inclino_ros (no ros2 CLI needed).')
+    subparsers = parser.add_subparsers(dest='command', required=True)
+    for name in COMMANDS:
+        importlib.import_module(f'inclino_ros.cli.{name}').register(subparsers)
+    return parser
+
+
+def main(argv=None):
+    """Run one subcommand; return its exit code."""
+    args = build_parser().parse_args(argv)
+    return args.func(args)
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,100 @@
+"""The node's parameters: one table of names, defaults, ranges and meanings.
+
+Defaults here are the same as ``config/inclinometer.yaml``; the README's
+parameter table is made from this list (``python -m inclino_ros.node.parameters``).
+"""
+
+from dataclasses import dataclass
+
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+
+GRAVITY_MPS2 = 9.80665
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One declared parameter."""
+
+    name: str
+    default: object
+    description: str
+    low: float = None
+    high: float = None
+    read_only: bool = True
+
+    def descriptor(self):
+        """Return the ROS descriptor with description, range and read-only flag."""
+        descriptor = ParameterDescriptor(
+            name=self.name, description=self.description, read_only=self.read_only)
+        if isinstance(self.default, bool) or self.low is None:
+            return descriptor
+        if isinstance(self.default, int):
+            descriptor.integer_range = [IntegerRange(
+                from_value=int(self.low), to_value=int(self.high), step=1)]
+        else:
+            descriptor.floating_point_range = [FloatingPointRange(
+                from_value=float(self.low), to_value=float(self.high), step=0.0)]
+        return descriptor
+
+
+PARAMETERS = (
+    Parameter('calibration_file', '~/.ros/inclino_ros/calibration.json',
+              'Calibration file: loaded at start when present (a corrupt file stops the '
+              'node), written atomically by ~/calibrate_level.'),
+    Parameter('accelerometer_axes', 3,
+              'Accelerometer axes: 3, or 2 for a two-axis sensor (z completed from '
+              'gravity_mps2, tool upright).', 2, 3),
+    Parameter('gravity_mps2', GRAVITY_MPS2,
+              'Local gravity [m/s^2]: v_g for two-axis sensors and the expected G-total.',
+              9.7, 9.9),
+    Parameter('accelerometer_range_mps2', 2.0 * GRAVITY_MPS2,
+              'Sensor full scale [m/s^2]: a component at or beyond it is saturated and '
+              'the sample dropped.', 1.0, 2000.0),
+    Parameter('accelerometer_noise_std_mps2', 0.01,
+              'Per-sample accelerometer noise, 1 sigma [m/s^2]: sets the imu/data '
+              'covariances.', 1e-6, 10.0),
+    Parameter('toolface_convention', 'seed000',
+              'Gravity toolface: seed000 (atan2(a_y, a_x), seed 000 Eq. 16) or '
+              'iscwsa_highside (ISCWSA high-side, = seed000 + 90 deg).'),
+    Parameter('toolface_min_inclination_deg', 0.01,
+              'Below this inclination [deg] the toolface is undefined and published '
+              'as NaN.', 0.0, 10.0),
+    Parameter('frame_id', '',
+              'frame_id of the corrected outputs (the ideal tool frame); empty: the '
+              'input frame_id.'),
+    Parameter('imu_queue_depth', 50,
+              'Depth of the sensor-data (best-effort) subscription queue on '
+              'imu/data_raw.', 1, 10000),
+    Parameter('diagnostics_period_s', 1.0,
+              'Period of the /diagnostics report [s].', 0.1, 60.0),
+    Parameter('level_capture.samples', 100,
+              'Samples a level capture collects after the service call.', 2, 1000000,
+              read_only=False),
+    Parameter('level_capture.timeout_s', 10.0,
+              'Seconds a level capture waits for its samples before refusing.',
+              0.1, 3600.0, read_only=False),
+    Parameter('level_capture.max_std_deg', 0.1,
+              'Largest spread (1 sigma) of the axis tilts [deg] of a still tool.',
+              1e-4, 10.0, read_only=False),
+    Parameter('level_capture.max_tilt_deg', 5.0,
+              'Largest false tilt theta [deg] accepted as an installation error on '
+              'a level bench.', 0.0, 45.0, read_only=False),
+    Parameter('level_capture.g_total_tolerance_mps2', 0.3,
+              'Largest |G-total - gravity_mps2| [m/s^2] accepted in a capture '
+              '(three-axis sensors).', 1e-3, 5.0, read_only=False),
+)
+
+
+def markdown_table():
+    """Return the README's parameter table."""
+    rows = ['| parameter | default | range | live | meaning |',
+            '|---|---|---|---|---|']
+    for p in PARAMETERS:
+        span = '' if p.low is None else f'{p.low} .. {p.high}'
+        live = 'no' if p.read_only else 'yes'
+        rows.append(f'| `{p.name}` | `{p.default}` | {span} | {live} | {p.description} |')
+    return '\n'.join(rows)
+
+
+if __name__ == '__main__':
+    print(markdown_table())
