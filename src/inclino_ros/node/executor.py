@@ -16,7 +16,13 @@ def spin(node, period_s=0.1):
     executor.add_node(node)
     try:
         while rclpy.ok(context=node.context):
-            executor.spin_once(timeout_sec=period_s)
+            try:
+                executor.spin_once(timeout_sec=period_s)
+            except Exception:
+                # A take racing the SIGINT shutdown of the context fails inside
+                # rclpy; after shutdown that is the end of the spin, not an error.
+                if rclpy.ok(context=node.context):
+                    raise
     finally:
         executor.remove_node(node)
         executor.shutdown()

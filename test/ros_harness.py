@@ -1,0 +1,166 @@
+"""Drive the real node over real rclpy: a subprocess and a probe node beside it."""
+
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import Vector3Stamped
+import numpy as np
+import rclpy
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import Imu
+from std_msgs.msg import Float64
+from std_srvs.srv import Trigger
+
+NODE_EXECUTABLE = os.path.join(os.path.dirname(sys.executable), 'inclinometer_node')
+G = 9.80665
+
+
+class NodeProcess:
+    """The ``inclinometer_node`` console script running as a child process."""
+
+    def __init__(self, log_path, **parameters):
+        """Start the node with ``parameters`` given as ``--ros-args -p``."""
+        args = [NODE_EXECUTABLE, '--ros-args']
+        for name, value in parameters.items():
+            args += ['-p', f'{name}:={value}']
+        self.log_path = log_path
+        self._log = open(log_path, 'w')
+        self.process = subprocess.Popen(args, stdout=self._log, stderr=subprocess.STDOUT)
+
+    def stop(self, timeout_s=10.0):
+        """Stop with SIGINT (as Ctrl-C would); return the exit code."""
+        if self.process.poll() is None:
+            self.process.send_signal(signal.SIGINT)
+        try:
+            code = self.process.wait(timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            self.process.kill()
+            code = self.process.wait()
+        self._log.close()
+        return code
+
+    def log(self):
+        """Return what the node printed so far."""
+        self._log.flush()
+        with open(self.log_path) as stream:
+            return stream.read()
+
+
+def imu_message(index, acceleration, frame_id='inclinometer'):
+    """Return an Imu message whose stamp encodes ``index`` (sec = index)."""
+    msg = Imu()
+    msg.header.stamp.sec = int(index)
+    msg.header.frame_id = frame_id
+    acc = msg.linear_acceleration
+    acc.x, acc.y, acc.z = (float(v) for v in acceleration)
+    return msg
+
+
+class Probe:
+    """A test-side node: publishes raw samples, records outputs, calls the service."""
+
+    def __init__(self, node_name='/inclinometer', best_effort=False):
+        """Create the probe's publisher, subscriptions and service client."""
+        self.node = rclpy.create_node('probe')
+        qos = QoSProfile(depth=100)
+        if best_effort:
+            qos.reliability = ReliabilityPolicy.BEST_EFFORT
+        self.publisher = self.node.create_publisher(Imu, 'imu/data_raw', qos)
+        self.received = {'survey': [], 'inclination': [], 'toolface': [], 'imu/data': [],
+                         '/diagnostics': []}
+        for topic, kind in (('survey', Vector3Stamped), ('inclination', Float64),
+                            ('toolface', Float64), ('imu/data', Imu),
+                            ('/diagnostics', DiagnosticArray)):
+            self.node.create_subscription(
+                kind, topic, self.received[topic].append, QoSProfile(depth=1000))
+        self.client = self.node.create_client(Trigger, f'{node_name}/calibrate_level')
+        self.executor = SingleThreadedExecutor()
+        self.executor.add_node(self.node)
+        self.sent = 0
+
+    def spin_for(self, seconds):
+        """Process callbacks for ``seconds``."""
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            self.executor.spin_once(timeout_sec=0.01)
+
+    def wait_for_node(self, timeout_s=20.0):
+        """Wait until the node's subscription, outputs and service are matched."""
+        end = time.monotonic() + timeout_s
+        while time.monotonic() < end:
+            if (self.publisher.get_subscription_count() >= 1
+                    and self.node.count_publishers('survey') >= 1
+                    and self.client.service_is_ready()):
+                self.spin_for(0.2)
+                return
+            self.executor.spin_once(timeout_sec=0.05)
+        raise TimeoutError('the node did not come up')
+
+    def publish(self, acceleration):
+        """Publish one raw sample; return its index."""
+        index = self.sent
+        self.publisher.publish(imu_message(index, acceleration))
+        self.sent += 1
+        return index
+
+    def stream(self, sample_fn, rate_hz=200.0, until=None, count=None, timeout_s=20.0):
+        """Publish ``sample_fn(i)`` at ``rate_hz`` until ``until`` is done or ``count`` sent."""
+        period = 1.0 / rate_hz
+        end = time.monotonic() + timeout_s
+        sent = 0
+        next_time = time.monotonic()
+        while time.monotonic() < end:
+            if until is not None and until.done():
+                return
+            if count is not None and sent >= count:
+                return
+            if time.monotonic() >= next_time:
+                self.publish(sample_fn(sent))
+                sent += 1
+                next_time += period
+            self.executor.spin_once(timeout_sec=min(period, 0.005))
+        if until is not None and not until.done():
+            raise TimeoutError('the service did not answer')
+
+    def calibrate(self, sample_fn, rate_hz=200.0, timeout_s=20.0):
+        """Call ~/calibrate_level while streaming samples; return the response."""
+        future = self.client.call_async(Trigger.Request())
+        self.stream(sample_fn, rate_hz, until=future, timeout_s=timeout_s)
+        return future.result()
+
+    def wait_outputs(self, topic, count, timeout_s=10.0):
+        """Spin until ``count`` messages arrived on ``topic``; return them."""
+        end = time.monotonic() + timeout_s
+        while len(self.received[topic]) < count and time.monotonic() < end:
+            self.executor.spin_once(timeout_sec=0.01)
+        return self.received[topic]
+
+    def clear(self):
+        """Forget the messages received so far."""
+        for messages in self.received.values():
+            messages.clear()
+
+    def destroy(self):
+        """Destroy the probe node."""
+        self.executor.shutdown()
+        self.node.destroy_node()
+
+
+def tilted_reading(inclination_deg, toolface_deg, gamma_deg=0.0, beta_deg=0.0, g=G):
+    """Return the sensor reading of a still tool, installed with (gamma, beta).
+
+    Built here from seed 000 Eq. 1 written out, independently of the package:
+    true specific force g (sin I cos TF, sin I sin TF, cos I), then C.
+    """
+    i, t = math.radians(inclination_deg), math.radians(toolface_deg)
+    f = g * np.array([math.sin(i) * math.cos(t), math.sin(i) * math.sin(t), math.cos(i)])
+    cg, sg = math.cos(math.radians(gamma_deg)), math.sin(math.radians(gamma_deg))
+    cb, sb = math.cos(math.radians(beta_deg)), math.sin(math.radians(beta_deg))
+    c = np.array([[cg, 0.0, -sg], [-sb * sg, cb, -sb * cg], [cb * sg, sb, cb * cg]])
+    return c @ f

@@ -1,0 +1,233 @@
+"""The inclinometer node through real rclpy: the node runs as a subprocess."""
+
+import json
+import math
+import re
+
+from diagnostic_msgs.msg import DiagnosticStatus
+import numpy as np
+import pytest
+import rclpy
+from ros_harness import G, NodeProcess, Probe, tilted_reading
+from std_srvs.srv import Trigger
+import transforms3d
+
+from inclino_ros.model import load_model
+
+GAMMA_DEG, BETA_DEG = 0.8, -1.2
+NOISE_MPS2 = 0.002
+CAPTURE_SAMPLES = 100
+# The level capture averages CAPTURE_SAMPLES readings of noise NOISE_MPS2: the
+# installation angles are then off by about NOISE/g/sqrt(N) rad = 0.0012 deg (1 sigma).
+# 4 sigma bounds the angles; a corrected inclination inherits at most the tilt error.
+ANGLE_TOL_DEG = 4 * math.degrees(NOISE_MPS2 / G / math.sqrt(CAPTURE_SAMPLES))
+STATIONS = ((2.0, 30.0), (0.5, 200.0), (5.0, 300.0), (30.0, 120.0))
+
+
+@pytest.fixture(scope='module')
+def ros():
+    """Initialise rclpy once for the module."""
+    rclpy.init()
+    yield
+    rclpy.shutdown()
+
+
+@pytest.fixture
+def start_node(tmp_path, ros):
+    """Return a starter of node processes, all stopped after the test."""
+    started = []
+
+    def start(**parameters):
+        parameters.setdefault('calibration_file', str(tmp_path / 'calibration.json'))
+        parameters.setdefault('diagnostics_period_s', 0.5)
+        node = NodeProcess(str(tmp_path / f'node{len(started)}.log'), **parameters)
+        started.append(node)
+        return node
+
+    yield start
+    for node in started:
+        node.stop()
+
+
+@pytest.fixture
+def probe(ros):
+    """Return a probe node, destroyed after the test."""
+    probe = Probe()
+    yield probe
+    probe.destroy()
+
+
+def level_samples(seed=1, scale=1.0):
+    """Return a sample function: the misaligned tool on a level bench, with noise."""
+    rng = np.random.default_rng(seed)
+    level = tilted_reading(0.0, 0.0, GAMMA_DEG, BETA_DEG) * scale
+    return lambda i: level + rng.normal(0.0, NOISE_MPS2, 3)
+
+
+def survey_of(probe, inclination_deg, toolface_deg):
+    """Publish one station of the misaligned tool; return its survey vector."""
+    probe.spin_for(0.2)  # let outputs of earlier samples drain
+    probe.clear()
+    index = probe.publish(tilted_reading(inclination_deg, toolface_deg, GAMMA_DEG, BETA_DEG))
+    (survey,) = probe.wait_outputs('survey', 1)
+    assert survey.header.stamp.sec == index
+    return survey.vector
+
+
+def angle_diff_deg(a, b):
+    """Return the signed difference of two angles in degrees, in [-180, 180)."""
+    return (a - b + 180.0) % 360.0 - 180.0
+
+
+def parse_angles(message):
+    """Return gamma_deg, beta_deg and theta_deg from a service message."""
+    return {key: float(value) for key, value in
+            re.findall(r'(gamma_deg|beta_deg|theta_deg)=(-?[0-9.]+)', message)}
+
+
+def latest_status(probe, suffix):
+    """Return the newest diagnostics status whose name ends with ``suffix``."""
+    probe.spin_for(1.2)
+    for array in reversed(probe.received['/diagnostics']):
+        for status in array.status:
+            if status.name.endswith(suffix):
+                return status, {kv.key: kv.value for kv in status.values}
+    raise AssertionError(f'no diagnostics status {suffix}')
+
+
+@pytest.mark.parametrize('axes', [3, 2])
+def test_calibration_round_trip_corrects_the_stations(start_node, probe, tmp_path, axes):
+    """Calibrate through the service, then every station reads its true attitude."""
+    node = start_node(accelerometer_axes=axes)
+    probe.wait_for_node()
+    raw = survey_of(probe, 2.0, 30.0)
+    # Uncalibrated: the misaligned reading's own inclination, 0.39 deg off the truth.
+    reading = tilted_reading(2.0, 30.0, GAMMA_DEG, BETA_DEG)
+    if axes == 2:
+        reading[2] = math.sqrt(G ** 2 - reading[0] ** 2 - reading[1] ** 2)
+    assert raw.x == pytest.approx(
+        math.degrees(math.acos(reading[2] / np.linalg.norm(reading))), abs=1e-6)
+    assert abs(raw.x - 2.0) > 0.3
+
+    response = probe.calibrate(level_samples())
+    assert response.success, response.message
+    angles = parse_angles(response.message)
+    assert angles['gamma_deg'] == pytest.approx(GAMMA_DEG, abs=ANGLE_TOL_DEG)
+    assert angles['beta_deg'] == pytest.approx(BETA_DEG, abs=ANGLE_TOL_DEG)
+    assert angles['theta_deg'] == pytest.approx(
+        math.degrees(math.acos(math.cos(math.radians(GAMMA_DEG))
+                               * math.cos(math.radians(BETA_DEG)))), abs=2 * ANGLE_TOL_DEG)
+    assert f'from {CAPTURE_SAMPLES} samples' in response.message
+    saved = load_model(tmp_path / 'calibration.json').installation
+    assert saved.gamma_deg == pytest.approx(angles['gamma_deg'], abs=1e-4)
+    assert saved.sample_count == CAPTURE_SAMPLES
+
+    for inclination_deg, toolface_deg in STATIONS:
+        survey = survey_of(probe, inclination_deg, toolface_deg)
+        assert survey.x == pytest.approx(inclination_deg, abs=2 * ANGLE_TOL_DEG)
+        # Toolface error ~ tilt error / sin(I): loose at 0.5 deg inclination.
+        tolerance_deg = math.degrees(2 * math.radians(ANGLE_TOL_DEG)
+                                     / math.sin(math.radians(inclination_deg)))
+        assert abs(angle_diff_deg(survey.y, toolface_deg)) < tolerance_deg
+        assert math.isnan(survey.z)
+        incl = probe.wait_outputs('inclination', 1)[0].data
+        assert incl == survey.x
+        assert probe.wait_outputs('toolface', 1)[0].data == survey.y
+        imu = probe.wait_outputs('imu/data', 1)[0]
+        acc = imu.linear_acceleration
+        assert math.hypot(acc.x, acc.y, acc.z) == pytest.approx(G, abs=1e-9)
+        q = imu.orientation
+        up = transforms3d.quaternions.quat2mat([q.w, q.x, q.y, q.z])[2]
+        assert math.degrees(math.acos(up[2])) == pytest.approx(survey.x, abs=1e-9)
+        assert imu.orientation_covariance[8] == pytest.approx(math.pi ** 2 / 3)
+        assert imu.angular_velocity_covariance[0] == -1.0
+        assert imu.header.frame_id == 'inclinometer'
+    status, values = latest_status(probe, ': calibration')
+    assert status.level == DiagnosticStatus.OK
+    assert float(values['gamma_deg']) == pytest.approx(angles['gamma_deg'], abs=1e-4)
+    assert node.stop() == 0
+
+
+def test_refused_captures_keep_the_previous_calibration(start_node, probe, tmp_path):
+    """Each refusal names its reason and leaves file and correction untouched."""
+    start_node(**{'level_capture.timeout_s': 2.0})
+    probe.wait_for_node()
+    assert probe.calibrate(level_samples()).success
+    path = tmp_path / 'calibration.json'
+    before = path.read_text()
+    rng = np.random.default_rng(7)
+    refusals = {
+        'tool is moving': lambda i: tilted_reading(
+            rng.uniform(0.0, 1.0), 90.0, GAMMA_DEG, BETA_DEG),
+        'bench is not level': lambda i: tilted_reading(8.0, 45.0, GAMMA_DEG, BETA_DEG),
+        'implausible G-total': level_samples(scale=1.1),
+    }
+    for reason, samples in refusals.items():
+        response = probe.calibrate(samples)
+        assert not response.success
+        assert reason in response.message and 'previous calibration kept' in response.message
+        assert path.read_text() == before
+        assert survey_of(probe, 3.0, 100.0).x == pytest.approx(3.0, abs=2 * ANGLE_TOL_DEG)
+
+    # Two calls, no samples: one is refused at once, the other times out.
+    first = probe.client.call_async(Trigger.Request())
+    second = probe.client.call_async(Trigger.Request())
+    probe.spin_for(5.0)
+    answers = sorted([first.result().message, second.result().message])
+    assert any('already running' in a for a in answers)
+    assert any('no data: 0 of 100 samples' in a for a in answers)
+    assert path.read_text() == before
+
+
+def test_calibration_persists_across_a_restart(start_node, probe, tmp_path):
+    """A restarted node loads the file and corrects without a new capture."""
+    node = start_node()
+    probe.wait_for_node()
+    assert probe.calibrate(level_samples()).success
+    assert node.stop() == 0
+    restarted = start_node()
+    probe.wait_for_node()
+    assert survey_of(probe, 4.0, 250.0).x == pytest.approx(4.0, abs=2 * ANGLE_TOL_DEG)
+    assert f'loaded {tmp_path / "calibration.json"}' in restarted.log()
+
+
+@pytest.mark.parametrize('content', [
+    '{"format": "inclino_ros.calibration", "schema_vers',
+    json.dumps({'format': 'inclino_ros.calibration', 'schema_version': 1,
+                'accelerometer_axes': 3, 'installation': {'gamma_deg': 'NaN'}}),
+])
+def test_a_corrupt_calibration_file_stops_the_node(start_node, tmp_path, content):
+    """A file that cannot be trusted is a loud error and a non-zero exit."""
+    path = tmp_path / 'calibration.json'
+    path.write_text(content)
+    node = start_node()
+    code = node.process.wait(timeout=30)
+    assert code != 0
+    assert str(path) in node.log() and 'refusing to start' in node.log()
+
+
+def test_bad_samples_are_dropped_counted_and_good_ones_answered(start_node, ros):
+    """NaN, Inf, zero and saturated samples give no angle; diagnostics count them."""
+    start_node()
+    probe = Probe(best_effort=True)  # a best-effort publisher is accepted too
+    try:
+        probe.wait_for_node()
+        bad = [(math.nan, 0.0, G), (0.0, math.inf, G), (0.0, 0.0, 0.0), (0.0, 0.0, 25.0),
+               (0.0, -math.inf, G)]
+        for reading in bad:
+            probe.publish(reading)
+        good = probe.publish(tilted_reading(10.0, 0.0))
+        surveys = probe.wait_outputs('survey', 1)
+        probe.spin_for(0.5)
+        assert [s.header.stamp.sec for s in surveys] == [good]
+        assert surveys[0].vector.x == pytest.approx(10.0, abs=1e-9)
+        status, values = latest_status(probe, ': input')
+        assert values['dropped_non_finite'] == '3'
+        assert values['dropped_zero'] == '1'
+        assert values['dropped_saturated'] == '1'
+        assert values['accepted_total'] == '1'
+        calibration, _ = latest_status(probe, ': calibration')
+        assert calibration.level == DiagnosticStatus.WARN
+        assert 'uncalibrated' in calibration.message
+    finally:
+        probe.destroy()
