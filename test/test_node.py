@@ -5,14 +5,13 @@ import math
 import re
 
 from diagnostic_msgs.msg import DiagnosticStatus
+from inclino_ros.model import load_model
 import numpy as np
 import pytest
 import rclpy
 from ros_harness import G, NodeProcess, Probe, tilted_reading
 from std_srvs.srv import Trigger
 import transforms3d
-
-from inclino_ros.model import load_model
 
 GAMMA_DEG, BETA_DEG = 0.8, -1.2
 NOISE_MPS2 = 0.002

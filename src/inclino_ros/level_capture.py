@@ -9,11 +9,10 @@ its samples cannot give a trustworthy answer.
 from dataclasses import dataclass
 import math
 
-import numpy as np
-
 from inclino_ros.installation import (
     installation_angles, level_axis_angles, pseudo_inclination)
 from inclino_ros.model import Installation, utc_now_iso
+import numpy as np
 
 
 class CaptureRefused(Exception):

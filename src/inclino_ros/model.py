@@ -17,9 +17,8 @@ import math
 import os
 import tempfile
 
-import numpy as np
-
 from inclino_ros.installation import correct_installation, pseudo_inclination
+import numpy as np
 
 FORMAT = 'inclino_ros.calibration'
 SCHEMA_VERSION = 1

@@ -8,11 +8,10 @@ time; the node passes batches of one.
 from dataclasses import dataclass
 import math
 
-import numpy as np
-
 from inclino_ros.attitude import (
     complete_two_axis, inclination, orientation_quaternion, TOOLFACE_CONVENTIONS)
 from inclino_ros.screening import ACCEPTED, screen
+import numpy as np
 
 
 @dataclass(frozen=True)

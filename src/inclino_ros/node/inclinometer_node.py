@@ -14,6 +14,14 @@ import sys
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Vector3Stamped
+from inclino_ros.level_capture import CaptureRefused, LevelLimits, solve_level_capture
+from inclino_ros.model import (
+    age_seconds, CalibrationFileError, CalibrationModel, load_model, save_model)
+from inclino_ros.node.executor import spin
+from inclino_ros.node.parameters import PARAMETERS
+from inclino_ros.node.stats import InputStats
+from inclino_ros.pipeline import run, Settings
+from inclino_ros.screening import ACCEPTED
 import numpy as np
 import rclpy
 from rclpy.callback_groups import ReentrantCallbackGroup
@@ -24,15 +32,6 @@ from rclpy.task import Future
 from sensor_msgs.msg import Imu
 from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
-
-from inclino_ros.level_capture import CaptureRefused, LevelLimits, solve_level_capture
-from inclino_ros.model import (
-    age_seconds, CalibrationFileError, CalibrationModel, load_model, save_model)
-from inclino_ros.node.executor import spin
-from inclino_ros.node.parameters import PARAMETERS
-from inclino_ros.node.stats import InputStats
-from inclino_ros.pipeline import run, Settings
-from inclino_ros.screening import ACCEPTED
 
 #: Variance of a yaw that nothing observes: uniform on [-pi, pi).
 UNOBSERVED_YAW_VARIANCE = math.pi ** 2 / 3.0
