@@ -74,11 +74,12 @@ class Probe:
         self.publisher = self.node.create_publisher(Imu, 'imu/data_raw', qos)
         self.received = {'survey': [], 'inclination': [], 'toolface': [], 'imu/data': [],
                          '/diagnostics': []}
-        for topic, kind in (('survey', Vector3Stamped), ('inclination', Float64),
-                            ('toolface', Float64), ('imu/data', Imu),
-                            ('/diagnostics', DiagnosticArray)):
+        self.subscriptions = [
             self.node.create_subscription(
                 kind, topic, self.received[topic].append, QoSProfile(depth=1000))
+            for topic, kind in (('survey', Vector3Stamped), ('inclination', Float64),
+                                ('toolface', Float64), ('imu/data', Imu),
+                                ('/diagnostics', DiagnosticArray))]
         self.client = self.node.create_client(Trigger, f'{node_name}/calibrate_level')
         self.executor = SingleThreadedExecutor()
         self.executor.add_node(self.node)
@@ -95,7 +96,7 @@ class Probe:
         end = time.monotonic() + timeout_s
         while time.monotonic() < end:
             if (self.publisher.get_subscription_count() >= 1
-                    and self.node.count_publishers('survey') >= 1
+                    and all(s.get_publisher_count() for s in self.subscriptions)
                     and self.client.service_is_ready()):
                 self.spin_for(0.2)
                 return
