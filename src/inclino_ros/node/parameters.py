@@ -80,7 +80,7 @@ PARAMETERS = (
               'Largest false tilt theta [deg] accepted as an installation error on '
               'a level bench.', 0.0, 45.0, read_only=False),
     Parameter('level_capture.g_total_tolerance_mps2', 0.3,
-              'Largest |G-total - gravity_mps2| [m/s^2] accepted in a capture '
+              'Largest deviation [m/s^2] of the captured G-total from gravity_mps2 '
               '(three-axis sensors).', 1e-3, 5.0, read_only=False),
 )
 
@@ -92,7 +92,8 @@ def markdown_table():
     for p in PARAMETERS:
         span = '' if p.low is None else f'{p.low} .. {p.high}'
         live = 'no' if p.read_only else 'yes'
-        rows.append(f'| `{p.name}` | `{p.default}` | {span} | {live} | {p.description} |')
+        default = repr(p.default) if isinstance(p.default, str) else p.default
+        rows.append(f'| `{p.name}` | `{default}` | {span} | {live} | {p.description} |')
     return '\n'.join(rows)
 
 
