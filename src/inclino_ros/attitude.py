@@ -35,6 +35,12 @@ def inclination(f):
     return np.arctan2(np.hypot(f[..., 0], f[..., 1]), f[..., 2])
 
 
+def _wrap_2pi(angle):
+    """Return ``angle mod 2 pi`` in [0, 2 pi): np.mod rounds ``-1e-17`` up to 2 pi itself."""
+    angle = np.mod(angle, 2.0 * np.pi)
+    return np.where(angle < 2.0 * np.pi, angle, 0.0)
+
+
 def toolface_seed000(f):
     """Return the gravity toolface of seed 000 Eq. 16, in [0, 2 pi).
 
@@ -43,7 +49,7 @@ def toolface_seed000(f):
     direction of the high side measured from the tool x axis towards y.
     """
     f = np.asarray(f, dtype=float)
-    return np.mod(np.arctan2(f[..., 1], f[..., 0]), 2.0 * np.pi)
+    return _wrap_2pi(np.arctan2(f[..., 1], f[..., 0]))
 
 
 def toolface_highside(f):
@@ -55,7 +61,7 @@ def toolface_highside(f):
     ``GTF = atan2(f_x, -f_y) = alpha + 90 deg`` (``shared/notes/formulas.md``).
     """
     f = np.asarray(f, dtype=float)
-    return np.mod(np.arctan2(f[..., 0], -f[..., 1]), 2.0 * np.pi)
+    return _wrap_2pi(np.arctan2(f[..., 0], -f[..., 1]))
 
 
 TOOLFACE_CONVENTIONS = {

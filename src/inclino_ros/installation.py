@@ -67,11 +67,12 @@ def pseudo_inclination(gamma, beta):
     """Return the false tilt theta of the sensor on a level bench (Eq. 4).
 
     ``theta = acos(cos beta cos gamma)``, written as the equivalent
-    ``atan2(sqrt(1 - (cos b cos g)^2), cos b cos g)``, which keeps full
+    ``atan2(hypot(sin g, sin b cos g), cos b cos g)`` (the sine is Eq. 5's,
+    ``1 - cos^2 b cos^2 g = sin^2 g + sin^2 b cos^2 g``), which keeps full
     precision for the sub-degree angles of a real installation.
     """
-    c = np.cos(beta) * np.cos(gamma)
-    return np.arctan2(np.sqrt(np.maximum(1.0 - c * c, 0.0)), c)
+    cg = np.cos(gamma)
+    return np.arctan2(np.hypot(np.sin(gamma), np.sin(beta) * cg), np.cos(beta) * cg)
 
 
 def correct_installation(reading, gamma, beta):
@@ -81,4 +82,5 @@ def correct_installation(reading, gamma, beta):
     true inclination of Eq. 10.
     """
     v1 = np.asarray(reading, dtype=float)
-    return v1 @ installation_matrix(gamma, beta)
+    # v1 @ C row by row; a plain ``v1 @ C`` gives (N, N, 3) for per-sample angles.
+    return np.einsum('...j,...jk->...k', v1, installation_matrix(gamma, beta))

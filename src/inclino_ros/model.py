@@ -125,15 +125,16 @@ def load_model(path):
     there is one that cannot be trusted.
     """
     path = os.path.expanduser(path)
-    with open(path) as stream:
-        text = stream.read()
+    with open(path, 'rb') as stream:
+        data = stream.read()
     try:
-        doc = json.loads(text)
-    except ValueError as err:
+        # From bytes, so undecodable garbage is a ValueError (UnicodeDecodeError) here too.
+        doc = json.loads(data)
+    except (ValueError, RecursionError) as err:
         raise CalibrationFileError(path, f'not valid JSON ({err})') from None
     try:
         return model_from_dict(doc)
-    except (KeyError, TypeError, ValueError) as err:
+    except (KeyError, TypeError, ValueError, OverflowError) as err:
         raise CalibrationFileError(path, str(err)) from None
 
 
