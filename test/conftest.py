@@ -1,4 +1,5 @@
-"""Test-wide setup: DDS stays on this host, on a domain of this run's own.
+"""
+Test-wide setup: DDS stays on this host, on a domain of this run's own.
 
 Set before anything imports rclpy; child processes (the node under test) inherit it.
 """

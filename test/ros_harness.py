@@ -154,7 +154,8 @@ class Probe:
 
 
 def tilted_reading(inclination_deg, toolface_deg, gamma_deg=0.0, beta_deg=0.0, g=G):
-    """Return the sensor reading of a still tool, installed with (gamma, beta).
+    """
+    Return the sensor reading of a still tool, installed with (gamma, beta).
 
     Built here from seed 000 Eq. 1 written out, independently of the package:
     true specific force g (sin I cos TF, sin I sin TF, cos I), then C.

@@ -1,4 +1,5 @@
-"""Inclination, toolface and orientation against closed forms, ISCWSA and transforms3d.
+"""
+Inclination, toolface and orientation against closed forms, ISCWSA and transforms3d.
 
 Tolerances: every quantity is a few double operations on inputs of order g, so round-off
 is ~1e-15 relative; vectors are compared to 1e-12 m/s^2 and angles to 1e-12 rad (1e-10 deg
@@ -143,7 +144,8 @@ def test_highside_is_seed000_plus_90(fx, fy, fz):
 @hyp
 @given(incl_deg, toolface_deg, st.floats(min_value=9.7, max_value=9.9))
 def test_iscwsa_forward_model(incl_d, tf_d, g):
-    """G from the ISCWSA forward model, mapped to the z-up tool frame, gives back I and TF.
+    """
+    G from the ISCWSA forward model, mapped to the z-up tool frame, gives back I and TF.
 
     ISCWSA frame: z toward the bit, sensors report gravity G (+g on z when vertical).
     Tool frame: z up, specific force f = -G_tool.  The ISCWSA frame is the tool frame turned

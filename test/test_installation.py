@@ -1,4 +1,5 @@
-"""Seed 000 installation geometry (Eqs. 1-15) against closed forms and the paper's numbers.
+"""
+Seed 000 installation geometry (Eqs. 1-15) against closed forms and the paper's numbers.
 
 Tolerances: the matrices and vectors here are a handful of double-precision operations on
 numbers of order one, so their round-off is a few 1e-16; 1e-13 absolute leaves a wide
@@ -199,7 +200,8 @@ def test_eq6_bounds(gamma_deg, beta_deg, incl_deg, alpha_deg):
 
 
 def _right_angle_station(gamma, beta, phi1):
-    """Return the up direction u (ideal frame) of a tool tilted at right angles to Z1.
+    """
+    Return the up direction u (ideal frame) of a tool tilted at right angles to Z1.
 
     Eq. 7 is the spherical right triangle Z, Z1, u (Z0) with the right angle at Z: the tool
     tilts (plane Z, u) at right angles to the installation tilt (plane Z, Z1), and phi_1 is

@@ -1,4 +1,5 @@
-"""Level-bench capture (seed 000 section 3): angles from still samples, and every refusal.
+"""
+Level-bench capture (seed 000 section 3): angles from still samples, and every refusal.
 
 Noise-free captures are pure round-off (asin of arguments of order 0.05): 1e-10 deg.
 Noisy captures: with per-axis white noise sigma and N samples the mean reading is off by
@@ -68,7 +69,8 @@ def test_noisy_capture_within_derived_bound(seed):
 
 
 def test_noisy_capture_error_statistics():
-    """Over 400 captures the error spread is sigma/(g sqrt N) and there is no bias.
+    """
+    Over 400 captures the error spread is sigma/(g sqrt N) and there is no bias.
 
     The sample standard deviation of K = 400 Gaussian errors is within 15 % of the true
     one except with probability ~1e-5 (its relative spread is 1/sqrt(2K) = 3.5 %); the

@@ -1,4 +1,5 @@
-"""Calibration model: application, file round trip, atomic write and strict validation.
+"""
+Calibration model: application, file round trip, atomic write and strict validation.
 
 Round trips compare exactly: JSON writes floats with repr(), which reads back bit for bit.
 Applied corrections are compared to the installation module to 1e-12 m/s^2 (round-off of
@@ -83,13 +84,14 @@ def _previous_file(tmp_path):
     return path, path.read_bytes()
 
 
-def test_unserialisable_write_keeps_previous_file(tmp_path):
-    """A model that cannot be written raises and leaves the old file and nothing else."""
+@pytest.mark.parametrize('gamma_deg', [{0.1}, math.nan, 50.0])
+def test_invalid_model_is_not_written(tmp_path, gamma_deg):
+    """A model load_model would refuse is refused at save: old file kept, nothing else."""
     path, before = _previous_file(tmp_path)
     broken = CalibrationModel(accelerometer_axes=3, installation=Installation(
-        gamma_deg={0.1}, beta_deg=0.0, captured_at='2026-03-01T10:20:30+00:00',
+        gamma_deg=gamma_deg, beta_deg=0.0, captured_at='2026-03-01T10:20:30+00:00',
         sample_count=1, std_deg=0.0, g_total_mps2=G))
-    with pytest.raises(TypeError):
+    with pytest.raises(ValueError, match='gamma_deg'):
         save_model(str(path), broken)
     assert path.read_bytes() == before
     assert os.listdir(tmp_path) == ['calibration.json']
@@ -176,6 +178,8 @@ BAD_DOCUMENTS = {
     'schema 2': (_edit(schema_version=2), 'schema_version 2 is not 1'),
     'schema string': (_edit(schema_version='1'), "schema_version '1' is not 1"),
     'no schema': (_edit(schema_version=None), 'schema_version None is not 1'),
+    'schema bool': (_edit(schema_version=True), 'schema_version True is not 1'),
+    'axes float': (_edit(accelerometer_axes=3.0), 'accelerometer_axes 3.0 is not 2 or 3'),
     'axes 4': (_edit(accelerometer_axes=4), 'accelerometer_axes 4 is not 2 or 3'),
     'no axes': (_edit(accelerometer_axes=None), 'accelerometer_axes'),
     'unknown section': (_edit(scale_matrix={'k': 1.0}), "unknown sections ['scale_matrix']"),
@@ -197,7 +201,7 @@ BAD_DOCUMENTS = {
     'zero g': (_edit_installation(g_total_mps2=0.0), 'g_total_mps2 > 0'),
     'naive time': (_edit_installation(captured_at='2026-03-01T10:20:30'), 'no time zone'),
     'bad time': (_edit_installation(captured_at='yesterday'), 'yesterday'),
-    'number time': (_edit_installation(captured_at=1700000000), 'must be str'),
+    'number time': (_edit_installation(captured_at=1700000000), 'not an ISO 8601 time'),
     'installation 5': (_edit(installation=5), 'int'),
     'installation list': (_edit(installation=[]), 'needs exactly the fields'),
 }

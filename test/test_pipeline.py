@@ -1,4 +1,5 @@
-"""The processing chain end to end: level capture -> model -> pipeline.run recovers the truth.
+"""
+The processing chain end to end: level capture -> model -> pipeline.run recovers the truth.
 
 Tolerances: in the property tests every step (C, asin in the capture, C^-1, atan2) is
 exact up to round-off, a few 1e-16 relative, i.e. ~1e-14 deg; 1e-9 deg is five orders

@@ -1,4 +1,5 @@
-"""Sample screening: each defect gets its reason, the first reason wins, counts add up.
+"""
+Sample screening: each defect gets its reason, the first reason wins, counts add up.
 
 The checks are exact comparisons, so the expected codes are exact; samples sit on either
 side of each threshold by a clear margin (or exactly on it where the rule says >=).

@@ -1,4 +1,5 @@
-"""Inclination, gravity toolface and orientation from specific force.
+"""
+Inclination, gravity toolface and orientation from specific force.
 
 Input vectors are specific force ``f`` in the tool frame of seed 000 / REP 145:
 z along the tool axis pointing up (away from the bit), so a tool at rest reads
@@ -10,7 +11,8 @@ import numpy as np
 
 
 def complete_two_axis(fx, fy, g):
-    """Return ``f`` with the axial component of a two-axis sensor filled in.
+    """
+    Return ``f`` with the axial component of a two-axis sensor filled in.
 
     A two-axis sensor measures only ``g sin theta_x`` and ``g sin theta_y``;
     seed 000 Eq. 9 needs ``cos phi_1`` as well, taken as
@@ -25,7 +27,8 @@ def complete_two_axis(fx, fy, g):
 
 
 def inclination(f):
-    """Return the inclination phi: the angle between tool z and the vertical.
+    """
+    Return the inclination phi: the angle between tool z and the vertical.
 
     Seed 000 Eq. 10 gives ``phi = acos(cos phi)`` from the corrected reading;
     the same angle is computed here as ``atan2(hypot(fx, fy), fz)``, which
@@ -42,7 +45,8 @@ def _wrap_2pi(angle):
 
 
 def toolface_seed000(f):
-    """Return the gravity toolface of seed 000 Eq. 16, in [0, 2 pi).
+    """
+    Return the gravity toolface of seed 000 Eq. 16, in [0, 2 pi).
 
     ``alpha = asin(v_y / sqrt(v_x^2 + v_y^2))`` with the quadrant taken from
     the signs of ``v_x`` and ``v_y``, i.e. ``atan2(v_y, v_x) mod 2 pi``: the
@@ -53,7 +57,8 @@ def toolface_seed000(f):
 
 
 def toolface_highside(f):
-    """Return the ISCWSA gravity (high-side) toolface, in [0, 2 pi).
+    """
+    Return the ISCWSA gravity (high-side) toolface, in [0, 2 pi).
 
     ISCWSA: ``GTF = atan2(-Gx, -Gy)`` with G the gravity vector in a frame
     whose z points toward the bit.  Turning the z-up tool frame 180 deg about
@@ -71,7 +76,8 @@ TOOLFACE_CONVENTIONS = {
 
 
 def roll_pitch(f):
-    """Return (roll, pitch) of the tool frame, yaw taken as zero.
+    """
+    Return (roll, pitch) of the tool frame, yaw taken as zero.
 
     With ``R = Rz(yaw) Ry(pitch) Rx(roll)`` taking tool to world (ENU, z up),
     the specific force at rest is ``R^T (0, 0, g)``, so
@@ -83,7 +89,8 @@ def roll_pitch(f):
 
 
 def orientation_quaternion(f):
-    """Return the tool orientation (w, x, y, z) from specific force, yaw zero.
+    """
+    Return the tool orientation (w, x, y, z) from specific force, yaw zero.
 
     Closed form of ``transforms3d.euler.euler2quat(roll, pitch, 0, 'sxyz')``
     (the tests check it against transforms3d), vectorised over samples:

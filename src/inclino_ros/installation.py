@@ -1,4 +1,5 @@
-"""Two-axis accelerometer installation error (seed 000, Shao et al. 2012).
+"""
+Two-axis accelerometer installation error (seed 000, Shao et al. 2012).
 
 The sensor frame ``OX1Y1Z1`` is the ideal tool frame ``OXYZ`` turned by
 ``gamma`` about Y, then by ``beta`` about X' (seed 000, Fig. 1).  All angles
@@ -10,7 +11,8 @@ import numpy as np
 
 
 def installation_matrix(gamma, beta):
-    """Return C mapping ideal-frame coordinates to sensor coordinates (Eq. 1).
+    """
+    Return C mapping ideal-frame coordinates to sensor coordinates (Eq. 1).
 
     ``C = Rx(beta) @ Ry(gamma)`` with the seed's signs::
 
@@ -30,7 +32,8 @@ def installation_matrix(gamma, beta):
 
 
 def inverse_installation_matrix(gamma, beta):
-    """Return C^-1 mapping sensor readings to the ideal tool frame (Eq. 8).
+    """
+    Return C^-1 mapping sensor readings to the ideal tool frame (Eq. 8).
 
     C is a rotation, so C^-1 = C^T::
 
@@ -42,7 +45,8 @@ def inverse_installation_matrix(gamma, beta):
 
 
 def level_axis_angles(level_reading, g):
-    """Return the axis tilts (theta'_x1, theta'_y1) on a level bench (Eqs. 11, 12).
+    """
+    Return the axis tilts (theta'_x1, theta'_y1) on a level bench (Eqs. 11, 12).
 
     ``theta'_x1 = asin(v_x1 / v_g)``, ``theta'_y1 = asin(v_y1 / v_g)`` where
     ``level_reading`` is the (mean) sensor reading with the bench level and
@@ -54,7 +58,8 @@ def level_axis_angles(level_reading, g):
 
 
 def installation_angles(theta_x1, theta_y1):
-    """Return (gamma, beta) from the level-bench axis tilts (Eqs. 13, 14).
+    """
+    Return (gamma, beta) from the level-bench axis tilts (Eqs. 13, 14).
 
     ``gamma = -theta'_x1``; ``beta = asin(-sin theta'_y1 / cos gamma)``.
     """
@@ -64,7 +69,8 @@ def installation_angles(theta_x1, theta_y1):
 
 
 def pseudo_inclination(gamma, beta):
-    """Return the false tilt theta of the sensor on a level bench (Eq. 4).
+    """
+    Return the false tilt theta of the sensor on a level bench (Eq. 4).
 
     ``theta = acos(cos beta cos gamma)``, written as the equivalent
     ``atan2(hypot(sin g, sin b cos g), cos b cos g)`` (the sine is Eq. 5's,
@@ -76,7 +82,8 @@ def pseudo_inclination(gamma, beta):
 
 
 def correct_installation(reading, gamma, beta):
-    """Return the readings in the ideal tool frame, ``v = C^-1 v1`` (Eqs. 9, 15).
+    """
+    Return the readings in the ideal tool frame, ``v = C^-1 v1`` (Eqs. 9, 15).
 
     ``reading`` has shape ``(..., 3)``; the inclination of the result is the
     true inclination of Eq. 10.

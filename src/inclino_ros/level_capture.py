@@ -1,4 +1,5 @@
-"""Level-bench capture: installation angles from still samples (seed 000 §3).
+"""
+Level-bench capture: installation angles from still samples (seed 000 §3).
 
 The tool lies on a bench levelled with an electronic level (true inclination
 zero); the mean sensor reading then gives the axis tilts of Eqs. 11-12 and the
@@ -30,7 +31,8 @@ class LevelLimits:
 
 
 def solve_level_capture(samples, axes, limits):
-    """Return the Installation of a level capture, or raise CaptureRefused.
+    """
+    Return the Installation of a level capture, or raise CaptureRefused.
 
     ``samples`` are accepted raw readings, shape (N, 3), m/s^2 (for a
     two-axis sensor the z column is ignored and ``v_g`` is the configured

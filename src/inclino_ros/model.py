@@ -1,4 +1,5 @@
-"""The calibration model: what is applied to every sample, and its file.
+"""
+The calibration model: what is applied to every sample, and its file.
 
 A model is an ordered set of correction stages applied to raw specific force.
 Seed 000's installation correction (gamma, beta) is the one stage so far;
@@ -46,7 +47,7 @@ class Installation:
 
     @property
     def theta_deg(self):
-        """The false tilt of the sensor on a level bench (seed 000 Eq. 4)."""
+        """Return the false tilt of the sensor on a level bench (seed 000 Eq. 4)."""
         return math.degrees(float(pseudo_inclination(
             math.radians(self.gamma_deg), math.radians(self.beta_deg))))
 
@@ -97,6 +98,7 @@ def age_seconds(iso_time, now=None):
 def save_model(path, model):
     """Write ``model`` to ``path`` atomically: a reader sees old or new, whole."""
     path = os.path.abspath(os.path.expanduser(path))
+    model_from_dict(model.to_dict())  # never write what load_model would refuse
     folder = os.path.dirname(path)
     os.makedirs(folder, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix='.calibration-', suffix='.tmp', dir=folder)
@@ -119,7 +121,8 @@ def save_model(path, model):
 
 
 def load_model(path):
-    """Read and validate a calibration file.
+    """
+    Read and validate a calibration file.
 
     Raises FileNotFoundError when there is no file, CalibrationFileError when
     there is one that cannot be trusted.
@@ -138,15 +141,20 @@ def load_model(path):
         raise CalibrationFileError(path, str(err)) from None
 
 
+def is_int(value):
+    """Return whether ``value`` is a JSON integer (not a bool, not a float)."""
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
 def model_from_dict(doc):
     """Return the model of a parsed document; ValueError/KeyError if invalid."""
     if not isinstance(doc, dict) or doc.get('format') != FORMAT:
         raise ValueError(f'not an {FORMAT} document')
-    if doc.get('schema_version') != SCHEMA_VERSION:
+    if not is_int(doc.get('schema_version')) or doc['schema_version'] != SCHEMA_VERSION:
         raise ValueError(f'schema_version {doc.get("schema_version")!r} is not '
                          f'{SCHEMA_VERSION}')
     axes = doc['accelerometer_axes']
-    if axes not in (2, 3):
+    if not is_int(axes) or axes not in (2, 3):
         raise ValueError(f'accelerometer_axes {axes!r} is not 2 or 3')
     known = {'format', 'schema_version', 'accelerometer_axes', 'installation'}
     unknown = set(doc) - known
@@ -174,11 +182,15 @@ def installation_from_dict(section):
             raise ValueError(f'installation.{name} = {section[name]} is not an '
                              'installation error (|angle| must be < 45 deg)')
     count = section['sample_count']
-    if isinstance(count, bool) or not isinstance(count, int) or count < 1:
+    if not is_int(count) or count < 1:
         raise ValueError(f'installation.sample_count = {count!r} is not a positive integer')
     if section['std_deg'] < 0 or section['g_total_mps2'] <= 0:
         raise ValueError('installation.std_deg must be >= 0 and g_total_mps2 > 0')
-    captured = datetime.fromisoformat(section['captured_at'])
+    try:
+        captured = datetime.fromisoformat(section['captured_at'])
+    except (TypeError, ValueError):
+        raise ValueError(f'installation.captured_at = {section["captured_at"]!r} is not '
+                         'an ISO 8601 time') from None
     if captured.tzinfo is None:
         raise ValueError('installation.captured_at has no time zone')
     return Installation(**section)

@@ -1,4 +1,5 @@
-"""Sample screening: which raw readings may become an angle, and why not.
+"""
+Sample screening: which raw readings may become an angle, and why not.
 
 A rejected sample is dropped and counted under one reason, never turned into
 a published angle.  The reasons, in the order they are checked:
@@ -22,7 +23,8 @@ ZERO_FRACTION = 1e-3
 
 
 def screen(raw, axes, range_mps2, gravity_mps2):
-    """Return one reason code per sample: an index into REASONS, or ACCEPTED.
+    """
+    Return one reason code per sample: an index into REASONS, or ACCEPTED.
 
     ``raw`` has shape ``(N, 3)`` in m/s^2; for ``axes == 2`` its z column is
     ignored.  Checks are vectorised and the first failing reason wins.

@@ -1,4 +1,5 @@
-"""``inclino calibrate``: call the node's ~/calibrate_level and print the answer.
+"""
+``inclino calibrate``: call the node's ~/calibrate_level and print the answer.
 
 What ``ros2 service call /inclinometer/calibrate_level std_srvs/srv/Trigger``
 does on a full ROS 2 install.

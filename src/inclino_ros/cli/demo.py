@@ -1,4 +1,5 @@
-"""``inclino demo``: the whole loop on built-in simulated data, live and offline.
+"""
+``inclino demo``: the whole loop on built-in simulated data, live and offline.
 
 1. ``inclino simulate``: a tool misaligned by gamma, beta on a virtual bench;
 2. starts ``inclinometer_node`` (uncalibrated) as a child process;

@@ -1,4 +1,5 @@
-"""``inclino``: the command line of inclino_ros, one subcommand per module.
+"""
+``inclino``: the command line of inclino_ros, one subcommand per module.
 
 Each module in ``inclino_ros.cli`` named in COMMANDS has ``register(subparsers)``
 adding its parser (with ``func`` set to its ``run(args)`` returning an exit code).

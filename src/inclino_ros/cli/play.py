@@ -1,4 +1,5 @@
-"""``inclino play``: publish a bag's Imu messages with their original timing.
+"""
+``inclino play``: publish a bag's Imu messages with their original timing.
 
 What ``ros2 bag play`` does on a full ROS 2 install, for machines that have
 rclpy from PyPI but no rosbag2.  Messages are published as recorded (stamps
@@ -49,7 +50,8 @@ def imu_messages(series):
 
 
 def publish_timed(publisher, chunks, rate, idle):
-    """Publish the messages of ``chunks`` (ImuSeries) paced by their stamps.
+    """
+    Publish the messages of ``chunks`` (ImuSeries) paced by their stamps.
 
     ``idle(seconds)`` is called while waiting for the next message's time
     (e.g. an executor's ``spin_once``).  Returns the number published.

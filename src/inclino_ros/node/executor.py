@@ -1,4 +1,5 @@
-"""The spin loop shared by the node, the relay benchmark and the CLI tools.
+"""
+The spin loop shared by the node, the relay benchmark and the CLI tools.
 
 The node's level capture is an ``async`` service callback, which only rclpy's
 Python executors run (the C++ EventsExecutor rejects it), so the executor is a

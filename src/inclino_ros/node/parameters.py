@@ -1,4 +1,5 @@
-"""The node's parameters: one table of names, defaults, ranges and meanings.
+"""
+The node's parameters: one table of names, defaults, ranges and meanings.
 
 Defaults here are the same as ``config/inclinometer.yaml``; the README's
 parameter table is made from this list (``python -m inclino_ros.node.parameters``).
