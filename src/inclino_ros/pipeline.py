@@ -13,6 +13,9 @@ from inclino_ros.attitude import (
 from inclino_ros.screening import ACCEPTED, screen
 import numpy as np
 
+#: Variance of a yaw that nothing observes: uniform on [-pi, pi).
+UNOBSERVED_YAW_VARIANCE = math.pi ** 2 / 3.0
+
 
 @dataclass(frozen=True)
 class Settings:
@@ -71,3 +74,28 @@ def run(raw, model, settings):
                   toolface_deg=toolface_deg,
                   orientation_wxyz=orientation_quaternion(corrected),
                   g_total_mps2=np.linalg.norm(corrected, axis=1))
+
+
+def imu_covariances(survey, model, settings, noise_std_mps2):
+    """
+    Return the covariances of the corrected Imu: (linear_acceleration, orientation).
+
+    Both are (M, 9) row-major 3x3 per accepted sample.  Acceleration: the
+    sensor noise variance per axis; for a two-axis sensor z = sqrt(g^2 - x^2 -
+    y^2), so first-order propagation gives var_z = var (x^2 + y^2) / z^2.
+    Roll and pitch: var / |f|^2 plus the variance of the calibration's mean
+    tilt (std_deg^2 / sample_count); yaw is unobserved.
+    """
+    f = survey.corrected_mps2
+    var = noise_std_mps2 ** 2
+    acceleration = np.zeros((f.shape[0], 9))
+    acceleration[:, 0] = acceleration[:, 4] = acceleration[:, 8] = var
+    if settings.accelerometer_axes == 2:
+        acceleration[:, 8] = var * (f[:, 0] ** 2 + f[:, 1] ** 2) / np.maximum(f[:, 2] ** 2, 1e-12)
+    installation = model.installation
+    calibration_var = (0.0 if installation is None else
+                       math.radians(installation.std_deg) ** 2 / installation.sample_count)
+    orientation = np.zeros((f.shape[0], 9))
+    orientation[:, 0] = orientation[:, 4] = var / survey.g_total_mps2 ** 2 + calibration_var
+    orientation[:, 8] = UNOBSERVED_YAW_VARIANCE
+    return acceleration, orientation

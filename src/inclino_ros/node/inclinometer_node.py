@@ -20,7 +20,7 @@ from inclino_ros.model import (
 from inclino_ros.node.executor import spin
 from inclino_ros.node.parameters import PARAMETERS
 from inclino_ros.node.stats import InputStats
-from inclino_ros.pipeline import run, Settings
+from inclino_ros.pipeline import imu_covariances, run, Settings
 from inclino_ros.screening import ACCEPTED
 import numpy as np
 import rclpy
@@ -32,9 +32,6 @@ from rclpy.task import Future
 from sensor_msgs.msg import Imu
 from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
-
-#: Variance of a yaw that nothing observes: uniform on [-pi, pi).
-UNOBSERVED_YAW_VARIANCE = math.pi ** 2 / 3.0
 
 
 class LevelCapture:
@@ -155,24 +152,12 @@ class InclinometerNode(Node):
         q = survey.orientation_wxyz[0]
         imu.orientation.w, imu.orientation.x = float(q[0]), float(q[1])
         imu.orientation.y, imu.orientation.z = float(q[2]), float(q[3])
-        var = self.noise_std_mps2 ** 2
-        var_z = var
-        if self.settings.accelerometer_axes == 2:
-            # z = sqrt(g^2 - x^2 - y^2): first-order propagation of the x, y noise
-            var_z = var * (f[0] ** 2 + f[1] ** 2) / max(f[2] ** 2, 1e-12)
-        imu.linear_acceleration_covariance = [var, 0.0, 0.0, 0.0, var, 0.0, 0.0, 0.0, var_z]
-        tilt_var = var / float(survey.g_total_mps2[0]) ** 2 + self._calibration_tilt_var()
-        imu.orientation_covariance = [tilt_var, 0.0, 0.0, 0.0, tilt_var, 0.0,
-                                      0.0, 0.0, UNOBSERVED_YAW_VARIANCE]
+        acceleration_cov, orientation_cov = imu_covariances(
+            survey, self.model, self.settings, self.noise_std_mps2)
+        imu.linear_acceleration_covariance = acceleration_cov[0].tolist()
+        imu.orientation_covariance = orientation_cov[0].tolist()
         imu.angular_velocity_covariance[0] = -1.0  # no angular rate is measured
         return imu
-
-    def _calibration_tilt_var(self):
-        """Variance [rad^2] the calibration's own noise adds to roll and pitch."""
-        installation = self.model.installation
-        if installation is None:
-            return 0.0
-        return math.radians(installation.std_deg) ** 2 / installation.sample_count
 
     async def _on_calibrate_level(self, request, response):
         """Capture level-bench samples arriving after the call and apply gamma, beta."""

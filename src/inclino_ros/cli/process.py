@@ -1,0 +1,198 @@
+"""
+``inclino process``: correct a recorded bag offline, as the node does live.
+
+Reads sensor_msgs/Imu from a bag, runs ``pipeline.run`` on batches of
+samples and writes, for every accepted sample and with its stamp and
+frame_id, ``/survey`` (Vector3Stamped: x inclination_deg, y toolface_deg,
+z NaN azimuth) and ``/imu/data`` (corrected specific force, roll/pitch
+orientation and the node's covariances).  Dropped samples produce no output.
+"""
+
+import math
+import sys
+
+from inclino_ros.bag import (
+    BagError, BagWriter, CHUNK_SIZE, IMU, ImuSeries, not_measured_covariance, read, STORAGES,
+    topic_info, VECTOR3_STAMPED, Vector3Series)
+from inclino_ros.model import CalibrationFileError, load_model
+from inclino_ros.node.parameters import PARAMETERS
+from inclino_ros.pipeline import imu_covariances, run as run_pipeline, Settings
+from inclino_ros.screening import count_reasons, REASONS
+import numpy as np
+from tqdm import tqdm
+
+SURVEY_TOPIC = '/survey'
+IMU_TOPIC = '/imu/data'
+NODE_DEFAULTS = {parameter.name: parameter.default for parameter in PARAMETERS}
+
+
+class CommandError(Exception):
+    """A reason to stop before processing, reported with exit code 2."""
+
+
+class Summary:
+    """Running statistics of a processed stream."""
+
+    def __init__(self, gravity_mps2):
+        """Start with nothing seen; G-total sums are kept about ``gravity_mps2``."""
+        self.gravity_mps2 = gravity_mps2
+        self.samples_in = 0
+        self.dropped = dict.fromkeys(REASONS, 0)
+        self.inclination_min_deg = math.inf
+        self.inclination_max_deg = -math.inf
+        self._inclination_sum_deg = 0.0
+        self._g_offset_sum = 0.0
+        self._g_offset_sum_sq = 0.0
+
+    @property
+    def accepted(self):
+        """Return the number of samples that produced output."""
+        return self.samples_in - sum(self.dropped.values())
+
+    def add(self, survey):
+        """Count one processed batch (a ``pipeline.Survey``)."""
+        self.samples_in += survey.codes.size
+        for reason, count in count_reasons(survey.codes).items():
+            self.dropped[reason] += count
+        if survey.inclination_deg.size:
+            self.inclination_min_deg = min(self.inclination_min_deg,
+                                           float(survey.inclination_deg.min()))
+            self.inclination_max_deg = max(self.inclination_max_deg,
+                                           float(survey.inclination_deg.max()))
+            self._inclination_sum_deg += float(survey.inclination_deg.sum())
+            offset = survey.g_total_mps2 - self.gravity_mps2
+            self._g_offset_sum += float(offset.sum())
+            self._g_offset_sum_sq += float(offset @ offset)
+
+    def lines(self):
+        """Return the summary as ``name: value`` lines."""
+        n = self.accepted
+        lines = [f'samples_in: {self.samples_in}', f'accepted: {n}']
+        lines += [f'dropped_{reason}: {count}' for reason, count in self.dropped.items()]
+        if n == 0:
+            return lines + ['inclination_deg: none accepted', 'g_total_mps2: none accepted']
+        g_mean = self.gravity_mps2 + self._g_offset_sum / n
+        g_std = (math.sqrt(max(self._g_offset_sum_sq - self._g_offset_sum ** 2 / n, 0.0)
+                           / (n - 1)) if n > 1 else 0.0)
+        return lines + [
+            f'inclination_deg: min {self.inclination_min_deg:.6f} '
+            f'mean {self._inclination_sum_deg / n:.6f} max {self.inclination_max_deg:.6f}',
+            f'g_total_mps2: mean {g_mean:.6f} std {g_std:.6f}']
+
+
+def register(subparsers):
+    """Add the ``process`` subcommand."""
+    parser = subparsers.add_parser(
+        'process', help='correct a recorded bag with a calibration file',
+        description=__doc__.split('\n\n', 1)[1])
+    parser.add_argument('input', metavar='IN', help='input bag (mcap or sqlite3)')
+    parser.add_argument('output', metavar='OUT', help='output bag to create')
+    parser.add_argument('--calibration', required=True, metavar='FILE',
+                        help='calibration file (as written by the node or inclino calibrate)')
+    parser.add_argument('--topic', default='/imu/data_raw',
+                        help='sensor_msgs/Imu topic to read (default: %(default)s)')
+    parser.add_argument('--storage', choices=sorted(STORAGES), default='mcap',
+                        help='storage format of OUT (default: %(default)s)')
+    parser.add_argument('--toolface-convention', choices=('seed000', 'iscwsa_highside'),
+                        default=NODE_DEFAULTS['toolface_convention'],
+                        help='gravity toolface definition (default: %(default)s)')
+    parser.add_argument('--axes', type=int, choices=(2, 3),
+                        help='accelerometer axes (default: those of the calibration file)')
+    parser.add_argument('--gravity-mps2', type=float, default=NODE_DEFAULTS['gravity_mps2'],
+                        help='local gravity [m/s^2] (default: %(default)s)')
+    parser.add_argument('--range-mps2', type=float,
+                        default=NODE_DEFAULTS['accelerometer_range_mps2'],
+                        help='sensor full scale [m/s^2]; samples at or beyond are dropped '
+                             '(default: %(default)s)')
+    parser.add_argument('--noise-std-mps2', type=float,
+                        default=NODE_DEFAULTS['accelerometer_noise_std_mps2'],
+                        help='accelerometer noise, 1 sigma [m/s^2], for the /imu/data '
+                             'covariances (default: %(default)s)')
+    parser.add_argument('--chunk-size', type=int, default=CHUNK_SIZE,
+                        help='samples processed per batch (default: %(default)s)')
+    parser.set_defaults(func=run)
+
+
+def run(args):
+    """Process IN into OUT; return 0, 1 if no sample was accepted, 2 if nothing could start."""
+    try:
+        model, settings, count = _prepare(args)
+        with BagWriter(args.output, args.storage) as out:
+            summary = process(args.input, args.topic, out, model, settings,
+                              args.noise_std_mps2, args.chunk_size, count)
+    except (CommandError, BagError) as err:
+        print(f'inclino process: error: {err}', file=sys.stderr)
+        return 2
+    print(f'wrote {args.output} ({args.storage}): {summary.accepted} messages on each of '
+          f'{SURVEY_TOPIC} and {IMU_TOPIC}')
+    print('\n'.join(summary.lines()))
+    if summary.accepted == 0:
+        print(f'inclino process: no sample of {args.topic} was accepted', file=sys.stderr)
+        return 1
+    return 0
+
+
+def _prepare(args):
+    """Return (model, settings, message count) or raise CommandError."""
+    try:
+        model = load_model(args.calibration)
+    except FileNotFoundError:
+        raise CommandError(f'no calibration file {args.calibration}') from None
+    except (CalibrationFileError, OSError) as err:
+        raise CommandError(str(err)) from None
+    axes = args.axes or model.accelerometer_axes
+    if axes != model.accelerometer_axes:
+        raise CommandError(f'{args.calibration} is for a {model.accelerometer_axes}-axis '
+                           f'accelerometer, not {axes} axes')
+    if args.chunk_size < 1:
+        raise CommandError('--chunk-size must be at least 1')
+    try:
+        settings = Settings(
+            accelerometer_axes=axes, gravity_mps2=args.gravity_mps2,
+            accelerometer_range_mps2=args.range_mps2,
+            toolface_convention=args.toolface_convention,
+            toolface_min_inclination_deg=NODE_DEFAULTS['toolface_min_inclination_deg'])
+    except ValueError as err:
+        raise CommandError(str(err)) from None
+    msgtype, count = topic_info(args.input, args.topic)
+    if msgtype != IMU:
+        raise CommandError(f'{args.topic} in {args.input} holds {msgtype}, not {IMU}')
+    return model, settings, count
+
+
+def process(in_path, topic, out, model, settings, noise_std_mps2, chunk_size, count=None):
+    """
+    Correct ``topic`` of the bag ``in_path`` into the open BagWriter ``out``.
+
+    Returns the Summary; shows a progress bar of ``count`` messages on stderr.
+    """
+    out.add_topic(SURVEY_TOPIC, VECTOR3_STAMPED)
+    out.add_topic(IMU_TOPIC, IMU)
+    summary = Summary(settings.gravity_mps2)
+    with tqdm(total=count, unit='msg', desc='inclino process', file=sys.stderr) as progress:
+        for batch in read(in_path, topic, chunk_size):
+            survey = run_pipeline(batch.linear_acceleration_mps2, model, settings)
+            summary.add(survey)
+            out.write_series(_outputs(batch, survey, model, settings, noise_std_mps2))
+            progress.update(batch.stamps_ns.size)
+    return summary
+
+
+def _outputs(batch, survey, model, settings, noise_std_mps2):
+    """Return ``{topic: series}`` of the accepted samples of ``batch``."""
+    accepted = survey.accepted
+    stamps_ns, frame_ids = batch.stamps_ns[accepted], batch.frame_ids[accepted]
+    n = stamps_ns.size
+    acceleration_cov, orientation_cov = imu_covariances(survey, model, settings, noise_std_mps2)
+    w, x, y, z = survey.orientation_wxyz.T
+    return {
+        SURVEY_TOPIC: Vector3Series(
+            stamps_ns, frame_ids,
+            np.stack([survey.inclination_deg, survey.toolface_deg, np.full(n, np.nan)], axis=1)),
+        IMU_TOPIC: ImuSeries(
+            stamps_ns, frame_ids, orientation_xyzw=np.stack([x, y, z, w], axis=1),
+            orientation_covariance=orientation_cov, angular_velocity_radps=np.zeros((n, 3)),
+            angular_velocity_covariance=not_measured_covariance(n),
+            linear_acceleration_mps2=survey.corrected_mps2,
+            linear_acceleration_covariance=acceleration_cov),
+    }
