@@ -7,6 +7,7 @@ import subprocess
 import sys
 import time
 
+from ament_index_python.packages import get_package_prefix, PackageNotFoundError
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import Vector3Stamped
 import numpy as np
@@ -17,7 +18,25 @@ from sensor_msgs.msg import Imu
 from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
 
-NODE_EXECUTABLE = os.path.join(os.path.dirname(sys.executable), 'inclinometer_node')
+
+def node_executable():
+    """
+    Return the ``inclinometer_node`` to test.
+
+    Where ``ros2 run`` looks (``<prefix>/lib/inclino_ros``, as after ``colcon build``),
+    else the console script beside this Python (``pip install`` into a venv).
+    """
+    try:
+        path = os.path.join(get_package_prefix('inclino_ros'), 'lib', 'inclino_ros',
+                            'inclinometer_node')
+        if os.path.isfile(path):
+            return path
+    except (OSError, PackageNotFoundError):  # AMENT_PREFIX_PATH unset, or not indexed
+        pass
+    return os.path.join(os.path.dirname(sys.executable), 'inclinometer_node')
+
+
+NODE_EXECUTABLE = node_executable()
 G = 9.80665
 
 
