@@ -93,7 +93,7 @@ def run_3axis(tmp_path_factory):
     assert quiet(['simulate', sim_bag])[0] == 0
     installation = calibrate_from_level(sim_bag, calibration)
     code, stdout, stderr = quiet(['process', sim_bag, out_bag, '--calibration', calibration,
-                                  '--noise-std-mps2', str(NOISE_MPS2)])
+                                  '--noise-mps2', str(NOISE_MPS2)])
     assert code == 0, stderr
     return {'sim': sim_bag, 'out': out_bag, 'calibration': calibration,
             'installation': installation, 'stdout': stdout, 'stderr': stderr}
@@ -395,3 +395,16 @@ def test_process_refuses_with_exit_code_2(tmp_path, run_3axis, case):
     assert expected in stderr
     assert stdout == ''
     assert os.listdir(out_bag) == [] if case == 'exists' else not os.path.exists(out_bag)
+
+
+def test_process_without_correction_warns(tmp_path, run_3axis):
+    """A calibration file without a correction is processed raw, with a warning on stderr."""
+    calibration, out_bag = str(tmp_path / 'empty.json'), str(tmp_path / 'out')
+    save_model(calibration, CalibrationModel(accelerometer_axes=3))
+    code, _, stderr = quiet(['process', run_3axis['sim'], out_bag, '--calibration', calibration])
+    assert code == 0
+    assert 'holds no correction' in stderr
+    raw = bag.concatenate(bag.read(run_3axis['sim'], '/imu/data_raw'))
+    survey = bag.concatenate(bag.read(out_bag, '/survey'))
+    np.testing.assert_array_equal(survey.vector[:, 0],
+                                  np.degrees(inclination(raw.linear_acceleration_mps2)))

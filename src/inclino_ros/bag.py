@@ -82,7 +82,7 @@ def frame_id_array(frame_id, count):
 
 
 def not_measured_covariance(count):
-    """Return (count, 9) covariances saying "not measured": element 0 is -1 (REP 145)."""
+    """Return (count, 9) covariances saying "not measured": element 0 is -1 (sensor_msgs/Imu)."""
     covariance = np.zeros((count, 9))
     covariance[:, 0] = -1.0
     return covariance
@@ -90,10 +90,12 @@ def not_measured_covariance(count):
 
 def raw_imu(stamps_ns, frame_id, linear_acceleration_mps2, noise_std_mps2):
     """
-    Return a raw accelerometer series as a driver publishes it (REP 145).
+    Return a raw accelerometer series as a driver publishes it.
 
-    Orientation and angular velocity are not measured (zero, covariance[0]
-    -1); the acceleration covariance is ``noise_std_mps2^2`` on the diagonal.
+    ``linear_acceleration_mps2`` is specific force (REP 145).  Orientation and
+    angular velocity are not measured (zero, covariance[0] -1, as
+    sensor_msgs/Imu asks); the acceleration covariance is ``noise_std_mps2^2``
+    on the diagonal.
     """
     acc = np.asarray(linear_acceleration_mps2, dtype=float).reshape(-1, 3)
     n = acc.shape[0]

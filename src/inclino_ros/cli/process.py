@@ -104,7 +104,7 @@ def register(subparsers):
                         default=NODE_DEFAULTS['accelerometer_range_mps2'],
                         help='sensor full scale [m/s^2]; samples at or beyond are dropped '
                              '(default: %(default)s)')
-    parser.add_argument('--noise-std-mps2', type=float,
+    parser.add_argument('--noise-mps2', dest='noise_std_mps2', metavar='NOISE_MPS2', type=float,
                         default=NODE_DEFAULTS['accelerometer_noise_std_mps2'],
                         help='accelerometer noise, 1 sigma [m/s^2], for the /imu/data '
                              'covariances (default: %(default)s)')
@@ -114,7 +114,7 @@ def register(subparsers):
 
 
 def run(args):
-    """Process IN into OUT; return 0, 1 if no sample was accepted, 2 if nothing could start."""
+    """Process IN into OUT; return 0, 1 if no sample was accepted, 2 on an error."""
     try:
         model, settings, count = _prepare(args)
         with BagWriter(args.output, args.storage) as out:
@@ -140,6 +140,9 @@ def _prepare(args):
         raise CommandError(f'no calibration file {args.calibration}') from None
     except (CalibrationFileError, OSError) as err:
         raise CommandError(str(err)) from None
+    if not model.calibrated:
+        print(f'inclino process: warning: {args.calibration} holds no correction; the angles '
+              'written are the raw, uncorrected ones', file=sys.stderr)
     axes = args.axes or model.accelerometer_axes
     if axes != model.accelerometer_axes:
         raise CommandError(f'{args.calibration} is for a {model.accelerometer_axes}-axis '

@@ -27,15 +27,16 @@ def register(subparsers):
                     'x inclination_deg, y toolface_deg seed000, z NaN) to the bag OUT, '
                     'plus OUT.truth.json.')
     parser.add_argument('out', metavar='OUT', help='bag directory to create')
-    for name, unit_help in (('gamma_deg', 'installation angle gamma [deg]'),
-                            ('beta_deg', 'installation angle beta [deg]'),
-                            ('noise_std_mps2', 'noise per axis, 1 sigma [m/s^2]'),
-                            ('rate_hz', 'sample rate [Hz]'),
-                            ('level_s', 'duration of the level segment [s]'),
-                            ('station_s', 'duration of each tilted station [s]')):
-        flag = '--' + name.replace('_std', '').replace('_', '-')
+    for flag, name, meaning in (
+            ('--gamma-deg', 'gamma_deg', 'installation angle gamma [deg]'),
+            ('--beta-deg', 'beta_deg', 'installation angle beta [deg]'),
+            ('--noise-mps2', 'noise_std_mps2', 'noise per axis, 1 sigma [m/s^2]'),
+            ('--rate-hz', 'rate_hz', 'sample rate [Hz]'),
+            ('--level-s', 'level_s', 'duration of the level segment [s]'),
+            ('--station-s', 'station_s', 'duration of each tilted station [s]')):
         parser.add_argument(flag, dest=name, type=float, default=getattr(defaults, name),
-                            help=f'{unit_help} (default: %(default)s)')
+                            metavar=flag[2:].upper().replace('-', '_'),
+                            help=f'{meaning} (default: %(default)s)')
     parser.add_argument('--seed', type=int, default=defaults.seed,
                         help='seed of the noise generator (default: %(default)s)')
     parser.add_argument('--axes', type=int, choices=(2, 3), default=defaults.axes,
