@@ -19,24 +19,23 @@ from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
 
 
-def node_executable():
+def installed_script(name):
     """
-    Return the ``inclinometer_node`` to test.
+    Return the path of the console script ``name`` to test.
 
     Where ``ros2 run`` looks (``<prefix>/lib/inclino_ros``, as after ``colcon build``),
     else the console script beside this Python (``pip install`` into a venv).
     """
     try:
-        path = os.path.join(get_package_prefix('inclino_ros'), 'lib', 'inclino_ros',
-                            'inclinometer_node')
+        path = os.path.join(get_package_prefix('inclino_ros'), 'lib', 'inclino_ros', name)
         if os.path.isfile(path):
             return path
     except (OSError, PackageNotFoundError):  # AMENT_PREFIX_PATH unset, or not indexed
         pass
-    return os.path.join(os.path.dirname(sys.executable), 'inclinometer_node')
+    return os.path.join(os.path.dirname(sys.executable), name)
 
 
-NODE_EXECUTABLE = node_executable()
+NODE_EXECUTABLE = installed_script('inclinometer_node')
 G = 9.80665
 
 
