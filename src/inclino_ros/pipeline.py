@@ -1,4 +1,5 @@
-"""The processing chain shared by the node and the command line.
+"""
+The processing chain shared by the node and the command line.
 
 raw specific force -> screening -> (two-axis completion) -> calibration model
 -> inclination, gravity toolface, orientation.  One batch of N samples at a

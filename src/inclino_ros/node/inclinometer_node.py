@@ -1,4 +1,5 @@
-"""The inclinometer node: adapts ROS topics, parameters and services to the core.
+"""
+The inclinometer node: adapts ROS topics, parameters and services to the core.
 
 Subscribes ``imu/data_raw`` (sensor_msgs/Imu, sensor-data QoS), publishes the
 corrected ``survey``, ``inclination``, ``toolface`` and ``imu/data`` for every
@@ -94,7 +95,8 @@ class InclinometerNode(Node):
         return self.get_parameter(name).value
 
     def _load_model(self):
-        """Return the stored model, an empty one if there is no file.
+        """
+        Return the stored model, an empty one if there is no file.
 
         Raises CalibrationFileError for a file that exists but is not valid.
         """
