@@ -1,0 +1,270 @@
+"""
+Multi-position stand calibration of a three-axis accelerometer (seed 001 §4).
+
+Seed 001 (Wang, Chikhotkin & Lu, Coal Geology & Exploration 44(4), 2016)
+models the three accelerometer outputs as a full linear map of the true
+specific force, ``A = K G`` (Eqs. 8-10): the diagonal of K holds the scale
+factors, the off-diagonal terms the misalignment and cross-coupling of the
+sensing axes.  K is found from a stand that sets known attitudes (Table 1,
+nine positions), and every reading is corrected by ``G = K^-1 A`` (Eq. 11).
+Here the model carries a bias as well, ``A = K G + b``, solved by linear least
+squares; a bias-free Eq. 10 is the special case ``b = 0``.
+
+Vectors are REP 145 specific force in the z-up tool frame of seed 000 (see
+``inclino_ros.attitude``), shape ``(N, 3)``; readings and truth share one unit
+(m/s^2 on our topics).  Without a stand, ``fit_sphere`` finds scale, bias and
+non-orthogonality from ``|G| = g`` alone (no rotation: see its docstring).
+"""
+
+from dataclasses import dataclass
+import math
+
+from inclino_ros.attitude import inclination
+from inclino_ros.simulate import specific_force
+import numpy as np
+
+#: Least stand positions: 12 unknowns (K and b), three equations per position,
+#: and six is the classic six-position set (each axis up and down).
+MIN_POSITIONS = 6
+#: Truth vectors closer than this [deg] are one attitude repeated.
+MIN_SEPARATION_DEG = 1.0
+#: Largest condition number (2-norm) of the stand design ``[G / |G|, 1]``, of
+#: the fitted K, and of the sphere design: noise is amplified up to this much.
+#: The six-position set gives sqrt(3); positions that leave an axis unexcited
+#: (all with the same axis vertical, all at one inclination) give infinity.
+MAX_CONDITION_NUMBER = 100.0
+#: Least readings of a sphere fit: 9 unknowns (upper-triangular K, b) plus 3
+#: redundant, so that the residual tests the fit.
+MIN_SPHERE_READINGS = 12
+
+
+class StandFitRefused(Exception):
+    """Readings that cannot give a trustworthy stand or sphere calibration."""
+
+    def __init__(self, reason):
+        super().__init__(reason)
+        self.reason = reason
+
+
+@dataclass(frozen=True)
+class _LinearSensor:
+    """A fitted ``A = K G + b``: the correction and the geometry of the sensing axes."""
+
+    scale_matrix: np.ndarray  # K (3, 3), dimensionless
+    bias_mps2: np.ndarray     # b (3,), unit of the readings
+    condition_number: float   # of the design matrix of the fit
+
+    def apply(self, readings):
+        """Return ``K^-1 (A - b)`` (seed 001 Eq. 11) for readings of shape (..., 3)."""
+        return correct_stand(readings, self.scale_matrix, self.bias_mps2)
+
+    @property
+    def axis_scales(self):
+        """Return the scale factor of each sensing axis: the norms of the rows of K."""
+        return np.linalg.norm(self.scale_matrix, axis=1)
+
+    @property
+    def non_orthogonality_deg(self):
+        """
+        Return 90 deg minus the angles between sensing axes (x-y, x-z, y-z) [deg].
+
+        Axis i reads ``A_i = K_i . G + b_i``: its sensing direction is row
+        ``K_i`` of K.
+        """
+        unit = self.scale_matrix / self.axis_scales[:, None]
+        pairs = ((0, 1), (0, 2), (1, 2))
+        return np.array([90.0 - math.degrees(_angle(unit[i], unit[j])) for i, j in pairs])
+
+
+@dataclass(frozen=True)
+class StandFit(_LinearSensor):
+    """A stand calibration ``A = K G + b`` and how well it fits its positions."""
+
+    residual_mps2: np.ndarray             # (N, 3) A - (K G + b)
+    inclination_residual_deg: np.ndarray  # (N,) inclination of K^-1 (A - b) minus the true one
+    rms_residual_mps2: float              # over all positions and axes
+    rms_inclination_deg: float
+
+
+@dataclass(frozen=True)
+class SphereFit(_LinearSensor):
+    """A reference-free calibration: upper-triangular K and b with ``|K^-1 (A - b)| = g``."""
+
+    residual_mps2: np.ndarray  # (N,) |K^-1 (A - b)| - g
+    rms_residual_mps2: float
+
+
+def stand_specific_force(inclination_deg, toolface_deg, g):
+    """
+    Return the true specific force of a stand position, shape (..., 3).
+
+    ``g (sin I cos TF, sin I sin TF, cos I)`` in the z-up tool frame with the
+    seed-000 toolface TF (``atan2(f_y, f_x)``), as for the level bench.  Seed
+    001 Table 1 gives its GTF from +y toward +x (Eq. 2, ``atan2(G_x, G_y)``):
+    its positions are ``TF = 90 deg - GTF`` here.
+    """
+    return specific_force(np.radians(inclination_deg), np.radians(toolface_deg), g)
+
+
+def correct_stand(readings, scale_matrix, bias):
+    """Return ``G = K^-1 (A - b)`` (seed 001 Eq. 11) for readings of shape (..., 3)."""
+    offset = np.asarray(readings, dtype=float) - np.asarray(bias, dtype=float)
+    solved = np.linalg.solve(np.asarray(scale_matrix, dtype=float), offset.reshape(-1, 3).T)
+    return solved.T.reshape(offset.shape)
+
+
+def fit_stand(readings, truth, min_separation_deg=MIN_SEPARATION_DEG):
+    """
+    Return the least-squares ``A = K G + b`` of stand positions (seed 001 Eq. 10 + bias).
+
+    ``readings`` (N, 3) are the mean outputs at the N positions, ``truth``
+    (N, 3) the specific force the stand sets (``stand_specific_force``).
+    Each row of K and b is an independent linear least-squares problem on the
+    design ``[G / |G|, 1]``, solved together by ``numpy.linalg.lstsq``.
+
+    Raises StandFitRefused, with the reason, for: fewer than MIN_POSITIONS
+    positions; non-finite values; two positions whose truth vectors are less
+    than ``min_separation_deg`` apart (a repeat adds no attitude); a design or
+    a fitted K with condition number above MAX_CONDITION_NUMBER.
+    """
+    readings, truth = _as_vectors(readings, 'readings'), _as_vectors(truth, 'truth')
+    if readings.shape != truth.shape:
+        raise ValueError(f'readings {readings.shape} and truth {truth.shape} differ in shape')
+    count = readings.shape[0]
+    if count < MIN_POSITIONS:
+        raise StandFitRefused(
+            f'only {count} stand position(s), need at least {MIN_POSITIONS} '
+            '(K and b have 12 unknowns; e.g. each axis up and down)')
+    _refuse_non_finite(readings, 'readings')
+    _refuse_non_finite(truth, 'truth')
+    _refuse_repeated_attitudes(truth, min_separation_deg)
+
+    g_scale = float(np.median(np.linalg.norm(truth, axis=1)))
+    design = np.column_stack([truth / g_scale, np.ones(count)])
+    condition = _condition_number(design)
+    if condition > MAX_CONDITION_NUMBER:
+        raise StandFitRefused(
+            f'ill-posed position set: the design [G/|G|, 1] has rank '
+            f'{np.linalg.matrix_rank(design)} of 4 and condition number {condition:.3g} '
+            f'(limit {MAX_CONDITION_NUMBER:g}); the positions must turn every axis both '
+            'up and down (not all with one axis vertical, not all at one inclination)')
+    coefficients = np.linalg.lstsq(design, readings, rcond=None)[0]
+    scale_matrix = coefficients[:3].T / g_scale
+    _refuse_singular(scale_matrix)
+    bias = coefficients[3]
+
+    residual = readings - design @ coefficients
+    inclination_residual_deg = np.degrees(
+        inclination(correct_stand(readings, scale_matrix, bias)) - inclination(truth))
+    return StandFit(
+        scale_matrix=scale_matrix, bias_mps2=bias, condition_number=condition,
+        residual_mps2=residual, inclination_residual_deg=inclination_residual_deg,
+        rms_residual_mps2=_rms(residual), rms_inclination_deg=_rms(inclination_residual_deg))
+
+
+def fit_sphere(readings, g):
+    """
+    Return the reference-free fit of readings of a still sensor in many attitudes.
+
+    With no stand the only truth is ``|G| = g``, so the readings lie on the
+    ellipsoid ``|K^-1 (A - b)| = g``.  It fixes K only up to a rotation:
+    ``K Q`` fits as well as K for every rotation Q.  K is therefore returned
+    upper triangular (positive diagonal): then ``A_z = K_zz G_z``, i.e. the
+    corrected frame has its z axis along the z sensing axis and its y axis in
+    the plane of the y and z sensing axes.  The six numbers are the three
+    scales and three non-orthogonalities; the rotation of that frame against
+    the tool is what seed 000's level bench measures next (its roll about z,
+    unobservable from gravity, only offsets the toolface).
+
+    Linear algebraic fit: ``u^T M u + l . u = 1`` with ``u = A / g`` gives
+    the centre ``c = -M^-1 l / 2``, ``M / (1 + c^T M c) = R^T R`` (Cholesky,
+    R upper triangular) and ``K = R^-1``, ``b = g c``.  Its bias from noise
+    is of order (noise / g)^2, negligible for a still, averaged capture.
+
+    Raises StandFitRefused for fewer than MIN_SPHERE_READINGS readings,
+    non-finite ones, readings not spread over the sphere (design condition
+    number above MAX_CONDITION_NUMBER) and readings on no ellipsoid.
+    """
+    readings = _as_vectors(readings, 'readings')
+    count = readings.shape[0]
+    if count < MIN_SPHERE_READINGS:
+        raise StandFitRefused(
+            f'only {count} reading(s), need at least {MIN_SPHERE_READINGS} for a sphere fit '
+            '(9 unknowns: upper-triangular K and b)')
+    _refuse_non_finite(readings, 'readings')
+    u = readings / g
+    x, y, z = u.T
+    design = np.column_stack([x * x, y * y, z * z, 2 * x * y, 2 * x * z, 2 * y * z, x, y, z])
+    condition = _condition_number(design)
+    if condition > MAX_CONDITION_NUMBER:
+        raise StandFitRefused(
+            f'readings do not spread over the sphere: the ellipsoid design has condition '
+            f'number {condition:.3g} (limit {MAX_CONDITION_NUMBER:g}); tilt the tool through '
+            'attitudes that turn every axis both up and down')
+    p = np.linalg.lstsq(design, np.ones(count), rcond=None)[0]
+    quadratic = np.array([[p[0], p[3], p[4]], [p[3], p[1], p[5]], [p[4], p[5], p[2]]])
+    centre = -0.5 * np.linalg.solve(quadratic, p[6:])
+    try:
+        upper = np.linalg.cholesky(quadratic / (1.0 + centre @ quadratic @ centre)).T
+    except np.linalg.LinAlgError:
+        raise StandFitRefused('the readings lie on no ellipsoid (the fitted quadric is not '
+                              'positive definite): not a still accelerometer?') from None
+    scale_matrix = np.linalg.inv(upper)
+    _refuse_singular(scale_matrix)
+    bias = g * centre
+    residual = np.linalg.norm(correct_stand(readings, scale_matrix, bias), axis=1) - g
+    return SphereFit(scale_matrix=scale_matrix, bias_mps2=bias, condition_number=condition,
+                     residual_mps2=residual, rms_residual_mps2=_rms(residual))
+
+
+def _as_vectors(values, name):
+    """Return ``values`` as a float (N, 3) array; ValueError for any other shape."""
+    values = np.asarray(values, dtype=float)
+    if values.ndim != 2 or values.shape[1] != 3:
+        raise ValueError(f'{name} must have shape (N, 3), not {values.shape}')
+    return values
+
+
+def _refuse_non_finite(values, name):
+    """Raise StandFitRefused naming the positions (1-based) with non-finite values."""
+    bad = np.flatnonzero(~np.isfinite(values).all(axis=1))
+    if bad.size:
+        raise StandFitRefused(f'non-finite {name} at position(s) {(bad + 1).tolist()}')
+
+
+def _angle(u, v):
+    """Return the angle [rad] between vectors along the last axis (atan2 form)."""
+    return np.arctan2(np.linalg.norm(np.cross(u, v), axis=-1), np.sum(u * v, axis=-1))
+
+
+def _refuse_repeated_attitudes(truth, min_separation_deg):
+    """Raise StandFitRefused for two truth vectors less than the separation apart."""
+    apart_deg = np.degrees(_angle(truth[:, None, :], truth[None, :, :]))
+    first, second = np.nonzero(np.triu(apart_deg < min_separation_deg, k=1))
+    if first.size:
+        i, j = first[0], second[0]
+        raise StandFitRefused(
+            f'positions {i + 1} and {j + 1} are one attitude ({apart_deg[i, j]:.3f} deg apart, '
+            f'limit {min_separation_deg:g} deg): a repeat adds no information on K; '
+            f'{first.size} such pair(s) in all')
+
+
+def _condition_number(matrix):
+    """Return the 2-norm condition number, infinity for a rank-deficient matrix."""
+    singular = np.linalg.svd(matrix, compute_uv=False)
+    return math.inf if singular[-1] == 0.0 else float(singular[0] / singular[-1])
+
+
+def _refuse_singular(scale_matrix):
+    """Raise StandFitRefused when K is too ill-conditioned to invert (Eq. 11)."""
+    condition = _condition_number(scale_matrix)
+    if condition > MAX_CONDITION_NUMBER:
+        raise StandFitRefused(
+            f'the fitted K has condition number {condition:.3g} (limit '
+            f'{MAX_CONDITION_NUMBER:g}): an axis does not respond or two axes sense one '
+            'direction')
+
+
+def _rms(values):
+    """Return the root mean square of all elements."""
+    return float(np.sqrt(np.mean(np.square(values))))
