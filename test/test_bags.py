@@ -27,7 +27,6 @@ import json
 import math
 import os
 import subprocess
-import sys
 
 from inclino_ros import bag
 from inclino_ros.attitude import inclination, toolface_seed000
@@ -37,6 +36,7 @@ from inclino_ros.model import CalibrationModel, save_model
 from inclino_ros.simulate import Scenario, simulate
 import numpy as np
 import pytest
+from ros_harness import installed_script
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore, Stores
 from transforms3d.quaternions import quat2mat
@@ -350,7 +350,7 @@ def test_two_axis_sensor_end_to_end(tmp_path):
 def test_console_script_sqlite3_highside(tmp_path, run_3axis):
     """``inclino`` as a console script: sqlite3 output, ISCWSA toolface = seed000 + 90 deg."""
     out_bag = str(tmp_path / 'out')
-    script = os.path.join(os.path.dirname(sys.executable), 'inclino')
+    script = installed_script('inclino')
     result = subprocess.run(
         [script, 'process', run_3axis['sim'], out_bag, '--calibration',
          run_3axis['calibration'], '--storage', 'sqlite3',

@@ -1,29 +1,40 @@
 """
-The spin loop shared by the node, the relay benchmark and the CLI tools.
+The spin loop shared by the node and the relay benchmark.
 
 The node's level capture is an ``async`` service callback, which only rclpy's
 Python executors run (the C++ EventsExecutor rejects it), so the executor is a
-SingleThreadedExecutor, spun with a timeout so that SIGINT and context
-shutdown are seen promptly.
+SingleThreadedExecutor, spun with a timeout.
+
+SIGINT and SIGTERM end the loop between two callbacks: rclpy is initialised
+without its own signal handlers (``init``), because those shut the context
+down while a message may be half taken, and rclpy then fails inside the take.
 """
+
+import signal
+import threading
 
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
+from rclpy.signals import SignalHandlerOptions
+
+
+def init(args=None):
+    """Initialise rclpy without its signal handlers (``spin`` handles the signals)."""
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
 
 
 def spin(node, period_s=0.1):
-    """Spin ``node`` on a SingleThreadedExecutor until the context shuts down."""
+    """Spin ``node`` until SIGINT, SIGTERM or context shutdown; then return."""
+    stop = threading.Event()
+    previous = {sig: signal.signal(sig, lambda *_: stop.set())
+                for sig in (signal.SIGINT, signal.SIGTERM)}
     executor = SingleThreadedExecutor(context=node.context)
     executor.add_node(node)
     try:
-        while rclpy.ok(context=node.context):
-            try:
-                executor.spin_once(timeout_sec=period_s)
-            except Exception:
-                # A take racing the SIGINT shutdown of the context fails inside
-                # rclpy; after shutdown that is the end of the spin, not an error.
-                if rclpy.ok(context=node.context):
-                    raise
+        while not stop.is_set() and rclpy.ok(context=node.context):
+            executor.spin_once(timeout_sec=period_s)
     finally:
         executor.remove_node(node)
         executor.shutdown()
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)

@@ -18,7 +18,7 @@ from geometry_msgs.msg import Vector3Stamped
 from inclino_ros.level_capture import CaptureRefused, LevelLimits, solve_level_capture
 from inclino_ros.model import (
     age_seconds, CalibrationFileError, CalibrationModel, load_model, save_model)
-from inclino_ros.node.executor import spin
+from inclino_ros.node.executor import init, spin
 from inclino_ros.node.parameters import PARAMETERS
 from inclino_ros.node.stats import InputStats
 from inclino_ros.pipeline import imu_covariances, run, Settings
@@ -26,7 +26,6 @@ from inclino_ros.screening import ACCEPTED
 import numpy as np
 import rclpy
 from rclpy.callback_groups import ReentrantCallbackGroup
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
 from rclpy.task import Future
@@ -245,7 +244,7 @@ class InclinometerNode(Node):
 
 def main(args=None):
     """Run the node until shutdown; exit non-zero on a bad calibration file."""
-    rclpy.init(args=args)
+    init(args)
     try:
         node = InclinometerNode()
     except (CalibrationFileError, ValueError) as err:
@@ -254,8 +253,6 @@ def main(args=None):
         return 1
     try:
         spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
     finally:
         node.destroy_node()
         rclpy.try_shutdown()
