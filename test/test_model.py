@@ -60,7 +60,7 @@ def test_save_load_round_trip(tmp_path, model):
     save_model(str(path), model)
     assert load_model(str(path)) == model
     doc = json.loads(path.read_text())
-    assert doc['format'] == 'inclino_ros.calibration' and doc['schema_version'] == 1
+    assert doc['format'] == 'inclino_ros.calibration' and doc['schema_version'] == 2
     assert os.listdir(path.parent) == ['calibration.json']
 
 
@@ -175,10 +175,11 @@ BAD_DOCUMENTS = {
     'wrong format': (_edit(format='other.calibration'), 'not an inclino_ros.calibration'),
     'no format': (_edit(format=None), 'not an inclino_ros.calibration'),
     'not an object': ([valid_doc()], 'not an inclino_ros.calibration'),
-    'schema 2': (_edit(schema_version=2), 'schema_version 2 is not 1'),
-    'schema string': (_edit(schema_version='1'), "schema_version '1' is not 1"),
-    'no schema': (_edit(schema_version=None), 'schema_version None is not 1'),
-    'schema bool': (_edit(schema_version=True), 'schema_version True is not 1'),
+    'schema 3': (_edit(schema_version=3), 'schema_version 3 is not one of (1, 2)'),
+    'schema string': (_edit(schema_version='1'), "schema_version '1' is not one of"),
+    'no schema': (_edit(schema_version=None), 'schema_version None is not one of'),
+    'schema bool': (_edit(schema_version=True), 'schema_version True is not one of'),
+    'stand in version 1': (_edit(schema_version=1, stand={}), "unknown sections ['stand']"),
     'axes float': (_edit(accelerometer_axes=3.0), 'accelerometer_axes 3.0 is not 2 or 3'),
     'axes 4': (_edit(accelerometer_axes=4), 'accelerometer_axes 4 is not 2 or 3'),
     'no axes': (_edit(accelerometer_axes=None), 'accelerometer_axes'),
@@ -202,7 +203,7 @@ BAD_DOCUMENTS = {
     'naive time': (_edit_installation(captured_at='2026-03-01T10:20:30'), 'no time zone'),
     'bad time': (_edit_installation(captured_at='yesterday'), 'yesterday'),
     'number time': (_edit_installation(captured_at=1700000000), 'not an ISO 8601 time'),
-    'installation 5': (_edit(installation=5), 'int'),
+    'installation 5': (_edit(installation=5), 'needs exactly the fields'),
     'installation list': (_edit(installation=[]), 'needs exactly the fields'),
 }
 # _edit_installation deletes a field given None; this one must stay, as a JSON null.

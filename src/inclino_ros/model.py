@@ -1,17 +1,21 @@
 """
 The calibration model: what is applied to every sample, and its file.
 
-A model is an ordered set of correction stages applied to raw specific force.
-Seed 000's installation correction (gamma, beta) is the one stage so far;
-later stages (seed 001's scale matrix and temperature drift) go before it,
-as new optional sections of the same versioned file.
+A model is an ordered set of correction stages applied to raw specific force
+(three-axis sensors; a two-axis sensor has the installation stage only):
 
-The file is JSON, written atomically (temporary file, fsync, rename) and
-validated on load; any defect raises ``CalibrationFileError`` naming the file,
-never a silent zero correction.
+1. ``temperature``: seed 001 Eqs. 5-7, each axis divided by its scale factor
+   K_T(T), with T clamped to the fitted range;
+2. ``stand``: seed 001 Eqs. 10-11, ``K^-1 (A - b)`` from a multi-position
+   stand (or the reference-free sphere fit);
+3. ``installation``: seed 000 Eqs. 8-9, the level-bench angles gamma, beta.
+
+The file is JSON, versioned, written atomically (temporary file, fsync,
+rename) and validated on load; any defect raises ``CalibrationFileError``
+naming the file, never a silent zero correction.
 """
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, fields
 from datetime import datetime, timezone
 import json
 import math
@@ -19,10 +23,15 @@ import os
 import tempfile
 
 from inclino_ros.installation import correct_installation, pseudo_inclination
+from inclino_ros.stand import correct_stand, MAX_CONDITION_NUMBER
+from inclino_ros.temperature import compensate_temperature, TemperatureFit
 import numpy as np
 
 FORMAT = 'inclino_ros.calibration'
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
+#: Versions load_model reads: version 1 files hold the installation stage only.
+READABLE_VERSIONS = (1, 2)
+STAGES = ('temperature', 'stand', 'installation')
 
 
 class CalibrationFileError(Exception):
@@ -51,36 +60,103 @@ class Installation:
         return math.degrees(float(pseudo_inclination(
             math.radians(self.gamma_deg), math.radians(self.beta_deg))))
 
-    def apply(self, f):
+    def apply(self, f, temperature_c=None):
         """Return ``f`` (N x 3) in the ideal tool frame (seed 000 Eq. 9)."""
         return correct_installation(
             f, math.radians(self.gamma_deg), math.radians(self.beta_deg))
 
 
 @dataclass(frozen=True)
+class Stand:
+    """Seed 001 scale/misalignment matrix K and bias b: ``G = K^-1 (A - b)``."""
+
+    scale_matrix: tuple        # K, 3 rows of 3, dimensionless
+    bias_mps2: tuple           # b, 3 values
+    method: str                # 'stand' (known attitudes) or 'sphere' (|G| = g only)
+    condition_number: float    # of the fit's design matrix
+    rms_inclination_deg: float  # residual at the stand positions; None for 'sphere'
+    positions: int             # positions (stand) or readings (sphere) fitted
+    fitted_at: str
+
+    def apply(self, f, temperature_c=None):
+        """Return ``K^-1 (f - b)`` (seed 001 Eq. 11) for ``f`` of shape (N, 3)."""
+        return correct_stand(f, np.array(self.scale_matrix), np.array(self.bias_mps2))
+
+
+@dataclass(frozen=True)
+class Temperature:
+    """Seed 001 per-axis scale factor K_T(T), 1 at the reference temperature."""
+
+    coefficients: tuple          # 3 rows of a0..an, T in deg C (Eq. 7)
+    t_min_c: float               # fitted range; T is clamped to it
+    t_max_c: float
+    reference_temperature_c: float
+    rms_residual_mps2: tuple     # per axis
+    samples: int
+    fitted_at: str
+
+    def fit(self):
+        """Return the TemperatureFit of this stage."""
+        return TemperatureFit(
+            coefficients=np.array(self.coefficients), t_min_c=self.t_min_c,
+            t_max_c=self.t_max_c, reference_temperature_c=self.reference_temperature_c,
+            rms_residual_mps2=np.array(self.rms_residual_mps2))
+
+    def clamp(self, temperature_c):
+        """Return the temperatures clamped to the fitted range."""
+        return np.clip(np.asarray(temperature_c, dtype=float), self.t_min_c, self.t_max_c)
+
+    def apply(self, f, temperature_c=None):
+        """
+        Return ``A_T / K_T(T)`` per axis (seed 001 Eq. 6), T clamped to the fitted range.
+
+        Without a temperature, the reference temperature is used (K_T = 1).
+        """
+        f = np.asarray(f, dtype=float)
+        if temperature_c is None:
+            temperature_c = self.reference_temperature_c
+        temperature_c = np.broadcast_to(self.clamp(temperature_c), f.shape[:1])
+        return compensate_temperature(f, temperature_c, self.fit())
+
+
+@dataclass(frozen=True)
 class CalibrationModel:
-    """All corrections for one tool; ``installation`` None means uncalibrated."""
+    """All corrections for one tool; a stage that is None is not applied."""
 
     accelerometer_axes: int
     installation: Installation = None
+    stand: Stand = None
+    temperature: Temperature = None
 
     @property
     def calibrated(self):
         """Whether any correction stage is present."""
-        return self.installation is not None
+        return any(getattr(self, stage) is not None for stage in STAGES)
 
-    def apply(self, f):
-        """Return corrected specific force for raw ``f`` of shape (N, 3)."""
-        if self.installation is None:
-            return np.asarray(f, dtype=float)
-        return self.installation.apply(f)
+    def apply(self, f, temperature_c=None, before=None):
+        """
+        Return corrected specific force for raw ``f`` of shape (N, 3).
+
+        Stages run in the order of STAGES; ``before`` names a stage to stop
+        at (e.g. ``before='installation'`` gives the input of a level capture).
+        """
+        f = np.asarray(f, dtype=float)
+        for name in STAGES:
+            if name == before:
+                break
+            stage = getattr(self, name)
+            if stage is not None:
+                f = stage.apply(f, temperature_c)
+        return f
 
     def to_dict(self):
         """Return the JSON-ready document of this model."""
         doc = {'format': FORMAT, 'schema_version': SCHEMA_VERSION,
                'accelerometer_axes': self.accelerometer_axes}
-        if self.installation is not None:
-            doc['installation'] = asdict(self.installation)
+        for name in STAGES:
+            stage = getattr(self, name)
+            if stage is not None:
+                doc[name] = asdict(stage)
         return doc
 
 
@@ -150,47 +226,119 @@ def model_from_dict(doc):
     """Return the model of a parsed document; ValueError/KeyError if invalid."""
     if not isinstance(doc, dict) or doc.get('format') != FORMAT:
         raise ValueError(f'not an {FORMAT} document')
-    if not is_int(doc.get('schema_version')) or doc['schema_version'] != SCHEMA_VERSION:
-        raise ValueError(f'schema_version {doc.get("schema_version")!r} is not '
-                         f'{SCHEMA_VERSION}')
+    version = doc.get('schema_version')
+    if not is_int(version) or version not in READABLE_VERSIONS:
+        raise ValueError(f'schema_version {version!r} is not one of {READABLE_VERSIONS}')
     axes = doc['accelerometer_axes']
     if not is_int(axes) or axes not in (2, 3):
         raise ValueError(f'accelerometer_axes {axes!r} is not 2 or 3')
-    known = {'format', 'schema_version', 'accelerometer_axes', 'installation'}
-    unknown = set(doc) - known
+    stages = STAGES if version == SCHEMA_VERSION else ('installation',)
+    unknown = set(doc) - {'format', 'schema_version', 'accelerometer_axes', *stages}
     if unknown:
-        raise ValueError(f'unknown sections {sorted(unknown)}')
-    section = doc.get('installation')
-    return CalibrationModel(
-        accelerometer_axes=axes,
-        installation=None if section is None else installation_from_dict(section))
+        raise ValueError(f'unknown sections {sorted(unknown)} in a version {version} file')
+    readers = {'installation': installation_from_dict, 'stand': stand_from_dict,
+               'temperature': temperature_from_dict}
+    model = CalibrationModel(accelerometer_axes=axes, **{
+        name: readers[name](doc[name]) for name in stages if doc.get(name) is not None})
+    if axes == 2 and (model.stand or model.temperature):
+        raise ValueError('stand and temperature stages need a three-axis accelerometer')
+    return model
+
+
+def _check_fields(section, kind, name):
+    """Raise ValueError unless ``section`` has exactly the fields of dataclass ``kind``."""
+    expected = {f.name for f in fields(kind)}
+    if not isinstance(section, dict) or set(section) != expected:
+        got = sorted(section) if isinstance(section, dict) else section
+        raise ValueError(f'{name} needs exactly the fields {sorted(expected)}, got {got}')
+
+
+def _finite(section, name, *keys, shape=()):
+    """Return ``section[key]`` as finite float arrays of ``shape``; ValueError if not."""
+    values = []
+    for key in keys:
+        value = section[key]
+        array = np.asarray(value, dtype=object)
+        if array.shape != shape or any(
+                isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v)
+                for v in array.flat):
+            what = 'a finite number' if shape == () else f'finite numbers of shape {shape}'
+            raise ValueError(f'{name}.{key} = {value!r} is not {what}')
+        values.append(np.asarray(value, dtype=float))
+    return values
+
+
+def _count(section, name, key):
+    """Raise ValueError unless ``section[key]`` is a positive integer."""
+    if not is_int(section[key]) or section[key] < 1:
+        raise ValueError(f'{name}.{key} = {section[key]!r} is not a positive integer')
+
+
+def _time(section, name, key):
+    """Raise ValueError unless ``section[key]`` is an ISO 8601 time with a zone."""
+    try:
+        moment = datetime.fromisoformat(section[key])
+    except (TypeError, ValueError):
+        raise ValueError(f'{name}.{key} = {section[key]!r} is not an ISO 8601 time') from None
+    if moment.tzinfo is None:
+        raise ValueError(f'{name}.{key} has no time zone')
 
 
 def installation_from_dict(section):
     """Return a validated Installation from its file section."""
-    fields = set(Installation.__dataclass_fields__)
-    if set(section) != fields:
-        raise ValueError(f'installation needs exactly the fields {sorted(fields)}, '
-                         f'got {sorted(section)}')
-    for name in ('gamma_deg', 'beta_deg', 'std_deg', 'g_total_mps2'):
-        value = section[name]
-        if isinstance(value, bool) or not isinstance(value, (int, float)) \
-                or not math.isfinite(value):
-            raise ValueError(f'installation.{name} = {value!r} is not a finite number')
+    _check_fields(section, Installation, 'installation')
+    _finite(section, 'installation', 'gamma_deg', 'beta_deg', 'std_deg', 'g_total_mps2')
     for name in ('gamma_deg', 'beta_deg'):
         if abs(section[name]) >= 45.0:
             raise ValueError(f'installation.{name} = {section[name]} is not an '
                              'installation error (|angle| must be < 45 deg)')
-    count = section['sample_count']
-    if not is_int(count) or count < 1:
-        raise ValueError(f'installation.sample_count = {count!r} is not a positive integer')
+    _count(section, 'installation', 'sample_count')
     if section['std_deg'] < 0 or section['g_total_mps2'] <= 0:
         raise ValueError('installation.std_deg must be >= 0 and g_total_mps2 > 0')
-    try:
-        captured = datetime.fromisoformat(section['captured_at'])
-    except (TypeError, ValueError):
-        raise ValueError(f'installation.captured_at = {section["captured_at"]!r} is not '
-                         'an ISO 8601 time') from None
-    if captured.tzinfo is None:
-        raise ValueError('installation.captured_at has no time zone')
+    _time(section, 'installation', 'captured_at')
     return Installation(**section)
+
+
+def stand_from_dict(section):
+    """Return a validated Stand from its file section."""
+    _check_fields(section, Stand, 'stand')
+    (k,) = _finite(section, 'stand', 'scale_matrix', shape=(3, 3))
+    _finite(section, 'stand', 'bias_mps2', shape=(3,))
+    _finite(section, 'stand', 'condition_number')
+    if section['method'] not in ('stand', 'sphere'):
+        raise ValueError(f'stand.method = {section["method"]!r} is not stand or sphere')
+    if section['rms_inclination_deg'] is not None:
+        _finite(section, 'stand', 'rms_inclination_deg')
+    if np.linalg.cond(k) > MAX_CONDITION_NUMBER or np.any(np.abs(np.diag(k) - 1.0) > 0.5):
+        raise ValueError(f'stand.scale_matrix {k.tolist()} is not a plausible sensor '
+                         '(singular, or an axis scale far from 1)')
+    _count(section, 'stand', 'positions')
+    _time(section, 'stand', 'fitted_at')
+    return Stand(**dict(section, scale_matrix=tuple(map(tuple, k.tolist())),
+                        bias_mps2=tuple(section['bias_mps2'])))
+
+
+def temperature_from_dict(section):
+    """Return a validated Temperature from its file section."""
+    _check_fields(section, Temperature, 'temperature')
+    coefficients = np.asarray(section['coefficients'], dtype=object)
+    if coefficients.ndim != 2 or coefficients.shape[0] != 3 or coefficients.shape[1] < 1:
+        raise ValueError('temperature.coefficients must be 3 rows of a0..an')
+    _finite(section, 'temperature', 'coefficients', shape=coefficients.shape)
+    t_min, t_max, t_ref = _finite(section, 'temperature', 't_min_c', 't_max_c',
+                                  'reference_temperature_c')
+    _finite(section, 'temperature', 'rms_residual_mps2', shape=(3,))
+    if not t_min <= t_ref <= t_max or t_min == t_max:
+        raise ValueError(f'temperature range [{t_min}, {t_max}] C is empty or does not '
+                         f'contain the reference {t_ref} C')
+    _count(section, 'temperature', 'samples')
+    _time(section, 'temperature', 'fitted_at')
+    stage = Temperature(**dict(section, coefficients=tuple(map(tuple, section['coefficients'])),
+                               rms_residual_mps2=tuple(section['rms_residual_mps2'])))
+    scale = stage.fit().scale_factor(np.linspace(t_min, t_max, 101))
+    if np.any(scale <= 0.5) or np.any(scale >= 1.5):
+        raise ValueError('temperature.coefficients give a scale factor outside 0.5..1.5 '
+                         'in the fitted range')
+    if np.max(np.abs(stage.fit().scale_factor([t_ref]) - 1.0)) > 1e-6:
+        raise ValueError('temperature.coefficients are not 1 at the reference temperature')
+    return stage

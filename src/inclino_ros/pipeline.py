@@ -62,12 +62,20 @@ def sensor_vectors(raw, settings):
     return raw
 
 
-def run(raw, model, settings):
-    """Screen, correct and resolve a batch of raw readings (N x 3, m/s^2)."""
+def run(raw, model, settings, temperature_c=None):
+    """
+    Screen, correct and resolve a batch of raw readings (N x 3, m/s^2).
+
+    ``temperature_c`` (scalar or (N,)) feeds the model's temperature stage;
+    None compensates at the reference temperature.
+    """
     raw = np.asarray(raw, dtype=float).reshape(-1, 3)
     codes = screen(raw, settings.accelerometer_axes,
                    settings.accelerometer_range_mps2, settings.gravity_mps2)
-    corrected = model.apply(sensor_vectors(raw[codes == ACCEPTED], settings))
+    accepted = codes == ACCEPTED
+    if np.ndim(temperature_c) == 1:
+        temperature_c = np.asarray(temperature_c)[accepted]
+    corrected = model.apply(sensor_vectors(raw[accepted], settings), temperature_c)
     incl_deg = np.degrees(inclination(corrected))
     toolface_deg = np.degrees(TOOLFACE_CONVENTIONS[settings.toolface_convention](corrected))
     toolface_deg[incl_deg < settings.toolface_min_inclination_deg] = math.nan
