@@ -26,6 +26,11 @@ def complete_two_axis(fx, fy, g):
     return np.stack([fx, fy, fz], axis=-1)
 
 
+def angle_between(u, v):
+    """Return the angle [rad] between vectors along the last axis (atan2 form, exact near 0)."""
+    return np.arctan2(np.linalg.norm(np.cross(u, v), axis=-1), np.sum(u * v, axis=-1))
+
+
 def inclination(f):
     """
     Return the inclination phi: the angle between tool z and the vertical.

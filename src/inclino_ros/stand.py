@@ -19,7 +19,7 @@ non-orthogonality from ``|G| = g`` alone (no rotation: see its docstring).
 from dataclasses import dataclass
 import math
 
-from inclino_ros.attitude import inclination
+from inclino_ros.attitude import angle_between, inclination
 from inclino_ros.simulate import specific_force
 import numpy as np
 
@@ -73,7 +73,7 @@ class _LinearSensor:
         """
         unit = self.scale_matrix / self.axis_scales[:, None]
         pairs = ((0, 1), (0, 2), (1, 2))
-        return np.array([90.0 - math.degrees(_angle(unit[i], unit[j])) for i, j in pairs])
+        return np.array([90.0 - math.degrees(angle_between(unit[i], unit[j])) for i, j in pairs])
 
 
 @dataclass(frozen=True)
@@ -232,14 +232,9 @@ def _refuse_non_finite(values, name):
         raise StandFitRefused(f'non-finite {name} at position(s) {(bad + 1).tolist()}')
 
 
-def _angle(u, v):
-    """Return the angle [rad] between vectors along the last axis (atan2 form)."""
-    return np.arctan2(np.linalg.norm(np.cross(u, v), axis=-1), np.sum(u * v, axis=-1))
-
-
 def _refuse_repeated_attitudes(truth, min_separation_deg):
     """Raise StandFitRefused for two truth vectors less than the separation apart."""
-    apart_deg = np.degrees(_angle(truth[:, None, :], truth[None, :, :]))
+    apart_deg = np.degrees(angle_between(truth[:, None, :], truth[None, :, :]))
     first, second = np.nonzero(np.triu(apart_deg < min_separation_deg, k=1))
     if first.size:
         i, j = first[0], second[0]
