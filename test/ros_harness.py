@@ -13,8 +13,10 @@ from geometry_msgs.msg import Vector3Stamped
 import numpy as np
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
+from rclpy.parameter import Parameter
+from rclpy.parameter_client import AsyncParameterClient
 from rclpy.qos import QoSProfile, ReliabilityPolicy
-from sensor_msgs.msg import Imu
+from sensor_msgs.msg import Imu, Temperature
 from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
 
@@ -98,7 +100,13 @@ class Probe:
             for topic, kind in (('survey', Vector3Stamped), ('inclination', Float64),
                                 ('toolface', Float64), ('imu/data', Imu),
                                 ('/diagnostics', DiagnosticArray))]
-        self.client = self.node.create_client(Trigger, f'{node_name}/calibrate_level')
+        self.services = {name: self.node.create_client(Trigger, f'{node_name}/{name}')
+                         for name in ('calibrate_level', 'capture_position',
+                                      'solve_stand_calibration', 'clear_positions')}
+        self.client = self.services['calibrate_level']
+        self.parameters = AsyncParameterClient(self.node, node_name)
+        self.temperature_publisher = self.node.create_publisher(
+            Temperature, 'imu/temperature', QoSProfile(depth=10))
         self.executor = SingleThreadedExecutor()
         self.executor.add_node(self.node)
         self.sent = 0
@@ -115,7 +123,8 @@ class Probe:
         while time.monotonic() < end:
             if (self.publisher.get_subscription_count() >= 1
                     and all(s.get_publisher_count() for s in self.subscriptions)
-                    and self.client.service_is_ready()):
+                    and all(c.service_is_ready() for c in self.services.values())
+                    and self.parameters.services_are_ready()):
                 self.spin_for(0.2)
                 return
             self.executor.spin_once(timeout_sec=0.05)
@@ -147,11 +156,31 @@ class Probe:
         if until is not None and not until.done():
             raise TimeoutError('the service did not answer')
 
-    def calibrate(self, sample_fn, rate_hz=200.0, timeout_s=20.0):
-        """Call ~/calibrate_level while streaming samples; return the response."""
-        future = self.client.call_async(Trigger.Request())
+    def calibrate(self, sample_fn, rate_hz=200.0, timeout_s=20.0, service='calibrate_level'):
+        """Call a capture service while streaming samples; return the response."""
+        future = self.services[service].call_async(Trigger.Request())
         self.stream(sample_fn, rate_hz, until=future, timeout_s=timeout_s)
         return future.result()
+
+    def call(self, service, timeout_s=10.0):
+        """Call a Trigger service of the node without streaming; return the response."""
+        future = self.services[service].call_async(Trigger.Request())
+        end = time.monotonic() + timeout_s
+        while not future.done() and time.monotonic() < end:
+            self.executor.spin_once(timeout_sec=0.01)
+        return future.result()
+
+    def set_parameters(self, **values):
+        """Set parameters of the node (dots in names written as __); assert they took."""
+        parameters = [Parameter(name.replace('__', '.'), value=value)
+                      for name, value in values.items()]
+        future = self.parameters.set_parameters(parameters)
+        self.executor.spin_until_future_complete(future, timeout_sec=10.0)
+        assert all(result.successful for result in future.result().results), future.result()
+
+    def publish_temperature(self, temperature_c):
+        """Publish one imu/temperature reading."""
+        self.temperature_publisher.publish(Temperature(temperature=float(temperature_c)))
 
     def wait_outputs(self, topic, count, timeout_s=10.0):
         """Spin until ``count`` messages arrived on ``topic``; return them."""

@@ -83,6 +83,27 @@ PARAMETERS = (
     Parameter('level_capture.g_total_tolerance_mps2', 0.3,
               'Largest deviation [m/s^2] of the captured G-total from gravity_mps2 '
               '(three-axis sensors).', 1e-3, 5.0, read_only=False),
+    Parameter('stand.inclination_deg', 0.0,
+              'Stand attitude of the next ~/capture_position: inclination [deg].', 0.0, 180.0,
+              read_only=False),
+    Parameter('stand.toolface_deg', 0.0,
+              'Stand attitude of the next ~/capture_position: seed000 toolface [deg].',
+              0.0, 360.0, read_only=False),
+    Parameter('stand.samples', 100,
+              'Samples a stand position capture collects after the service call.',
+              2, 1000000, read_only=False),
+    Parameter('stand.timeout_s', 10.0,
+              'Seconds a stand position capture waits for its samples before refusing.',
+              0.1, 3600.0, read_only=False),
+    Parameter('stand.max_std_deg', 0.1,
+              'Largest spread (RMS angle about the mean direction) [deg] of a still tool '
+              'in a stand position.', 1e-4, 10.0, read_only=False),
+    Parameter('stand.max_rms_deg', 0.05,
+              'Largest inclination residual RMS [deg] of a stand fit over its own positions: '
+              'beyond it ~/solve_stand_calibration refuses.', 1e-4, 10.0, read_only=False),
+    Parameter('temperature.max_age_s', 5.0,
+              'Age [s] beyond which the latest imu/temperature is reported stale (it is '
+              'still used).', 0.1, 3600.0, read_only=False),
 )
 
 

@@ -1,5 +1,7 @@
 """Input health for /diagnostics: samples accepted, dropped and why, rate, G-total."""
 
+import math
+
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 
 from inclino_ros.screening import REASONS
@@ -57,4 +59,56 @@ class InputStats:
         self._period_accepted = self._period_dropped = 0
         self._period_g_sum = 0.0
         self._period_start_s = now_s
+        return status
+
+
+class TemperatureInput:
+    """The latest imu/temperature reading and its health."""
+
+    def __init__(self):
+        """Start with no temperature."""
+        self.value_c = None
+        self.received_s = None
+        self.rejected = 0
+
+    def update(self, temperature_c, now_s):
+        """Keep a finite temperature as the latest; count a non-finite one."""
+        if math.isfinite(temperature_c):
+            self.value_c = float(temperature_c)
+            self.received_s = now_s
+        else:
+            self.rejected += 1
+
+    def status(self, node_name, now_s, max_age_s, stage):
+        """
+        Return the temperature DiagnosticStatus.
+
+        With a temperature stage in the model: WARN when no temperature has
+        arrived (compensation at the reference temperature), when the latest
+        is older than ``max_age_s`` (it is still used) or outside the fitted
+        range (clamped to it).
+        """
+        status = DiagnosticStatus(name=f'{node_name}: temperature', level=DiagnosticStatus.OK)
+        values = {'temperature_c': 'none' if self.value_c is None else f'{self.value_c:.2f}',
+                  'rejected_non_finite': str(self.rejected)}
+        age_s = None if self.received_s is None else now_s - self.received_s
+        if age_s is not None:
+            values['age_s'] = f'{age_s:.1f}'
+        if stage is None:
+            status.message = 'not used: the model has no temperature stage'
+        elif self.value_c is None:
+            status.level = DiagnosticStatus.WARN
+            status.message = (f'no temperature on imu/temperature: compensating at the '
+                              f'reference {stage.reference_temperature_c:g} C')
+        elif age_s > max_age_s:
+            status.level = DiagnosticStatus.WARN
+            status.message = (f'stale: the last temperature {self.value_c:.2f} C is '
+                              f'{age_s:.1f} s old and still used')
+        elif not stage.t_min_c <= self.value_c <= stage.t_max_c:
+            status.level = DiagnosticStatus.WARN
+            status.message = (f'{self.value_c:.2f} C is outside the fitted range '
+                              f'{stage.t_min_c:g} .. {stage.t_max_c:g} C: clamped to it')
+        else:
+            status.message = f'{self.value_c:.2f} C'
+        status.values = [KeyValue(key=k, value=v) for k, v in values.items()]
         return status

@@ -1,0 +1,176 @@
+"""Stand calibration and temperature compensation in the live node (seed 001)."""
+
+import math
+
+from diagnostic_msgs.msg import DiagnosticStatus
+from inclino_ros.model import (
+    CalibrationModel, load_model, save_model, Temperature, utc_now_iso)
+import numpy as np
+import pytest
+import rclpy
+from ros_harness import G, NodeProcess, Probe
+
+# The sensor's true errors (seed 001 Eq. 10, A = K G + b): scales off by up to
+# 0.3 %, axes 0.1-0.4 deg off orthogonal/aligned, biases of tens of mg.
+TRUE_K = np.array([[1.003, 0.002, -0.004],
+                   [-0.001, 0.997, 0.003],
+                   [0.005, -0.002, 1.002]])
+TRUE_BIAS_MPS2 = np.array([0.02, -0.015, 0.01])
+NOISE_MPS2 = 2e-4 * G
+SAMPLES = 100
+POSITIONS_DEG = ((0.0, 0.0), (180.0, 0.0), (90.0, 0.0), (90.0, 90.0), (90.0, 180.0),
+                 (90.0, 270.0), (45.0, 45.0), (135.0, 225.0), (60.0, 300.0))
+# Each position averages SAMPLES readings: noise NOISE/sqrt(100) = 2e-5 g per axis;
+# nine positions spread over the sphere leave K, b errors of ~1e-5 and an
+# inclination error of ~0.002 deg (1 sigma): 0.01 deg is about 5 sigma.
+INCLINATION_TOL_DEG = 0.01
+
+
+def specific_force(inclination_deg, toolface_deg):
+    """Return g (sin I cos TF, sin I sin TF, cos I), written out here."""
+    i, t = math.radians(inclination_deg), math.radians(toolface_deg)
+    return G * np.array([math.sin(i) * math.cos(t), math.sin(i) * math.sin(t), math.cos(i)])
+
+
+def sensor_reading(inclination_deg, toolface_deg, rng=None):
+    """Return the flawed sensor's reading K f + b (+ noise) at an attitude."""
+    reading = TRUE_K @ specific_force(inclination_deg, toolface_deg) + TRUE_BIAS_MPS2
+    if rng is not None:
+        reading = reading + rng.normal(0.0, NOISE_MPS2, 3)
+    return reading
+
+
+@pytest.fixture(scope='module')
+def ros():
+    """Initialise rclpy once for the module."""
+    rclpy.init()
+    yield
+    rclpy.shutdown()
+
+
+@pytest.fixture
+def node_and_probe(tmp_path, ros):
+    """Start a node (stand parameters for speed) and a probe; stop both after."""
+    started = []
+
+    def start(**parameters):
+        parameters.setdefault('calibration_file', str(tmp_path / 'calibration.json'))
+        parameters.setdefault('diagnostics_period_s', 0.5)
+        parameters.setdefault('stand.samples', SAMPLES)
+        node = NodeProcess(str(tmp_path / 'node.log'), **parameters)
+        started.append(node)
+        probe = Probe()
+        started.append(probe)
+        probe.wait_for_node()
+        return node, probe
+
+    yield start
+    for item in reversed(started):
+        if isinstance(item, Probe):
+            item.destroy()
+        else:
+            item.stop()
+
+
+def inclination_of(probe, reading):
+    """Publish one reading; return the node's inclination for it."""
+    probe.spin_for(0.2)
+    probe.clear()
+    index = probe.publish(reading)
+    (survey,) = probe.wait_outputs('survey', 1)
+    assert survey.header.stamp.sec == index
+    return survey.vector.x
+
+
+def test_stand_positions_solve_into_a_correction(node_and_probe, tmp_path):
+    """Nine captured positions give K and b; the node then reads true inclinations."""
+    node, probe = node_and_probe()
+    rng = np.random.default_rng(3)
+    for number, (incl_deg, tf_deg) in enumerate(POSITIONS_DEG, start=1):
+        probe.set_parameters(stand__inclination_deg=incl_deg, stand__toolface_deg=tf_deg)
+        probe.spin_for(0.3)  # the stand has turned: samples of the last position drain
+        if number == 6:  # not enough positions yet: refused, nothing changes
+            early = probe.call('solve_stand_calibration')
+            assert not early.success and 'at least 6' in early.message
+        answer = probe.calibrate(lambda i: sensor_reading(incl_deg, tf_deg, rng),
+                                 service='capture_position')
+        assert answer.success, answer.message
+        assert answer.message.startswith(f'position {number} captured')
+
+    # The same attitude again is refused before any sample is taken.
+    duplicate = probe.call('capture_position')
+    assert not duplicate.success and 'duplicate position' in duplicate.message
+    assert '9 positions kept' in duplicate.message
+
+    # A tool that moves during the capture is refused.
+    probe.set_parameters(stand__inclination_deg=30.0, stand__toolface_deg=10.0)
+    moving = probe.calibrate(lambda i: sensor_reading(30.0 + (i % 2) * 2.0, 10.0),
+                             service='capture_position')
+    assert not moving.success and 'tool is moving' in moving.message
+
+    solved = probe.call('solve_stand_calibration')
+    assert solved.success, solved.message
+    stand = load_model(tmp_path / 'calibration.json').stand
+    assert np.max(np.abs(np.array(stand.scale_matrix) - TRUE_K)) < 1e-4
+    assert np.max(np.abs(np.array(stand.bias_mps2) - TRUE_BIAS_MPS2)) < 5e-5 * G
+    assert stand.positions == len(POSITIONS_DEG)
+
+    raw_errors_deg = []
+    for incl_deg, tf_deg in ((2.0, 40.0), (33.0, 200.0), (75.0, 310.0), (120.0, 95.0)):
+        reading = sensor_reading(incl_deg, tf_deg)
+        raw_deg = math.degrees(math.atan2(math.hypot(reading[0], reading[1]), reading[2]))
+        raw_errors_deg.append(abs(raw_deg - incl_deg))
+        assert inclination_of(probe, reading) == pytest.approx(incl_deg,
+                                                               abs=INCLINATION_TOL_DEG)
+    assert max(raw_errors_deg) > 0.2  # the uncorrected sensor is visibly off
+    cleared = probe.call('clear_positions')
+    assert cleared.success and cleared.message == 'cleared 9 stand positions'
+    assert node.stop() == 0
+
+
+def temperature_model(tmp_path):
+    """Write a model holding only a temperature stage: K_T = 1 + 4e-4 (T - 25) per axis."""
+    slope = (4e-4, -3e-4, 2e-4)
+    stage = Temperature(
+        coefficients=tuple((1.0 - 25.0 * s, s) for s in slope), t_min_c=20.0, t_max_c=100.0,
+        reference_temperature_c=25.0, rms_residual_mps2=(0.0, 0.0, 0.0), samples=9,
+        fitted_at=utc_now_iso())
+    save_model(tmp_path / 'calibration.json',
+               CalibrationModel(accelerometer_axes=3, temperature=stage))
+    return np.array(slope)
+
+
+def diagnostics_status(probe, suffix):
+    """Return the newest diagnostics status whose name ends with ``suffix``."""
+    probe.received['/diagnostics'].clear()
+    probe.spin_for(1.2)
+    for array in reversed(probe.received['/diagnostics']):
+        for status in array.status:
+            if status.name.endswith(suffix):
+                return status
+    raise AssertionError(f'no status {suffix}')
+
+
+def test_temperature_stage_uses_the_latest_temperature(node_and_probe, tmp_path):
+    """Readings scaled by K_T(T) read true at T; out of range is clamped and reported."""
+    slope = temperature_model(tmp_path)
+    _, probe = node_and_probe()
+    status = diagnostics_status(probe, ': temperature')
+    assert status.level == DiagnosticStatus.WARN and 'no temperature' in status.message
+
+    f = specific_force(40.0, 130.0)
+    for temperature_c in (20.0, 80.0, 100.0):
+        probe.publish_temperature(temperature_c)
+        probe.spin_for(0.3)
+        drifted = f * (1.0 + slope * (temperature_c - 25.0))
+        # Exact compensation: the model divides by the same K_T (rounding only).
+        assert inclination_of(probe, drifted) == pytest.approx(40.0, abs=1e-9)
+    status = diagnostics_status(probe, ': temperature')
+    assert status.level == DiagnosticStatus.OK and status.message == '100.00 C'
+
+    probe.publish_temperature(130.0)  # beyond the fitted range: clamped to 100 C
+    probe.spin_for(0.3)
+    drifted = f * (1.0 + slope * (100.0 - 25.0))
+    assert inclination_of(probe, drifted) == pytest.approx(40.0, abs=1e-9)
+    status = diagnostics_status(probe, ': temperature')
+    assert status.level == DiagnosticStatus.WARN and 'outside the fitted range' in status.message
