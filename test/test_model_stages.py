@@ -1,0 +1,113 @@
+"""The calibration model's seed-001 stages: order, file round trip, validation."""
+
+import json
+import math
+
+from inclino_ros.model import (
+    CalibrationFileError, CalibrationModel, Installation, load_model, save_model, Stand,
+    Temperature)
+import numpy as np
+import pytest
+
+G = 9.80665
+K = ((1.003, 0.002, -0.004), (-0.001, 0.997, 0.003), (0.005, -0.002, 1.002))
+BIAS_MPS2 = (0.02, -0.015, 0.01)
+SLOPE = (4e-4, -3e-4, 2e-4)   # K_T = 1 + slope (T - 25)
+STAND = Stand(scale_matrix=K, bias_mps2=BIAS_MPS2, method='stand', condition_number=2.1,
+              rms_inclination_deg=0.002, positions=9, fitted_at='2026-03-01T10:20:30+00:00')
+TEMPERATURE = Temperature(
+    coefficients=tuple((1.0 - 25.0 * s, s) for s in SLOPE), t_min_c=20.0, t_max_c=100.0,
+    reference_temperature_c=25.0, rms_residual_mps2=(1e-4, 1e-4, 1e-4), samples=90,
+    fitted_at='2026-03-01T09:00:00+00:00')
+INSTALLATION = Installation(gamma_deg=0.3, beta_deg=-0.2, captured_at='2026-03-02T08:00:00+00:00',
+                            sample_count=100, std_deg=0.01, g_total_mps2=G)
+MODEL = CalibrationModel(accelerometer_axes=3, installation=INSTALLATION, stand=STAND,
+                         temperature=TEMPERATURE)
+
+
+def forward(f, temperature_c):
+    """
+    Return what the flawed sensor reads for ideal-frame ``f`` at a temperature.
+
+    The inverse of the model, written out: installation C (seed 000 Eq. 1),
+    then K f + b (seed 001 Eq. 10), then the scale K_T(T) per axis (Eq. 6).
+    """
+    g, b = math.radians(0.3), math.radians(-0.2)
+    c = np.array([[math.cos(g), 0, -math.sin(g)],
+                  [-math.sin(b) * math.sin(g), math.cos(b), -math.sin(b) * math.cos(g)],
+                  [math.cos(b) * math.sin(g), math.sin(b), math.cos(b) * math.cos(g)]])
+    sensor = np.asarray(K) @ (c @ f) + np.asarray(BIAS_MPS2)
+    return sensor * (1.0 + np.asarray(SLOPE) * (temperature_c - 25.0))
+
+
+def test_stages_run_in_order_and_invert_the_sensor():
+    """temperature -> stand -> installation undoes the forward model exactly."""
+    rng = np.random.default_rng(5)
+    f = rng.normal(size=(20, 3)) * G
+    temperatures_c = rng.uniform(20.0, 100.0, 20)
+    raw = np.array([forward(v, t) for v, t in zip(f, temperatures_c)])
+    np.testing.assert_allclose(MODEL.apply(raw, temperatures_c), f, atol=1e-12)
+    # before='installation' stops after the stand stage: the level capture's input.
+    no_installation = CalibrationModel(3, stand=STAND, temperature=TEMPERATURE)
+    np.testing.assert_allclose(MODEL.apply(raw, temperatures_c, before='installation'),
+                               no_installation.apply(raw, temperatures_c), atol=0)
+
+
+def test_temperature_is_clamped_and_defaults_to_the_reference():
+    """Outside the fitted range K_T is that of the nearest end; None means 25 C."""
+    f = np.array([[1.0, 2.0, 9.0]])
+    np.testing.assert_array_equal(TEMPERATURE.apply(f, 150.0), TEMPERATURE.apply(f, 100.0))
+    np.testing.assert_array_equal(TEMPERATURE.apply(f, -5.0), TEMPERATURE.apply(f, 20.0))
+    np.testing.assert_allclose(TEMPERATURE.apply(f, None), f, atol=1e-15)
+
+
+def test_round_trip_with_every_stage(tmp_path):
+    """A model with all stages saves and loads back equal; the file is version 2."""
+    path = tmp_path / 'calibration.json'
+    save_model(path, MODEL)
+    assert load_model(path) == MODEL
+    assert json.loads(path.read_text())['schema_version'] == 2
+
+
+def test_version_1_file_still_loads(tmp_path):
+    """A version 1 file (installation only) is read."""
+    doc = CalibrationModel(3, installation=INSTALLATION).to_dict()
+    doc['schema_version'] = 1
+    path = tmp_path / 'calibration.json'
+    path.write_text(json.dumps(doc))
+    assert load_model(path).installation == INSTALLATION
+
+
+def edited(section, **changes):
+    """Return MODEL's document with fields of one section changed."""
+    doc = MODEL.to_dict()
+    doc[section] = dict(doc[section], **changes)
+    return doc
+
+
+BAD = {
+    'stand NaN': (edited('stand', bias_mps2=[0.0, math.nan, 0.0]), 'bias_mps2'),
+    'stand shape': (edited('stand', scale_matrix=[[1, 0], [0, 1]]), 'scale_matrix'),
+    'stand singular': (edited('stand', scale_matrix=[[1, 0, 0], [0, 1, 0], [0, 0, 0]]),
+                       'not a plausible sensor'),
+    'stand method': (edited('stand', method='guess'), 'not stand or sphere'),
+    'stand field': (edited('stand', extra=1), 'needs exactly the fields'),
+    'temperature range': (edited('temperature', t_min_c=30.0), 'does not contain'),
+    'temperature not 1': (edited('temperature', coefficients=[[1.1, 0.0]] * 3),
+                          'not 1 at the reference'),
+    'temperature wild': (edited('temperature', coefficients=[[0.0, 0.04]] * 3),
+                         'outside 0.5..1.5'),
+    'temperature rows': (edited('temperature', coefficients=[[1.0, 0.0]] * 2), '3 rows'),
+    'two axes': (dict(MODEL.to_dict(), accelerometer_axes=2), 'three-axis'),
+}
+
+
+@pytest.mark.parametrize('name', sorted(BAD))
+def test_invalid_stage_is_a_loud_error(tmp_path, name):
+    """A defective stand or temperature section is refused, naming the file."""
+    doc, reason = BAD[name]
+    path = tmp_path / 'calibration.json'
+    path.write_text(json.dumps(doc))
+    with pytest.raises(CalibrationFileError) as caught:
+        load_model(path)
+    assert str(path) in str(caught.value) and reason in caught.value.reason
