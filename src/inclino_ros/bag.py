@@ -1,8 +1,8 @@
 """
-ROS 2 bags of Imu and Vector3Stamped series, read and written as numpy arrays.
+ROS 2 bags of Imu, Vector3Stamped and Temperature series, read and written as numpy arrays.
 
 Bags are read and written with rosbags (mcap or sqlite3; the reader detects
-which).  Both message types are a ``std_msgs/Header`` followed by float64s
+which).  All three message types are a ``std_msgs/Header`` followed by float64s
 only, so their CDR is encoded and decoded here for a whole batch at once with
 numpy structured arrays instead of message by message: byte-for-byte what
 rosbags' ``serialize_cdr`` gives (the tests check it), at a fraction of the
@@ -19,6 +19,7 @@ from rosbags.typesys import get_typestore, Stores
 
 IMU = 'sensor_msgs/msg/Imu'
 VECTOR3_STAMPED = 'geometry_msgs/msg/Vector3Stamped'
+TEMPERATURE = 'sensor_msgs/msg/Temperature'
 STORAGES = {'mcap': StoragePlugin.MCAP, 'sqlite3': StoragePlugin.SQLITE3}
 CHUNK_SIZE = 10_000
 
@@ -43,6 +44,43 @@ class Vector3Series:
     def values(self):
         """Return the float64 fields after the header, one row per message."""
         return self.vector
+
+    @classmethod
+    def from_values(cls, stamps_ns, frame_ids, values):
+        """Return the series whose post-header float64 fields are ``values`` (N x 3)."""
+        return cls(stamps_ns, frame_ids, values)
+
+
+@dataclass(frozen=True)
+class TemperatureSeries:
+    """sensor_msgs/Temperature messages as arrays."""
+
+    stamps_ns: np.ndarray      # (N,) int64 header stamps
+    frame_ids: np.ndarray      # (N,) str
+    temperature_c: np.ndarray  # (N,) deg C
+    variance: np.ndarray       # (N,) deg C^2, 0 = unknown
+
+    def values(self):
+        """Return the float64 fields after the header, one row per message."""
+        return np.column_stack([self.temperature_c, self.variance])
+
+    @classmethod
+    def from_values(cls, stamps_ns, frame_ids, values):
+        """Return the series whose post-header float64 fields are ``values`` (N x 2)."""
+        return cls(stamps_ns, frame_ids, values[:, 0], values[:, 1])
+
+    def at(self, stamps_ns):
+        """
+        Return the temperature at each of ``stamps_ns``, linearly interpolated in time.
+
+        Before the first message the first temperature holds, after the last
+        the last one; messages need not be in time order.
+        """
+        order = np.argsort(self.stamps_ns, kind='stable')
+        origin = self.stamps_ns[order[0]]
+        return np.interp((np.asarray(stamps_ns) - origin).astype(float),
+                         (self.stamps_ns[order] - origin).astype(float),
+                         self.temperature_c[order])
 
 
 @dataclass(frozen=True)
@@ -71,7 +109,8 @@ class ImuSeries:
 
 
 #: Float64 count after the header, and the array type, of each supported message.
-_LAYOUTS = {IMU: (37, ImuSeries), VECTOR3_STAMPED: (3, Vector3Series)}
+_LAYOUTS = {IMU: (37, ImuSeries), VECTOR3_STAMPED: (3, Vector3Series),
+            TEMPERATURE: (2, TemperatureSeries)}
 
 
 def frame_id_array(frame_id, count):
@@ -227,9 +266,7 @@ def decode(messages, msgtype):
     series = ((_gather(stamps, n, np.int64), _gather(frame_ids, n, object).astype(str),
                _gather(values, n, float)) if n else
               (np.empty(0, np.int64), np.empty(0, str), np.empty((0, n_values))))
-    if series_type is ImuSeries:
-        return ImuSeries.from_values(*series)
-    return Vector3Series(*series)
+    return series_type.from_values(*series)
 
 
 def concatenate(chunks):
@@ -277,8 +314,8 @@ def read(path, topic, chunk_size=CHUNK_SIZE):
     """
     Yield the messages of ``topic`` as series of at most ``chunk_size`` messages.
 
-    The topic must hold sensor_msgs/Imu or geometry_msgs/Vector3Stamped;
-    raises BagError naming the topics there are when it does not.
+    The topic must hold sensor_msgs/Imu, geometry_msgs/Vector3Stamped or
+    sensor_msgs/Temperature; raises BagError naming the topics there are when it does not.
     """
     with _open(path) as reader:
         connections, msgtype = _topic_connections(reader, topic)
@@ -292,7 +329,7 @@ def read(path, topic, chunk_size=CHUNK_SIZE):
 
 class BagWriter:
     """
-    A new bag of Imu and Vector3Stamped topics, written from series.
+    A new bag of Imu, Vector3Stamped and Temperature topics, written from series.
 
     Use as a context manager; on an exception the bag is left unfinished by
     rosbags' own abort.  Series written together are interleaved message by
@@ -321,7 +358,7 @@ class BagWriter:
         return self._writer.__exit__(*exc_info)
 
     def add_topic(self, topic, msgtype):
-        """Declare ``topic`` of ``msgtype`` (IMU or VECTOR3_STAMPED)."""
+        """Declare ``topic`` of ``msgtype`` (IMU, VECTOR3_STAMPED or TEMPERATURE)."""
         if msgtype not in _LAYOUTS:
             raise ValueError(f'msgtype must be one of {sorted(_LAYOUTS)}, not {msgtype!r}')
         self._connections[topic] = self._writer.add_connection(

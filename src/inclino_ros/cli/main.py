@@ -1,15 +1,16 @@
 """
 ``inclino``: the command line of inclino_ros, one subcommand per module.
 
-Each module in ``inclino_ros.cli`` named in COMMANDS has ``register(subparsers)``
-adding its parser (with ``func`` set to its ``run(args)`` returning an exit code).
+Each module in ``inclino_ros.cli`` named in COMMANDS (a dash in the command is an
+underscore in the module name) has ``register(subparsers)`` adding its parser (with
+``func`` set to its ``run(args)`` returning an exit code).
 """
 
 import argparse
 import importlib
 import sys
 
-COMMANDS = ('simulate', 'process', 'play', 'calibrate', 'demo')
+COMMANDS = ('simulate', 'process', 'play', 'calibrate', 'demo', 'fit-stand', 'fit-temperature')
 
 
 def build_parser():
@@ -19,7 +20,8 @@ def build_parser():
         description='Inclinometer correction tools of inclino_ros (no ros2 CLI needed).')
     subparsers = parser.add_subparsers(dest='command', required=True)
     for name in COMMANDS:
-        importlib.import_module(f'inclino_ros.cli.{name}').register(subparsers)
+        module = name.replace('-', '_')
+        importlib.import_module(f'inclino_ros.cli.{module}').register(subparsers)
     return parser
 
 

@@ -6,14 +6,18 @@ samples and writes, for every accepted sample and with its stamp and
 frame_id, ``/survey`` (Vector3Stamped: x inclination_deg, y toolface_deg,
 z NaN azimuth) and ``/imu/data`` (corrected specific force, roll/pitch
 orientation and the node's covariances).  Dropped samples produce no output.
+With ``--temperature-topic`` the calibration's temperature stage gets the
+temperature of each sample (sensor_msgs/Temperature interpolated linearly to
+its stamp, the first or last value held outside their span); without it the
+stage compensates at its reference temperature.
 """
 
 import math
 import sys
 
 from inclino_ros.bag import (
-    BagError, BagWriter, CHUNK_SIZE, IMU, ImuSeries, not_measured_covariance, read, STORAGES,
-    topic_info, VECTOR3_STAMPED, Vector3Series)
+    BagError, BagWriter, CHUNK_SIZE, concatenate, IMU, ImuSeries, not_measured_covariance, read,
+    STORAGES, TEMPERATURE, topic_info, VECTOR3_STAMPED, Vector3Series)
 from inclino_ros.model import CalibrationFileError, load_model
 from inclino_ros.node.parameters import PARAMETERS
 from inclino_ros.pipeline import imu_covariances, run as run_pipeline, Settings
@@ -91,6 +95,9 @@ def register(subparsers):
                         help='calibration file (as written by the node or inclino calibrate)')
     parser.add_argument('--topic', default='/imu/data_raw',
                         help='sensor_msgs/Imu topic to read (default: %(default)s)')
+    parser.add_argument('--temperature-topic', metavar='TOPIC',
+                        help='sensor_msgs/Temperature topic of IN feeding the temperature '
+                             'stage (default: none, compensate at the reference temperature)')
     parser.add_argument('--storage', choices=sorted(STORAGES), default='mcap',
                         help='storage format of OUT (default: %(default)s)')
     parser.add_argument('--toolface-convention', choices=('seed000', 'iscwsa_highside'),
@@ -116,10 +123,10 @@ def register(subparsers):
 def run(args):
     """Process IN into OUT; return 0, 1 if no sample was accepted, 2 on an error."""
     try:
-        model, settings, count = _prepare(args)
+        model, settings, count, temperature = _prepare(args)
         with BagWriter(args.output, args.storage) as out:
             summary = process(args.input, args.topic, out, model, settings,
-                              args.noise_std_mps2, args.chunk_size, count)
+                              args.noise_std_mps2, args.chunk_size, count, temperature)
     except (CommandError, BagError) as err:
         print(f'inclino process: error: {err}', file=sys.stderr)
         return 2
@@ -133,7 +140,7 @@ def run(args):
 
 
 def _prepare(args):
-    """Return (model, settings, message count) or raise CommandError."""
+    """Return (model, settings, message count, TemperatureSeries or None) or raise CommandError."""
     try:
         model = load_model(args.calibration)
     except FileNotFoundError:
@@ -160,21 +167,35 @@ def _prepare(args):
     msgtype, count = topic_info(args.input, args.topic)
     if msgtype != IMU:
         raise CommandError(f'{args.topic} in {args.input} holds {msgtype}, not {IMU}')
-    return model, settings, count
+    if args.temperature_topic is None:
+        if model.temperature is not None:
+            print(f'inclino process: warning: {args.calibration} has a temperature stage but no '
+                  '--temperature-topic was given: compensating at '
+                  f'{model.temperature.reference_temperature_c} deg C', file=sys.stderr)
+        return model, settings, count, None
+    msgtype, temperatures = topic_info(args.input, args.temperature_topic)
+    if msgtype != TEMPERATURE or temperatures == 0:
+        raise CommandError(f'{args.temperature_topic} in {args.input} holds {temperatures} '
+                           f'{msgtype} messages, not {TEMPERATURE} ones')
+    return model, settings, count, concatenate(read(args.input, args.temperature_topic))
 
 
-def process(in_path, topic, out, model, settings, noise_std_mps2, chunk_size, count=None):
+def process(in_path, topic, out, model, settings, noise_std_mps2, chunk_size, count=None,
+            temperature=None):
     """
     Correct ``topic`` of the bag ``in_path`` into the open BagWriter ``out``.
 
-    Returns the Summary; shows a progress bar of ``count`` messages on stderr.
+    ``temperature`` (a TemperatureSeries or None) gives each sample its
+    temperature.  Returns the Summary; shows a progress bar of ``count``
+    messages on stderr.
     """
     out.add_topic(SURVEY_TOPIC, VECTOR3_STAMPED)
     out.add_topic(IMU_TOPIC, IMU)
     summary = Summary(settings.gravity_mps2)
     with tqdm(total=count, unit='msg', desc='inclino process', file=sys.stderr) as progress:
         for batch in read(in_path, topic, chunk_size):
-            survey = run_pipeline(batch.linear_acceleration_mps2, model, settings)
+            temperature_c = None if temperature is None else temperature.at(batch.stamps_ns)
+            survey = run_pipeline(batch.linear_acceleration_mps2, model, settings, temperature_c)
             summary.add(survey)
             out.write_series(_outputs(batch, survey, model, settings, noise_std_mps2))
             progress.update(batch.stamps_ns.size)

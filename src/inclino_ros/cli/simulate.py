@@ -3,17 +3,29 @@
 
 The bag holds the raw sensor on ``/imu/data_raw`` and, at the same stamps, the
 true attitude on ``/truth/survey``; ``OUT.truth.json`` holds the scenario and
-its segments.
+its segments.  ``--stand`` records seed 001's nine stand positions instead
+(plus ``/stand/attitude`` and ``/imu/temperature`` at 25 deg C), ``--heating``
+a heating run from 20 to 100 deg C at one attitude (plus ``/imu/temperature``);
+both use ``simulate.SensorErrors`` (K, bias, K_T(T)), whose truth goes to
+the JSON file.  ``--csv`` writes the samples as CSV too.
 """
 
+import csv
 import json
+import sys
 
-from inclino_ros.bag import BagWriter, IMU, raw_imu, VECTOR3_STAMPED, Vector3Series
-from inclino_ros.simulate import Scenario, simulate
+from inclino_ros.bag import (
+    BagWriter, IMU, raw_imu, TEMPERATURE, TemperatureSeries, VECTOR3_STAMPED, Vector3Series)
+from inclino_ros.simulate import (
+    Scenario, SensorErrors, SensorRun, simulate, simulate_heating, simulate_stand)
 import numpy as np
 
 RAW_TOPIC = '/imu/data_raw'
 TRUTH_TOPIC = '/truth/survey'
+STAND_TOPIC = '/stand/attitude'
+TEMPERATURE_TOPIC = '/imu/temperature'
+#: Default samples: per stand position (--stand), over the whole ramp (--heating).
+DEFAULT_SAMPLES = {'stand': 100, 'heating': 1601}
 FRAME_ID = 'inclinometer'
 
 
@@ -44,35 +56,95 @@ def register(subparsers):
                              '(default: %(default)s)')
     parser.add_argument('--storage', choices=('mcap', 'sqlite3'), default='mcap',
                         help='bag storage format (default: %(default)s)')
-    parser.set_defaults(func=run)
+    mode = parser.add_mutually_exclusive_group()
+    mode.add_argument('--stand', dest='mode', action='store_const', const='stand',
+                      help=f'seed 001 stand: nine still positions at 25 deg C, the attitude '
+                           f'on {STAND_TOPIC} (x inclination_deg, y toolface_deg, z NaN)')
+    mode.add_argument('--heating', dest='mode', action='store_const', const='heating',
+                      help=f'seed 001 heating run: inclination 55 deg, toolface 45 deg, '
+                           f'20 -> 100 deg C on {TEMPERATURE_TOPIC}')
+    parser.add_argument('--samples', type=int,
+                        help='--stand: samples per position (default: '
+                             f'{DEFAULT_SAMPLES["stand"]}); --heating: samples over the ramp '
+                             f'(default: {DEFAULT_SAMPLES["heating"]})')
+    parser.add_argument('--csv', metavar='FILE',
+                        help='also write the samples to FILE: stamp_ns, inclination_deg, '
+                             'toolface_deg, [temperature_c,] ax, ay, az [m/s^2]')
+    parser.set_defaults(func=run, mode=None)
 
 
 def run(args):
     """Simulate and write the bag and its truth file; return the exit code."""
-    scenario = Scenario(
-        gamma_deg=args.gamma_deg, beta_deg=args.beta_deg, noise_std_mps2=args.noise_std_mps2,
-        rate_hz=args.rate_hz, level_s=args.level_s, station_s=args.station_s,
-        seed=args.seed, axes=args.axes)
-    sim = simulate(scenario)
-    truth = Vector3Series(
-        stamps_ns=sim.stamps_ns, frame_ids=np.full(sim.stamps_ns.size, FRAME_ID),
-        vector=np.stack([sim.inclination_deg, sim.toolface_deg,
-                         np.full(sim.stamps_ns.size, np.nan)], axis=1))
-    with BagWriter(args.out, args.storage) as bag:
-        bag.add_topic(RAW_TOPIC, IMU)
-        bag.add_topic(TRUTH_TOPIC, VECTOR3_STAMPED)
-        bag.write_series({
-            RAW_TOPIC: raw_imu(sim.stamps_ns, FRAME_ID, sim.raw_mps2, scenario.noise_std_mps2),
-            TRUTH_TOPIC: truth})
+    if args.mode is None:
+        scenario = Scenario(
+            gamma_deg=args.gamma_deg, beta_deg=args.beta_deg,
+            noise_std_mps2=args.noise_std_mps2, rate_hz=args.rate_hz, level_s=args.level_s,
+            station_s=args.station_s, seed=args.seed, axes=args.axes)
+        sim = simulate(scenario)
+        what = (f'{scenario.axes}-axis sensor, gamma_deg={scenario.gamma_deg} '
+                f'beta_deg={scenario.beta_deg}')
+    else:
+        if args.axes != 3:
+            print('inclino simulate: error: --stand and --heating simulate a three-axis sensor',
+                  file=sys.stderr)
+            return 2
+        errors = SensorErrors(gamma_deg=args.gamma_deg, beta_deg=args.beta_deg)
+        sensor_run = SensorRun(errors=errors, noise_std_mps2=args.noise_std_mps2,
+                               rate_hz=args.rate_hz, seed=args.seed)
+        samples = DEFAULT_SAMPLES[args.mode] if args.samples is None else args.samples
+        if samples < 1:
+            print('inclino simulate: error: --samples must be at least 1', file=sys.stderr)
+            return 2
+        sim = (simulate_stand(sensor_run, samples=samples) if args.mode == 'stand' else
+               simulate_heating(sensor_run, samples=samples))
+        what = f'{args.mode} run of a three-axis sensor (K, bias, K_T(T) in the truth file)'
+    topics = write_bag(args.out, args.storage, sim, args.noise_std_mps2, args.mode)
     truth_path = f'{args.out}.truth.json'
     with open(truth_path, 'w') as stream:
-        json.dump(dict(sim.truth, bag=args.out, storage=args.storage,
-                       topics={'raw': RAW_TOPIC, 'truth': TRUTH_TOPIC}, frame_id=FRAME_ID),
-                  stream, indent=2)
+        json.dump(dict(sim.truth, bag=args.out, storage=args.storage, topics=topics,
+                       frame_id=FRAME_ID), stream, indent=2)
         stream.write('\n')
-    print(f'wrote {args.out} ({args.storage}): {sim.stamps_ns.size} messages on {RAW_TOPIC} '
-          f'and on {TRUTH_TOPIC}, {scenario.axes}-axis sensor, gamma_deg={scenario.gamma_deg} '
-          f'beta_deg={scenario.beta_deg}, noise {scenario.noise_std_mps2} m/s^2')
-    print(f'wrote {truth_path}: {len(sim.truth["segments"])} segments '
-          f'(level + {len(scenario.stations_deg)} stations)')
+    print(f'wrote {args.out} ({args.storage}): {sim.stamps_ns.size} messages on each of '
+          f'{", ".join(topics.values())}; {what}, noise {args.noise_std_mps2} m/s^2')
+    print(f'wrote {truth_path}: {len(sim.truth["segments"])} segments')
+    if args.csv:
+        write_csv(args.csv, sim)
+        print(f'wrote {args.csv}: {sim.stamps_ns.size} rows')
     return 0
+
+
+def write_bag(path, storage, sim, noise_std_mps2, mode):
+    """Write the samples of ``sim`` to a new bag; return ``{role: topic}``."""
+    n = sim.stamps_ns.size
+    frame_ids = np.full(n, FRAME_ID)
+    series = {
+        RAW_TOPIC: raw_imu(sim.stamps_ns, FRAME_ID, sim.raw_mps2, noise_std_mps2),
+        TRUTH_TOPIC: Vector3Series(sim.stamps_ns, frame_ids, np.stack(
+            [sim.inclination_deg, sim.toolface_deg, np.full(n, np.nan)], axis=1))}
+    topics = {'raw': RAW_TOPIC, 'truth': TRUTH_TOPIC}
+    if mode == 'stand':
+        series[STAND_TOPIC] = series[TRUTH_TOPIC]
+        topics['stand_attitude'] = STAND_TOPIC
+    if sim.temperature_c is not None:
+        series[TEMPERATURE_TOPIC] = TemperatureSeries(sim.stamps_ns, frame_ids,
+                                                      sim.temperature_c, np.zeros(n))
+        topics['temperature'] = TEMPERATURE_TOPIC
+    msgtypes = {Vector3Series: VECTOR3_STAMPED, TemperatureSeries: TEMPERATURE}
+    with BagWriter(path, storage) as bag:
+        for topic, values in series.items():
+            bag.add_topic(topic, msgtypes.get(type(values), IMU))
+        bag.write_series(series)
+    return topics
+
+
+def write_csv(path, sim):
+    """Write one row per sample: stamp, true attitude, [temperature,] raw reading."""
+    columns = {'stamp_ns': sim.stamps_ns, 'inclination_deg': sim.inclination_deg,
+               'toolface_deg': sim.toolface_deg}
+    if sim.temperature_c is not None:
+        columns['temperature_c'] = sim.temperature_c
+    columns.update(zip(('ax', 'ay', 'az'), sim.raw_mps2.T))
+    with open(path, 'w', newline='') as stream:
+        writer = csv.writer(stream)
+        writer.writerow(columns)
+        writer.writerows(zip(*(values.tolist() for values in columns.values())))

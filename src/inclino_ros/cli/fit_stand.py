@@ -1,0 +1,262 @@
+"""
+``inclino fit-stand``: seed 001's multi-position stand calibration into the calibration file.
+
+Input: a CSV with the columns ``inclination_deg, toolface_deg, ax, ay, az``
+(one row per sample or per averaged position; m/s^2, REP 145 z-up specific
+force; an optional ``temperature_c``), or a bag with the raw sensor on
+``/imu/data_raw`` and the stand attitude on ``/stand/attitude``
+(Vector3Stamped: x inclination_deg, y seed-000 toolface_deg; each Imu sample
+takes the latest attitude at or before its stamp), optionally
+``/imu/temperature``: what ``inclino simulate --stand`` writes.  Samples of
+one attitude are averaged into one position.
+
+``--method stand`` fits ``A = K G + b`` to the positions (``stand.fit_stand``);
+``--method sphere`` needs no attitude and fits every sample to ``|G| = g``
+(``stand.fit_sphere``: K only up to a rotation, returned upper triangular).
+A temperature stage already in the file is applied to the readings first
+(at their temperature, else at its reference), as the model applies it
+before the stand stage.  The new stand stage replaces the old one, keeps the
+temperature stage and drops the installation stage: a stand K contains the
+mounting misalignment, and after a sphere fit the level bench must be
+measured again on the stand-corrected readings.
+
+Refused (exit 1, the calibration file untouched): a fit ``stand`` refuses
+(too few positions, repeated attitudes, an ill-posed set), a position whose
+samples spread more than ``--max-std-deg`` (the tool moved), an RMS
+inclination residual above ``--max-rms-deg`` (for a sphere fit: the RMS of
+``|G| - g`` over g, as an angle).
+"""
+
+from functools import partial
+
+from inclino_ros.attitude import angle_between, inclination
+from inclino_ros.cli.fitting import (
+    add_common_arguments, AXIS_COLUMNS, finish_figure, has_topic, is_bag, load_existing,
+    matrix_lines, new_figure, read_csv, read_topic, Refused, report_paths, run_fit,
+    sample_temperatures, save, write_text)
+from inclino_ros.cli.process import CommandError, NODE_DEFAULTS
+from inclino_ros.model import CalibrationModel, Stand, utc_now_iso
+from inclino_ros.stand import fit_sphere, fit_stand, stand_specific_force, StandFitRefused
+import numpy as np
+
+ATTITUDE_TOPIC = '/stand/attitude'
+ATTITUDE_COLUMNS = ('inclination_deg', 'toolface_deg')
+REPORT_NAME = 'fit_stand'
+
+
+def register(subparsers):
+    """Add the ``fit-stand`` subcommand."""
+    parser = subparsers.add_parser(
+        'fit-stand', help='fit the stand calibration K, b (seed 001) into a calibration file',
+        description=__doc__.split('\n\n', 1)[1])
+    add_common_arguments(parser)
+    parser.add_argument('--method', choices=('stand', 'sphere'), default='stand',
+                        help='stand: known attitudes; sphere: |G| = g only (default: '
+                             '%(default)s)')
+    parser.add_argument('--max-rms-deg', type=float, default=0.05,
+                        help='largest RMS inclination residual accepted [deg] (default: '
+                             '%(default)s)')
+    parser.add_argument('--max-std-deg', type=float, default=0.1,
+                        help='largest spread (RMS angle to their mean) of the samples of one '
+                             'position [deg]: more means the tool moved (default: %(default)s)')
+    parser.add_argument('--attitude-topic', default=ATTITUDE_TOPIC,
+                        help='Vector3Stamped stand attitude topic of a bag (default: '
+                             '%(default)s)')
+    parser.add_argument('--gravity-mps2', type=float, default=NODE_DEFAULTS['gravity_mps2'],
+                        help='local gravity [m/s^2] (default: %(default)s)')
+    parser.set_defaults(func=run)
+
+
+def run(args):
+    """Fit, report and write the stand stage; return the exit code."""
+    return run_fit('fit-stand', args, fit)
+
+
+def fit(args, lines):
+    """Fit the stand stage of ``args.input`` into ``args.calibration``; see ``run_fit``."""
+    existing = load_existing(args.calibration)
+    readings, attitude_deg, temperature_c = load_input(args)
+    if existing.temperature is not None:
+        readings = CalibrationModel(3, temperature=existing.temperature).apply(
+            readings, temperature_c)
+        lines.append('temperature stage of the file applied to the readings first ('
+                     + ('at their temperatures)' if temperature_c is not None else
+                        'no temperatures in the input: at its reference temperature)'))
+    if args.method == 'stand':
+        stage, refusal, draw = fit_positions(args, readings, attitude_deg, lines)
+    else:
+        stage, refusal, draw = fit_readings(args, readings, lines)
+    # A refused fit reports beside, not over, the report of the fit in the file.
+    png, txt = report_paths(args, REPORT_NAME + ('_refused' if refusal else ''))
+    draw(png)
+    lines.append(f'report: {png}')
+    write_text(txt, lines + ([f'REFUSED: {refusal}'] if refusal else []))
+    if refusal:
+        raise Refused(refusal)
+    dropped = existing.installation is not None
+    save(args.calibration, CalibrationModel(3, stand=stage, temperature=existing.temperature))
+    lines.append(f'wrote {args.calibration}: stand stage ({args.method}, {stage.positions} '
+                 f'{"positions" if args.method == "stand" else "readings"})'
+                 + (', temperature stage kept' if existing.temperature else ''))
+    if dropped:
+        lines.append('installation stage dropped: ' + (
+            'the stand K already contains the mounting misalignment' if args.method == 'stand'
+            else 'a sphere fit cannot see the mounting rotation; calibrate the level bench '
+                 'again (inclino calibrate) on the stand-corrected readings'))
+    elif args.method == 'sphere':
+        lines.append('a sphere fit cannot see the mounting rotation: calibrate the level bench '
+                     '(inclino calibrate) next')
+
+
+def load_input(args):
+    """
+    Return (readings (N, 3), attitude_deg (N, 2) or None, temperature_c (N,) or None).
+
+    The attitude is required for ``--method stand`` only.
+    """
+    need_attitude = args.method == 'stand'
+    if not is_bag(args.input):
+        table = read_csv(args.input, (ATTITUDE_COLUMNS if need_attitude else ()) + AXIS_COLUMNS,
+                         optional=('temperature_c',))
+        readings = np.column_stack([table[name] for name in AXIS_COLUMNS])
+        attitude_deg = (np.column_stack([table[name] for name in ATTITUDE_COLUMNS])
+                        if need_attitude else None)
+        return readings, attitude_deg, table.get('temperature_c')
+    imu = read_topic(args.input, args.raw_topic)
+    temperature_c = (sample_temperatures(imu, args.input, args.temperature_topic)[0]
+                     if has_topic(args.input, args.temperature_topic) else None)
+    if not need_attitude:
+        return imu.linear_acceleration_mps2, None, temperature_c
+    attitude = read_topic(args.input, args.attitude_topic)
+    order = np.argsort(attitude.stamps_ns, kind='stable')
+    latest = np.searchsorted(attitude.stamps_ns[order], imu.stamps_ns, side='right') - 1
+    held = latest >= 0
+    if not held.any():
+        raise CommandError(f'no sample of {args.raw_topic} comes at or after the first '
+                           f'{args.attitude_topic} message')
+    attitude_deg = attitude.vector[order[latest[held]], :2]
+    return (imu.linear_acceleration_mps2[held], attitude_deg,
+            None if temperature_c is None else temperature_c[held])
+
+
+def group_positions(readings, attitude_deg):
+    """
+    Return the positions: (attitudes (P, 2), mean readings (P, 3), samples, spread_deg).
+
+    Samples of equal attitude form one position, in the order of first
+    appearance; spread_deg is the RMS angle of its samples to their mean.
+    """
+    unique, first, inverse = np.unique(attitude_deg, axis=0, return_index=True,
+                                       return_inverse=True)
+    order = np.argsort(first)
+    rank = np.empty_like(order)
+    rank[order] = np.arange(order.size)
+    position = rank[inverse.reshape(-1)]
+    counts = np.bincount(position)
+    means = np.stack([np.bincount(position, weights=readings[:, axis]) for axis in range(3)],
+                     axis=1) / counts[:, None]
+    spread_deg = np.degrees(np.sqrt(np.bincount(
+        position, weights=angle_between(readings, means[position]) ** 2) / counts))
+    return unique[order], means, counts, spread_deg
+
+
+def fit_positions(args, readings, attitude_deg, lines):
+    """
+    Return (Stand stage, refusal reason or None, draw) of a known-attitude stand fit.
+
+    ``draw(path)`` plots the report.
+    """
+    attitudes, means, counts, spread_deg = group_positions(readings, attitude_deg)
+    moving = np.flatnonzero(spread_deg > args.max_std_deg)
+    if moving.size:
+        raise Refused(
+            f'tool moving at position(s) {(moving + 1).tolist()}: spread of the samples up to '
+            f'{spread_deg.max():.4f} deg exceeds --max-std-deg {args.max_std_deg} deg')
+    truth = stand_specific_force(attitudes[:, 0], attitudes[:, 1], args.gravity_mps2)
+    try:
+        result = fit_stand(means, truth)
+    except StandFitRefused as err:
+        raise Refused(err.reason) from None
+    raw_deg = np.degrees(inclination(means)) - attitudes[:, 0]
+    after_deg = result.inclination_residual_deg
+    lines += geometry_lines(result)
+    lines.append(f'{"pos":>3} {"incl_deg":>9} {"tf_deg":>8} {"samples":>7} {"spread_deg":>10} '
+                 f'{"raw_err_deg":>11} {"residual_deg":>12}')
+    lines += [f'{k + 1:>3} {incl:9.3f} {tf:8.3f} {n:>7} {s:10.4f} {before:11.4f} {after:12.6f}'
+              for k, ((incl, tf), n, s, before, after) in enumerate(
+                  zip(attitudes, counts, spread_deg, raw_deg, after_deg))]
+    lines.append(f'RMS inclination residual: {result.rms_inclination_deg:.6f} deg (raw '
+                 f'{np.sqrt(np.mean(raw_deg ** 2)):.4f} deg); RMS residual '
+                 f'{result.rms_residual_mps2:.3g} m/s^2')
+    refusal = (None if result.rms_inclination_deg <= args.max_rms_deg else
+               f'RMS inclination residual {result.rms_inclination_deg:.4f} deg exceeds '
+               f'--max-rms-deg {args.max_rms_deg} deg (a wrong attitude, or the tool moved)')
+    return (stand_stage(result, 'stand', result.rms_inclination_deg, len(means)), refusal,
+            partial(plot_positions, raw_deg=raw_deg, after_deg=after_deg,
+                    rms_deg=result.rms_inclination_deg))
+
+
+def fit_readings(args, readings, lines):
+    """Return (Stand stage, refusal reason or None, draw) of a sphere fit of every reading."""
+    try:
+        result = fit_sphere(readings, args.gravity_mps2)
+    except StandFitRefused as err:
+        raise Refused(err.reason) from None
+    rms_deg = np.degrees(result.rms_residual_mps2 / args.gravity_mps2)
+    lines += geometry_lines(result)
+    lines.append(f'RMS |G| - g: {result.rms_residual_mps2:.3g} m/s^2 ({rms_deg:.6f} deg as an '
+                 f'angle) over {readings.shape[0]} readings')
+    refusal = (None if rms_deg <= args.max_rms_deg else
+               f'RMS |G| - g of {rms_deg:.4f} deg (as an angle) exceeds --max-rms-deg '
+               f'{args.max_rms_deg} deg (the tool moved, or the sensor is not linear)')
+    return (stand_stage(result, 'sphere', None, readings.shape[0]), refusal,
+            partial(plot_readings, raw_mps2=np.linalg.norm(readings, axis=1) - args.gravity_mps2,
+                    after_mps2=result.residual_mps2))
+
+
+def stand_stage(result, method, rms_inclination_deg, positions):
+    """Return the model.Stand of a stand or sphere fit."""
+    return Stand(scale_matrix=tuple(map(tuple, result.scale_matrix.tolist())),
+                 bias_mps2=tuple(result.bias_mps2.tolist()), method=method,
+                 condition_number=result.condition_number,
+                 rms_inclination_deg=rms_inclination_deg, positions=int(positions),
+                 fitted_at=utc_now_iso())
+
+
+def geometry_lines(result):
+    """Return K, b and the sensing-axis geometry of a fit as text lines."""
+    return matrix_lines('K (A = K G + b)', result.scale_matrix, '10.6f') + [
+        'bias_mps2: ' + ' '.join(f'{v:.6f}' for v in result.bias_mps2),
+        'axis scales: ' + ' '.join(f'{v:.6f}' for v in result.axis_scales),
+        'non-orthogonality_deg (xy xz yz): '
+        + ' '.join(f'{v:.4f}' for v in result.non_orthogonality_deg),
+        f'condition number: {result.condition_number:.3f}']
+
+
+def plot_positions(path, raw_deg, after_deg, rms_deg):
+    """Plot the inclination error per position before and after the fit."""
+    pyplot, fig, axes = new_figure(2, 'inclino fit-stand: inclination error per stand position')
+    position = np.arange(1, raw_deg.size + 1)
+    axes[0].bar(position, raw_deg, color='tab:red', label='raw readings')
+    axes[0].set_ylabel('raw inclination error [deg]')
+    axes[1].bar(position, after_deg, color='tab:green',
+                label=f'after K^-1 (A - b), RMS {rms_deg:.2g} deg')
+    axes[1].set_ylabel('residual [deg]')
+    axes[1].set_xlabel('stand position')
+    for ax in axes:
+        ax.set_xticks(position)
+        ax.axhline(0.0, color='black', linewidth=0.8)
+    finish_figure(pyplot, fig, axes, path)
+
+
+def plot_readings(path, raw_mps2, after_mps2):
+    """Plot |G| - g per reading before and after a sphere fit."""
+    pyplot, fig, axes = new_figure(2, 'inclino fit-stand --method sphere: |G| - g per reading')
+    index = np.arange(raw_mps2.size)
+    axes[0].plot(index, raw_mps2, '.', color='tab:red', markersize=4, label='raw readings')
+    axes[1].plot(index, after_mps2, '.', color='tab:green', markersize=4,
+                 label='after K^-1 (A - b)')
+    for ax in axes:
+        ax.set_ylabel('|G| - g [m/s^2]')
+    axes[1].set_xlabel('reading')
+    finish_figure(pyplot, fig, axes, path)

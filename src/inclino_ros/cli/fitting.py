@@ -1,0 +1,194 @@
+"""
+What ``inclino fit-stand`` and ``inclino fit-temperature`` share.
+
+Input is a bag (a directory, mcap or sqlite3) or a CSV file (any other path)
+with a header row naming its columns; the calibration file is read if it
+exists, changed in one stage and written atomically with ``model.save_model``;
+each fit leaves a PNG and a text summary in the report folder.
+
+Exit codes: 0 written, 1 refused (the reason printed, the file untouched),
+2 an input that cannot be used (``CommandError``).
+"""
+
+import csv
+import os
+import sys
+
+from inclino_ros.bag import BagError, concatenate, read, topic_info
+from inclino_ros.cli.process import CommandError
+from inclino_ros.model import CalibrationFileError, CalibrationModel, load_model, save_model
+import numpy as np
+
+RAW_TOPIC = '/imu/data_raw'
+TEMPERATURE_TOPIC = '/imu/temperature'
+AXIS_COLUMNS = ('ax', 'ay', 'az')
+
+
+class Refused(Exception):
+    """A fit that must not be written: exit code 1, the calibration file untouched."""
+
+
+def add_common_arguments(parser):
+    """Add the input, --calibration, --report-dir and topic options."""
+    parser.add_argument('input', metavar='BAG_OR_CSV',
+                        help='bag directory (mcap or sqlite3) or CSV file with a header row')
+    parser.add_argument('--calibration', required=True, metavar='FILE',
+                        help='calibration file to update (created if missing)')
+    parser.add_argument('--report-dir', metavar='DIR',
+                        help='folder of the PNG and text report (default: that of FILE)')
+    parser.add_argument('--raw-topic', default=RAW_TOPIC,
+                        help='sensor_msgs/Imu topic of a bag (default: %(default)s)')
+    parser.add_argument('--temperature-topic', default=TEMPERATURE_TOPIC,
+                        help='sensor_msgs/Temperature topic of a bag (default: %(default)s)')
+
+
+def is_bag(path):
+    """Return whether ``path`` names a bag (a directory) rather than a CSV file."""
+    return os.path.isdir(path)
+
+
+def read_csv(path, required, optional=()):
+    """
+    Return ``{column: float array}`` of a CSV file with a header row.
+
+    ``required`` columns must be present, ``optional`` ones are returned when
+    present; other columns are ignored.  Raises CommandError otherwise.
+    """
+    try:
+        with open(path, newline='') as stream:
+            rows = list(csv.reader(stream))
+    except OSError as err:
+        raise CommandError(f'cannot read {path}: {err}') from None
+    if not rows:
+        raise CommandError(f'{path} is empty')
+    header = [name.strip() for name in rows[0]]
+    missing = [name for name in required if name not in header]
+    if missing:
+        raise CommandError(f'{path} lacks the column(s) {", ".join(missing)}; '
+                           f'it has {", ".join(header)}')
+    try:
+        values = np.array(rows[1:], dtype=float).reshape(len(rows) - 1, len(header))
+    except ValueError as err:
+        raise CommandError(f'{path}: every row needs {len(header)} numbers ({err})') from None
+    if values.shape[0] == 0:
+        raise CommandError(f'{path} has no data rows')
+    return {name: values[:, header.index(name)]
+            for name in (*required, *optional) if name in header}
+
+
+def read_topic(path, topic):
+    """Return the whole series of ``topic`` in the bag ``path``; CommandError if unreadable."""
+    try:
+        chunks = list(read(path, topic))
+    except BagError as err:
+        raise CommandError(str(err)) from None
+    if not chunks:
+        raise CommandError(f'{topic} in {path} has no messages')
+    return concatenate(chunks)
+
+
+def has_topic(path, topic):
+    """Return whether the bag ``path`` holds ``topic`` (of any type)."""
+    try:
+        topic_info(path, topic)
+    except BagError:
+        return False
+    return True
+
+
+def sample_temperatures(imu, path, topic):
+    """
+    Return the temperature at each Imu sample and which samples lie in its time span.
+
+    The Temperature messages of ``topic`` are interpolated linearly to the
+    Imu stamps (``TemperatureSeries.at``); samples before the first or after
+    the last temperature message are outside.
+    """
+    series = read_topic(path, topic)
+    inside = (imu.stamps_ns >= series.stamps_ns.min()) & (imu.stamps_ns <= series.stamps_ns.max())
+    return series.at(imu.stamps_ns), inside
+
+
+def load_existing(path):
+    """Return the model in ``path``, a new three-axis one if there is none."""
+    try:
+        model = load_model(path)
+    except FileNotFoundError:
+        return CalibrationModel(accelerometer_axes=3)
+    except (CalibrationFileError, OSError) as err:
+        raise CommandError(str(err)) from None
+    if model.accelerometer_axes != 3:
+        raise CommandError(f'{path} is for a {model.accelerometer_axes}-axis accelerometer; '
+                           'stand and temperature stages need three axes')
+    return model
+
+
+def save(path, model):
+    """Write ``model`` to ``path`` atomically; CommandError if it cannot be written."""
+    try:
+        save_model(path, model)
+    except (OSError, ValueError) as err:
+        raise CommandError(f'cannot write {path}: {err}') from None
+
+
+def report_paths(args, name):
+    """Return (png, txt) paths of the report ``name`` in --report-dir or beside the file."""
+    folder = args.report_dir or os.path.dirname(os.path.abspath(
+        os.path.expanduser(args.calibration)))
+    os.makedirs(folder, exist_ok=True)
+    return os.path.join(folder, f'{name}.png'), os.path.join(folder, f'{name}.txt')
+
+
+def new_figure(rows, title):
+    """Return (pyplot, figure, axes) of ``rows`` stacked panels (matplotlib, Agg)."""
+    import matplotlib
+    matplotlib.use('Agg')
+    from matplotlib import pyplot
+
+    fig, axes = pyplot.subplots(rows, 1, figsize=(9, 4 * rows))
+    fig.suptitle(title)
+    return pyplot, fig, axes
+
+
+def finish_figure(pyplot, fig, axes, path):
+    """Grid and legend on every panel, then write the figure to ``path``."""
+    for ax in axes:
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize='small')
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    pyplot.close(fig)
+
+
+def run_fit(command, args, fit):
+    """
+    Run ``fit(args, lines)`` and report; return the exit code.
+
+    ``fit`` appends the summary lines to ``lines`` (printed as they are, and
+    written to the text report by the fit); Refused gives 1, CommandError 2.
+    """
+    lines = []
+    try:
+        fit(args, lines)
+    except Refused as err:
+        if lines:
+            print('\n'.join(lines))
+        print(f'inclino {command}: refused: {err}; {args.calibration} left unchanged',
+              file=sys.stderr)
+        return 1
+    except CommandError as err:
+        print(f'inclino {command}: error: {err}', file=sys.stderr)
+        return 2
+    print('\n'.join(lines))
+    return 0
+
+
+def write_text(path, lines):
+    """Write the summary ``lines`` to ``path``."""
+    with open(path, 'w') as stream:
+        stream.write('\n'.join(lines) + '\n')
+
+
+def matrix_lines(name, matrix, fmt):
+    """Return a 3x3 matrix as indented text lines under ``name``."""
+    return [f'{name}:'] + ['  ' + ' '.join(format(v, fmt) for v in row) for row in matrix]
