@@ -41,7 +41,7 @@ def forward(f, temperature_c):
 
 
 def test_stages_run_in_order_and_invert_the_sensor():
-    """temperature -> stand -> installation undoes the forward model exactly."""
+    """Stages temperature -> stand -> installation undo the forward model exactly."""
     rng = np.random.default_rng(5)
     f = rng.normal(size=(20, 3)) * G
     temperatures_c = rng.uniform(20.0, 100.0, 20)

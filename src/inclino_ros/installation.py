@@ -88,6 +88,15 @@ def correct_installation(reading, gamma, beta):
     ``reading`` has shape ``(..., 3)``; the inclination of the result is the
     true inclination of Eq. 10.
     """
+    return to_tool_frame(reading, installation_matrix(gamma, beta))
+
+
+def to_tool_frame(reading, c):
+    """
+    Return ``C^-1 v1 = C^T v1`` for readings ``(..., 3)`` and C of Eq. 1 (Eq. 9).
+
+    For a fixed installation, C is computed once and passed here per sample.
+    """
     v1 = np.asarray(reading, dtype=float)
     # v1 @ C row by row; a plain ``v1 @ C`` gives (N, N, 3) for per-sample angles.
-    return np.einsum('...j,...jk->...k', v1, installation_matrix(gamma, beta))
+    return np.einsum('...j,...jk->...k', v1, c)

@@ -17,12 +17,13 @@ naming the file, never a silent zero correction.
 
 from dataclasses import asdict, dataclass, fields
 from datetime import datetime, timezone
+from functools import cached_property
 import json
 import math
 import os
 import tempfile
 
-from inclino_ros.installation import correct_installation, pseudo_inclination
+from inclino_ros.installation import installation_matrix, pseudo_inclination, to_tool_frame
 from inclino_ros.stand import correct_stand, MAX_CONDITION_NUMBER
 from inclino_ros.temperature import compensate_temperature, TemperatureFit
 import numpy as np
@@ -60,10 +61,14 @@ class Installation:
         return math.degrees(float(pseudo_inclination(
             math.radians(self.gamma_deg), math.radians(self.beta_deg))))
 
+    @cached_property
+    def matrix(self):
+        """Return C of seed 000 Eq. 1 for these angles (computed once)."""
+        return installation_matrix(math.radians(self.gamma_deg), math.radians(self.beta_deg))
+
     def apply(self, f, temperature_c=None):
         """Return ``f`` (N x 3) in the ideal tool frame (seed 000 Eq. 9)."""
-        return correct_installation(
-            f, math.radians(self.gamma_deg), math.radians(self.beta_deg))
+        return to_tool_frame(f, self.matrix)
 
 
 @dataclass(frozen=True)
@@ -80,7 +85,12 @@ class Stand:
 
     def apply(self, f, temperature_c=None):
         """Return ``K^-1 (f - b)`` (seed 001 Eq. 11) for ``f`` of shape (N, 3)."""
-        return correct_stand(f, np.array(self.scale_matrix), np.array(self.bias_mps2))
+        return correct_stand(f, self.arrays[0], self.arrays[1])
+
+    @cached_property
+    def arrays(self):
+        """Return K and b as numpy arrays, built once."""
+        return np.array(self.scale_matrix), np.array(self.bias_mps2)
 
 
 @dataclass(frozen=True)
@@ -96,7 +106,11 @@ class Temperature:
     fitted_at: str
 
     def fit(self):
-        """Return the TemperatureFit of this stage."""
+        """Return the TemperatureFit of this stage (built once)."""
+        return self._fit
+
+    @cached_property
+    def _fit(self):
         return TemperatureFit(
             coefficients=np.array(self.coefficients), t_min_c=self.t_min_c,
             t_max_c=self.t_max_c, reference_temperature_c=self.reference_temperature_c,
@@ -116,7 +130,7 @@ class Temperature:
         if temperature_c is None:
             temperature_c = self.reference_temperature_c
         temperature_c = np.broadcast_to(self.clamp(temperature_c), f.shape[:1])
-        return compensate_temperature(f, temperature_c, self.fit())
+        return compensate_temperature(f, temperature_c, self._fit)
 
 
 @dataclass(frozen=True)
