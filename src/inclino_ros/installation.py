@@ -88,15 +88,14 @@ def correct_installation(reading, gamma, beta):
     ``reading`` has shape ``(..., 3)``; the inclination of the result is the
     true inclination of Eq. 10.
     """
-    return to_tool_frame(reading, installation_matrix(gamma, beta))
+    return to_tool_frame(reading, inverse_installation_matrix(gamma, beta))
 
 
-def to_tool_frame(reading, c):
+def to_tool_frame(reading, c_inverse):
     """
-    Return ``C^-1 v1 = C^T v1`` for readings ``(..., 3)`` and C of Eq. 1 (Eq. 9).
+    Return ``C^-1 v1`` for readings ``(..., 3)`` and C^-1 of Eq. 8 (Eq. 9).
 
-    For a fixed installation, C is computed once and passed here per sample.
+    For a fixed installation, C^-1 is computed once and passed here per sample.
     """
     v1 = np.asarray(reading, dtype=float)
-    # v1 @ C row by row; a plain ``v1 @ C`` gives (N, N, 3) for per-sample angles.
-    return np.einsum('...j,...jk->...k', v1, c)
+    return np.einsum('...jk,...k->...j', c_inverse, v1)

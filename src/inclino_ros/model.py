@@ -23,7 +23,8 @@ import math
 import os
 import tempfile
 
-from inclino_ros.installation import installation_matrix, pseudo_inclination, to_tool_frame
+from inclino_ros.installation import (
+    inverse_installation_matrix, pseudo_inclination, to_tool_frame)
 from inclino_ros.stand import correct_stand, MAX_CONDITION_NUMBER
 from inclino_ros.temperature import compensate_temperature, TemperatureFit
 import numpy as np
@@ -62,13 +63,14 @@ class Installation:
             math.radians(self.gamma_deg), math.radians(self.beta_deg))))
 
     @cached_property
-    def matrix(self):
-        """Return C of seed 000 Eq. 1 for these angles (computed once)."""
-        return installation_matrix(math.radians(self.gamma_deg), math.radians(self.beta_deg))
+    def inverse_matrix(self):
+        """Return C^-1 of seed 000 Eq. 8 for these angles (computed once)."""
+        return inverse_installation_matrix(
+            math.radians(self.gamma_deg), math.radians(self.beta_deg))
 
     def apply(self, f, temperature_c=None):
         """Return ``f`` (N x 3) in the ideal tool frame (seed 000 Eq. 9)."""
-        return to_tool_frame(f, self.matrix)
+        return to_tool_frame(f, self.inverse_matrix)
 
 
 @dataclass(frozen=True)
