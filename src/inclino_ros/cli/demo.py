@@ -148,7 +148,8 @@ def station_table(truth, stamps_ns, seg, raw, corrected, offline):
             tf = np.array([v[1] for v, m in zip(values, mask) if m])
             row[f'{name}_inclination_deg'] = float(np.nanmean(incl))
             row[f'{name}_toolface_deg'] = float(
-                entry['toolface_deg'] + np.nanmean(angle_error_deg(tf, entry['toolface_deg'])))
+                (entry['toolface_deg'] + np.nanmean(angle_error_deg(tf, entry['toolface_deg'])))
+                % 360.0)
             row[f'{name}_samples'] = int(np.count_nonzero(~np.isnan(incl)))
         rows.append(row)
     return rows
