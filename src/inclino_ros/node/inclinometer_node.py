@@ -25,8 +25,10 @@ from inclino_ros.pipeline import imu_covariances, run, Settings
 from inclino_ros.screening import ACCEPTED
 import numpy as np
 import rclpy
+from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.node import Node
-from rclpy.qos import qos_profile_sensor_data
+from rclpy.qos import (
+    DurabilityPolicy, HistoryPolicy, qos_profile_sensor_data, QoSProfile, ReliabilityPolicy)
 from sensor_msgs.msg import Imu, Temperature
 from std_msgs.msg import Float64
 
@@ -52,16 +54,32 @@ class InclinometerNode(Node):
         self.stats = InputStats()
         self.temperature = TemperatureInput()
 
-        self.survey_pub = self.create_publisher(Vector3Stamped, 'survey', 10)
-        self.inclination_pub = self.create_publisher(Float64, 'inclination', 10)
-        self.toolface_pub = self.create_publisher(Float64, 'toolface', 10)
-        self.imu_pub = self.create_publisher(Imu, 'imu/data', 10)
-        self.diagnostics_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
-        qos = qos_profile_sensor_data
-        qos.depth = self.param('imu_queue_depth')
-        self.create_subscription(Imu, 'imu/data_raw', self._on_imu, qos)
-        self.create_subscription(Temperature, 'imu/temperature', self._on_temperature,
-                                 qos_profile_sensor_data)
+        # Output messages are built once and refilled per sample (publish copies them).
+        self._survey_msg = Vector3Stamped()
+        self._survey_msg.vector.z = math.nan  # magnetic azimuth: no magnetics yet
+        self._inclination_msg, self._toolface_msg = Float64(), Float64()
+        self._imu_msg = Imu()
+        self._imu_msg.angular_velocity_covariance[0] = -1.0  # no angular rate is measured
+        # Every QoS event handler is one more waitable the executor polls on every
+        # wake-up (~150 us per message with rclpy's defaults on all seven entities):
+        # only the raw input keeps one, to say why a publisher does not match.
+        quiet = PublisherEventCallbacks(use_default_callbacks=False)
+        self.survey_pub, self.inclination_pub, self.toolface_pub, self.imu_pub, \
+            self.diagnostics_pub = (
+                self.create_publisher(kind, topic, 10, event_callbacks=quiet)
+                for kind, topic in ((Vector3Stamped, 'survey'), (Float64, 'inclination'),
+                                    (Float64, 'toolface'), (Imu, 'imu/data'),
+                                    (DiagnosticArray, '/diagnostics')))
+        sensor_qos = QoSProfile(
+            history=HistoryPolicy.KEEP_LAST, depth=self.param('imu_queue_depth'),
+            reliability=ReliabilityPolicy.BEST_EFFORT, durability=DurabilityPolicy.VOLATILE)
+        self.create_subscription(
+            Imu, 'imu/data_raw', self._on_imu, sensor_qos,
+            event_callbacks=SubscriptionEventCallbacks(
+                incompatible_qos=self._on_incompatible_qos, use_default_callbacks=False))
+        self.create_subscription(
+            Temperature, 'imu/temperature', self._on_temperature, qos_profile_sensor_data,
+            event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
         self.calibration = CalibrationServices(self)
         self.create_timer(self.param('diagnostics_period_s'), self._publish_diagnostics)
 
@@ -93,6 +111,11 @@ class InclinometerNode(Node):
             f'loaded {self.calibration_file}: stages {", ".join(stages) or "none"}')
         return model
 
+    def _on_incompatible_qos(self, event):
+        self.get_logger().warning(
+            f'a publisher on imu/data_raw has an incompatible QoS (policy '
+            f'{event.last_policy_kind}): its samples will not arrive')
+
     def _on_temperature(self, msg):
         self.temperature.update(msg.temperature, self.get_clock().now().nanoseconds * 1e-9)
 
@@ -110,32 +133,28 @@ class InclinometerNode(Node):
         self._publish(msg.header, survey)
 
     def _publish(self, header, survey):
+        """Publish the outputs of one accepted sample, reusing the message objects."""
         if self.frame_id:
             header.frame_id = self.frame_id
+        survey_msg, imu = self._survey_msg, self._imu_msg
         incl_deg = float(survey.inclination_deg[0])
         toolface_deg = float(survey.toolface_deg[0])
-        out = Vector3Stamped(header=header)
-        out.vector.x, out.vector.y, out.vector.z = incl_deg, toolface_deg, math.nan
-        self.survey_pub.publish(out)
-        self.inclination_pub.publish(Float64(data=incl_deg))
-        self.toolface_pub.publish(Float64(data=toolface_deg))
-        self.imu_pub.publish(self._corrected_imu(header, survey))
-
-    def _corrected_imu(self, header, survey):
-        """Return imu/data: corrected specific force and roll/pitch with covariances."""
-        f = survey.corrected_mps2[0]
-        imu = Imu(header=header)
+        survey_msg.header = imu.header = header
+        survey_msg.vector.x, survey_msg.vector.y = incl_deg, toolface_deg
+        self.survey_pub.publish(survey_msg)
+        self._inclination_msg.data = incl_deg
+        self.inclination_pub.publish(self._inclination_msg)
+        self._toolface_msg.data = toolface_deg
+        self.toolface_pub.publish(self._toolface_msg)
         acc = imu.linear_acceleration
-        acc.x, acc.y, acc.z = (float(v) for v in f)
-        q = survey.orientation_wxyz[0]
-        imu.orientation.w, imu.orientation.x = float(q[0]), float(q[1])
-        imu.orientation.y, imu.orientation.z = float(q[2]), float(q[3])
+        acc.x, acc.y, acc.z = survey.corrected_mps2[0].tolist()
+        q = imu.orientation
+        q.w, q.x, q.y, q.z = survey.orientation_wxyz[0].tolist()
         acceleration_cov, orientation_cov = imu_covariances(
             survey, self.model, self.settings, self.noise_std_mps2)
-        imu.linear_acceleration_covariance = acceleration_cov[0].tolist()
-        imu.orientation_covariance = orientation_cov[0].tolist()
-        imu.angular_velocity_covariance[0] = -1.0  # no angular rate is measured
-        return imu
+        imu.linear_acceleration_covariance = acceleration_cov[0]
+        imu.orientation_covariance = orientation_cov[0]
+        self.imu_pub.publish(imu)
 
     def _publish_diagnostics(self):
         now = self.get_clock().now()
