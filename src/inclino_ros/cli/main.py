@@ -10,7 +10,8 @@ import argparse
 import importlib
 import sys
 
-COMMANDS = ('simulate', 'process', 'play', 'calibrate', 'demo', 'fit-stand', 'fit-temperature')
+COMMANDS = ('simulate', 'process', 'play', 'calibrate', 'demo', 'fit-stand', 'fit-temperature',
+            'msa', 'simulate-well')
 
 
 def build_parser():

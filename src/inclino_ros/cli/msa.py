@@ -1,0 +1,297 @@
+"""
+``inclino msa``: correct the magnetic azimuth of a survey by multi-station analysis (seed 002).
+
+Input: a CSV with a header row and the columns ``gx, gy, gz`` (gravity
+vector, any consistent unit) and ``bx, by, bz`` (nT), one row per station,
+in the ISCWSA survey frame (x, y cross-axial, z toward the bit); optional
+``md`` and ``true_azimuth_deg`` (the magnetic azimuth known otherwise, e.g.
+of a simulation: the report then plots the error).
+
+Methods (``inclino_ros.msa``): ``improved`` (default, seed 002 Eqs. 23-33:
+the cross-axial part first, then eps_z0 at the mean station, its interval
+and the bounded minimum of V); ``classic`` (Brooks: eps_x, eps_y, eps_z
+together); ``axial`` (eps_z only); ``short-collar`` (each station alone,
+Bx and By assumed right; NaN azimuth near east/west).  For ``improved`` the
+cross-axial (eps_x, eps_y) comes from ``--cross-axial-nT`` (a per-rotation
+circle fit, seed 002 §2.1), else from the classic solve when the toolfaces
+spread (largest gap <= 100 deg), else it is taken as zero (said so).
+
+Output: OUT (CSV, one row per station: ``md`` if given, ``inclination_deg,
+toolface_deg, azimuth_raw_deg, azimuth_deg``, ``azimuth_true_north_deg``
+with ``--declination-deg``, the QC of the corrected survey: B-total and dip
+deltas and ``b_total_ok, dip_ok, g_total_ok, used``, plus ``eps_z_nT,
+east_west`` for short-collar and ``true_azimuth_deg, azimuth_error_deg``
+when the input has the truth) and OUT.msa.json (the corrections, V
+before/after, the interval, the diagnostics).
+
+Exit codes: 0 corrected, 1 refused (the reason printed, nothing written),
+2 unusable input.
+"""
+
+from dataclasses import asdict
+import json
+import sys
+
+from inclino_ros import magnetics
+from inclino_ros.cli.fitting import finish_figure, new_figure, read_csv
+from inclino_ros.cli.process import CommandError
+from inclino_ros.msa import (
+    azimuth_difference_deg, MAX_INTERFERENCE_NT, misfit_nT2, MsaLimits, MsaRefused, short_collar,
+    solve_msa_axial, solve_msa_classic, solve_msa_improved, toolface_gap_deg)
+import numpy as np
+
+GRAVITY_COLUMNS = ('gx', 'gy', 'gz')
+FIELD_COLUMNS = ('bx', 'by', 'bz')
+TRUTH_COLUMN = 'true_azimuth_deg'
+METHODS = ('improved', 'classic', 'axial', 'short-collar')
+#: eps_z points of the V(eps_z) curves of the report.
+CURVE_POINTS = 401
+
+
+def register(subparsers):
+    """Add the ``msa`` subcommand."""
+    parser = subparsers.add_parser(
+        'msa', help='correct magnetic azimuths by multi-station analysis (seed 002)',
+        description=__doc__.split('\n\n', 1)[1])
+    parser.add_argument('stations', metavar='STATIONS.csv', help='station CSV (see above)')
+    parser.add_argument('-o', '--output', required=True, metavar='OUT.csv',
+                        help='corrected stations CSV; the corrections go to OUT.msa.json')
+    parser.add_argument('--reference-total-nT', type=float, required=True, metavar='F',
+                        help='reference total field [nT] (e.g. WMM/IFR at the well)')
+    parser.add_argument('--reference-dip-deg', type=float, required=True, metavar='D',
+                        help='reference dip [deg], positive downward')
+    parser.add_argument('--declination-deg', type=float, metavar='X',
+                        help='declination [deg]: adds azimuth_true_north_deg')
+    parser.add_argument('--method', choices=METHODS, default='improved',
+                        help='correction method (default: %(default)s)')
+    parser.add_argument('--cross-axial-nT', type=float, nargs=2, metavar=('EX', 'EY'),
+                        help='improved: known cross-axial interference [nT] (rotation fit)')
+    parser.add_argument('--exclude-failing', action='store_true',
+                        help='leave stations failing QC out of the solve (named) instead of '
+                             'refusing')
+    parser.add_argument('--report', metavar='PNG', help='write a report figure')
+    parser.set_defaults(func=run)
+
+
+def run(args):
+    """Correct, write OUT and OUT.msa.json, print the corrections; return the exit code."""
+    lines = []
+    try:
+        table = load_stations(args)
+        output = correct(args, table, lines)
+    except MsaRefused as err:
+        print('\n'.join(lines + [f'inclino msa: refused: {err.reason}; nothing written']),
+              file=sys.stderr)
+        return 1
+    except CommandError as err:
+        print(f'inclino msa: error: {err}', file=sys.stderr)
+        return 2
+    try:
+        write_outputs(args, table, output, lines)
+    except OSError as err:
+        print(f'inclino msa: error: cannot write: {err}', file=sys.stderr)
+        return 2
+    print('\n'.join(lines))
+    return 0
+
+
+def load_stations(args):
+    """Return the station table; CommandError for a bad file or reference."""
+    if not args.reference_total_nT > 0.0:
+        raise CommandError('--reference-total-nT must be positive')
+    if not -90.0 < args.reference_dip_deg < 90.0:
+        raise CommandError('--reference-dip-deg must lie strictly between -90 and 90')
+    table = read_csv(args.stations, GRAVITY_COLUMNS + FIELD_COLUMNS,
+                     optional=('md', TRUTH_COLUMN))
+    table['G'] = np.column_stack([table[name] for name in GRAVITY_COLUMNS])
+    table['B'] = np.column_stack([table[name] for name in FIELD_COLUMNS])
+    return table
+
+
+def correct(args, table, lines):
+    """Return the msa result of ``args.method`` and the cross-axial source (improved)."""
+    G, B = table['G'], table['B']
+    reference = (args.reference_total_nT, args.reference_dip_deg)
+    if args.method == 'short-collar':
+        result = short_collar(G, B, *reference)
+        lines.append(f'short-collar: eps_z per station {np.nanmin(result.eps_z_nT):.1f} .. '
+                     f'{np.nanmax(result.eps_z_nT):.1f} nT; {int(result.east_west.sum())} '
+                     'station(s) near east/west flagged (azimuth NaN)')
+        return result, None
+    options = {'exclude_failing_qc': args.exclude_failing}
+    source = None
+    if args.method == 'classic':
+        result = solve_msa_classic(G, B, *reference, **options)
+    elif args.method == 'axial':
+        result = solve_msa_axial(G, B, *reference, **options)
+    else:
+        cross_axial, source = cross_axial_of(args, G, B, reference, options)
+        lines.append(f'cross-axial {cross_axial[0]:.1f}, {cross_axial[1]:.1f} nT: {source}')
+        result = solve_msa_improved(G, B, *reference, cross_axial_nT=cross_axial, **options)
+    lines += result_lines(result)
+    return result, source
+
+
+def cross_axial_of(args, G, B, reference, options):
+    """Return ((eps_x, eps_y) [nT], where they come from) for the improved method."""
+    if args.cross_axial_nT:
+        return tuple(args.cross_axial_nT), 'given (--cross-axial-nT)'
+    gap_deg = toolface_gap_deg(G)
+    if gap_deg <= MsaLimits().max_toolface_gap_deg:
+        classic = solve_msa_classic(G, B, *reference, **options)
+        return tuple(classic.eps_nT[:2]), (f'from the classic solve (toolfaces spread, '
+                                           f'largest gap {gap_deg:.1f} deg)')
+    return (0.0, 0.0), (f'taken as zero: toolfaces not spread (largest gap {gap_deg:.1f} deg) '
+                        'and no --cross-axial-nT')
+
+
+def result_lines(result):
+    """Return the summary lines of an MsaResult."""
+    d = result.diagnostics
+    lines = [f'{result.method}: eps x, y, z = ' + ', '.join(f'{v:.1f}' for v in result.eps_nT)
+             + ' nT',
+             f'V before {result.v_before_nT2:.4g} nT^2, after {result.v_after_nT2:.4g} nT^2 '
+             f'({result.iterations} iterations)']
+    if result.interval_nT is not None:
+        lines.append(f'eps_z0 (mean station) {result.eps_z0_nT:.1f} nT, interval '
+                     f'[{result.interval_nT[0]:.1f}, {result.interval_nT[1]:.1f}] nT'
+                     + (' (minimum ON ITS EDGE)' if d.at_interval_bound else ''))
+    lines.append(f'{d.stations_used} stations used, largest toolface gap '
+                 f'{d.toolface_gap_deg:.1f} deg, inclination {d.inclination_range_deg[0]:.1f}'
+                 f'..{d.inclination_range_deg[1]:.1f} deg, axial sensitivity '
+                 f'{d.axial_sensitivity:.3f}, condition number {d.condition_number:.3g}')
+    if result.excluded:
+        lines.append('excluded (QC): station(s) '
+                     + ', '.join(str(i + 1) for i in result.excluded))
+    return lines
+
+
+def write_outputs(args, table, output, lines):
+    """Write OUT, OUT.msa.json and the report."""
+    result, source = output
+    G = table['G']
+    columns = {}
+    if 'md' in table:
+        columns['md'] = table['md']
+    columns.update(inclination_deg=magnetics.inclination_deg(G),
+                   toolface_deg=magnetics.gravity_toolface_deg(G),
+                   azimuth_raw_deg=result.azimuth_raw_deg, azimuth_deg=result.azimuth_deg)
+    if args.declination_deg is not None:
+        columns['azimuth_true_north_deg'] = magnetics.true_azimuth_deg(
+            result.azimuth_deg, args.declination_deg)
+    qc = result.qc
+    columns.update(b_total_delta_nT=qc.b_total_delta_nT, dip_delta_deg=qc.dip_delta_deg,
+                   b_total_ok=qc.b_total_ok, dip_ok=qc.dip_ok, g_total_ok=qc.g_total_ok)
+    if hasattr(result, 'east_west'):
+        columns.update(eps_z_nT=result.eps_z_nT, east_west=result.east_west)
+    else:
+        columns['used'] = result.used
+    if TRUTH_COLUMN in table:
+        columns[TRUTH_COLUMN] = table[TRUTH_COLUMN]
+        columns['azimuth_error_deg'] = azimuth_difference_deg(
+            result.azimuth_deg, table[TRUTH_COLUMN])
+    write_table(args.output, columns)
+    json_path = f'{args.output}.msa.json'
+    with open(json_path, 'w') as stream:
+        json.dump(summary(args, result, source), stream, indent=2)
+        stream.write('\n')
+    lines.append(f'wrote {args.output} ({G.shape[0]} stations) and {json_path}')
+    if args.report:
+        plot_report(args, table, result)
+        lines.append(f'report: {args.report}')
+
+
+def write_table(path, columns):
+    """Write ``{name: values}`` as CSV; booleans as 0/1, floats in full precision."""
+    rows = np.column_stack([np.asarray(values, dtype=float) for values in columns.values()])
+    flags = [np.asarray(values).dtype == bool for values in columns.values()]
+    with open(path, 'w') as stream:
+        stream.write(','.join(columns) + '\n')
+        for row in rows:
+            stream.write(','.join(str(int(v)) if flag else repr(float(v))
+                                  for v, flag in zip(row, flags)) + '\n')
+
+
+def summary(args, result, source):
+    """Return the JSON-ready record of the corrections."""
+    record = {'method': args.method, 'stations': args.stations,
+              'reference_total_nT': args.reference_total_nT,
+              'reference_dip_deg': args.reference_dip_deg,
+              'declination_deg': args.declination_deg,
+              'v_before_nT2': result.v_before_nT2, 'v_after_nT2': result.v_after_nT2}
+    if hasattr(result, 'east_west'):
+        record.update(eps_z_nT=[None if np.isnan(v) else v for v in result.eps_z_nT.tolist()],
+                      east_west_stations=(np.flatnonzero(result.east_west) + 1).tolist())
+        return record
+    d = result.diagnostics
+    record.update(
+        eps_nT=result.eps_nT.tolist(), iterations=result.iterations,
+        excluded_stations=[i + 1 for i in result.excluded],
+        eps_z0_nT=None if result.interval_nT is None else result.eps_z0_nT,
+        interval_nT=None if result.interval_nT is None else list(result.interval_nT),
+        cross_axial_source=source,
+        diagnostics=dict(asdict(d), inclination_range_deg=list(d.inclination_range_deg),
+                         at_interval_bound=bool(d.at_interval_bound)))
+    return record
+
+
+def plot_report(args, table, result):
+    """Plot azimuths (and errors vs truth), then V(eps_z) wide and near the solution."""
+    has_truth = int(TRUTH_COLUMN in table)
+    pyplot, fig, axes = new_figure(3 + has_truth, f'inclino msa --method {args.method}')
+    station = table.get('md', np.arange(1, table['G'].shape[0] + 1))
+    axes[0].plot(station, result.azimuth_raw_deg, 'o-', color='tab:red', label='raw')
+    axes[0].plot(station, result.azimuth_deg, 'o-', color='tab:green', label='corrected')
+    axes[0].set_ylabel('magnetic azimuth [deg]')
+    if has_truth:
+        truth = table[TRUTH_COLUMN]
+        axes[0].plot(station, truth, 'k.', label='truth')
+        for azimuth, colour, name in ((result.azimuth_raw_deg, 'tab:red', 'raw'),
+                                      (result.azimuth_deg, 'tab:green', 'corrected')):
+            error = azimuth_difference_deg(azimuth, truth)
+            usable = np.isfinite(error)
+            axes[1].plot(station, error, 'o-', color=colour, label=f'{name}: max |error| ' + (
+                f'{np.max(np.abs(error[usable])):.3f} deg' if usable.any() else 'none usable'))
+        axes[1].set_ylabel('azimuth - truth [deg]')
+    axes[has_truth].set_xlabel('md' if 'md' in table else 'station')
+    if hasattr(result, 'east_west'):
+        plot_short_collar(axes[1 + has_truth:], station, result)
+    else:
+        plot_misfit(axes[1 + has_truth:], args, table, result)
+    finish_figure(pyplot, fig, axes, args.report)
+
+
+def plot_misfit(axes, args, table, result):
+    """Plot V(eps_z), eps_x and eps_y solved: over +-10000 nT (Fig. 5) and zoomed (Fig. 6)."""
+    G, B = table['G'][result.used], table['B'][result.used]
+    eps = result.eps_nT
+    if result.interval_nT is None:
+        zoom = (eps[2] - 100.0, eps[2] + 100.0)
+    else:
+        half = result.interval_nT[1] - result.interval_nT[0]
+        zoom = (result.interval_nT[0] - half, result.interval_nT[1] + half)
+    for ax, span in zip(axes, ((-MAX_INTERFERENCE_NT, MAX_INTERFERENCE_NT), zoom)):
+        eps_z = np.linspace(*span, CURVE_POINTS)
+        misfit = [misfit_nT2(G, B, args.reference_total_nT, args.reference_dip_deg,
+                             (eps[0], eps[1], z)) for z in eps_z]
+        ax.plot(eps_z, misfit, color='tab:blue', label='V(eps_z) (seed 002 Eq. 10)')
+        ax.axvline(eps[2], color='tab:green', label=f'eps_z = {eps[2]:.1f} nT')
+        if result.interval_nT is not None:
+            ax.axvspan(*result.interval_nT, color='tab:orange', alpha=0.2,
+                       label='interval eps_z0 +- d (Eq. 28)')
+            ax.axvline(result.eps_z0_nT, color='tab:orange', linestyle='--',
+                       label=f'eps_z0 = {result.eps_z0_nT:.1f} nT (Eq. 27)')
+        ax.set_yscale('log')
+        ax.set_ylabel('V [nT^2]')
+        ax.set_xlabel('eps_z [nT]')
+
+
+def plot_short_collar(axes, station, result):
+    """Plot each station's axial correction and the azimuth change it makes."""
+    axes[0].plot(station, result.eps_z_nT, 'o-', color='tab:blue', label='eps_z per station')
+    axes[0].plot(station[result.east_west], result.eps_z_nT[result.east_west], 'rx',
+                 label='near east/west: not usable')
+    axes[0].set_ylabel('eps_z [nT]')
+    axes[1].plot(station, result.azimuth_deg - result.azimuth_raw_deg, 'o-',
+                 color='tab:green', label='azimuth correction')
+    axes[1].set_ylabel('corrected - raw [deg]')
