@@ -16,7 +16,8 @@ both well inside the targets.  Uncorrected, 2000 nT at east/west horizontal is 4
 
 The accuracy table gives the improved method the true cross-axial (modelled as already
 corrected) and lets the classic one solve the full eps; the seed 002 pipeline test takes the
-cross-axial from each station's rotation capture (``inclino_ros.cross_axial`` ellipse fit).  Noise-free cases are exact to round-off (1e-6 nT, 1e-9 deg).
+cross-axial from each station's rotation capture (``inclino_ros.cross_axial`` ellipse fit).
+Noise-free cases are exact to round-off (1e-6 nT, 1e-9 deg).
 """
 
 from dataclasses import replace
