@@ -73,16 +73,18 @@ def run(raw, model, settings, temperature_c=None):
     codes = screen(raw, settings.accelerometer_axes,
                    settings.accelerometer_range_mps2, settings.gravity_mps2)
     accepted = codes == ACCEPTED
-    if np.ndim(temperature_c) == 1:
-        temperature_c = np.asarray(temperature_c)[accepted]
-    corrected = model.apply(sensor_vectors(raw[accepted], settings), temperature_c)
+    if not accepted.all():
+        raw = raw[accepted]
+        if np.ndim(temperature_c) == 1:
+            temperature_c = np.asarray(temperature_c)[accepted]
+    corrected = model.apply(sensor_vectors(raw, settings), temperature_c)
     incl_deg = np.degrees(inclination(corrected))
     toolface_deg = np.degrees(TOOLFACE_CONVENTIONS[settings.toolface_convention](corrected))
     toolface_deg[incl_deg < settings.toolface_min_inclination_deg] = math.nan
     return Survey(codes=codes, corrected_mps2=corrected, inclination_deg=incl_deg,
                   toolface_deg=toolface_deg,
                   orientation_wxyz=orientation_quaternion(corrected),
-                  g_total_mps2=np.linalg.norm(corrected, axis=1))
+                  g_total_mps2=np.sqrt(np.einsum('ij,ij->i', corrected, corrected)))
 
 
 def imu_covariances(survey, model, settings, noise_std_mps2):

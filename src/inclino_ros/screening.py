@@ -29,20 +29,15 @@ def screen(raw, axes, range_mps2, gravity_mps2):
     ``raw`` has shape ``(N, 3)`` in m/s^2; for ``axes == 2`` its z column is
     ignored.  Checks are vectorised and the first failing reason wins.
     """
-    raw = np.asarray(raw, dtype=float)
-    used = raw[:, :axes]
-    codes = np.full(raw.shape[0], ACCEPTED, dtype=np.int8)
-    none = np.zeros(raw.shape[0], dtype=bool)
-    if axes == 3:
-        zero = np.linalg.norm(used, axis=1) < ZERO_FRACTION * gravity_mps2
-        over_g = none
-    else:
-        zero = none
-        over_g = np.hypot(used[:, 0], used[:, 1]) > gravity_mps2
-    failing = (~np.all(np.isfinite(used), axis=1),
-               np.any(np.abs(used) >= range_mps2, axis=1),
-               zero,
-               over_g)
+    used = np.asarray(raw, dtype=float)[:, :axes]
+    # |f| for three axes; for two the cross-axial magnitude hypot(x, y).
+    magnitude = np.sqrt(np.einsum('ij,ij->i', used, used))
+    none = np.zeros(used.shape[0], dtype=bool)
+    failing = (~np.isfinite(used).all(axis=1),
+               (np.abs(used) >= range_mps2).any(axis=1),
+               magnitude < ZERO_FRACTION * gravity_mps2 if axes == 3 else none,
+               magnitude > gravity_mps2 if axes == 2 else none)
+    codes = np.full(used.shape[0], ACCEPTED, dtype=np.int8)
     for code in reversed(range(len(REASONS))):
         codes[failing[code]] = code
     return codes
