@@ -23,6 +23,7 @@ import math
 import os
 import tempfile
 
+from inclino_ros.cross_axial import apply_cross_axial
 from inclino_ros.installation import (
     inverse_installation_matrix, pseudo_inclination, to_tool_frame)
 from inclino_ros.stand import correct_stand, MAX_CONDITION_NUMBER
@@ -136,6 +137,42 @@ class Temperature:
 
 
 @dataclass(frozen=True)
+class Magnetic:
+    """
+    Seed 002 magnetometer corrections, all in the z-up tool frame, nT.
+
+    ``B = W (m_xy - c)`` on the cross-axial axes (the per-rotation ellipse
+    fit, seed 002 §2.1), then ``B - interference`` (the multi-station
+    analysis, §2.2; solved in the ISCWSA frame and stored here turned into
+    the tool frame).
+    """
+
+    hard_iron_nT: tuple        # c, tool x and y
+    soft_iron: tuple           # W, 2 rows of 2 (identity without a rotation fit)
+    interference_nT: tuple     # MSA eps in tool axes x, y, z
+    rotation_fitted_at: str    # None until ~/capture_rotation
+    msa_method: str            # None until ~/solve_msa, else improved/classic/axial
+    msa_stations: int
+    msa_reference_total_nT: float
+    msa_reference_dip_deg: float
+    msa_fitted_at: str
+
+    @property
+    def offset_nT(self):
+        """Return c as an array (``cross_axial.apply_cross_axial`` reads it)."""
+        return np.array(self.hard_iron_nT)
+
+    @property
+    def correction(self):
+        """Return W as an array (``cross_axial.apply_cross_axial`` reads it)."""
+        return np.array(self.soft_iron)
+
+    def apply(self, b_nT):
+        """Return corrected tool-frame field readings (..., 3) [nT]."""
+        return apply_cross_axial(b_nT, self) - np.asarray(self.interference_nT)
+
+
+@dataclass(frozen=True)
 class CalibrationModel:
     """All corrections for one tool; a stage that is None is not applied."""
 
@@ -143,10 +180,11 @@ class CalibrationModel:
     installation: Installation = None
     stand: Stand = None
     temperature: Temperature = None
+    magnetic: Magnetic = None
 
     @property
     def calibrated(self):
-        """Whether any correction stage is present."""
+        """Whether any accelerometer correction stage is present."""
         return any(getattr(self, stage) is not None for stage in STAGES)
 
     def apply(self, f, temperature_c=None, before=None):
@@ -165,11 +203,16 @@ class CalibrationModel:
                 f = stage.apply(f, temperature_c)
         return f
 
+    def apply_magnetic(self, b_nT):
+        """Return corrected magnetometer readings (N, 3) [nT, tool frame]."""
+        b_nT = np.asarray(b_nT, dtype=float)
+        return b_nT if self.magnetic is None else self.magnetic.apply(b_nT)
+
     def to_dict(self):
         """Return the JSON-ready document of this model."""
         doc = {'format': FORMAT, 'schema_version': SCHEMA_VERSION,
                'accelerometer_axes': self.accelerometer_axes}
-        for name in STAGES:
+        for name in STAGES + ('magnetic',):
             stage = getattr(self, name)
             if stage is not None:
                 doc[name] = asdict(stage)
@@ -248,12 +291,12 @@ def model_from_dict(doc):
     axes = doc['accelerometer_axes']
     if not is_int(axes) or axes not in (2, 3):
         raise ValueError(f'accelerometer_axes {axes!r} is not 2 or 3')
-    stages = STAGES if version == SCHEMA_VERSION else ('installation',)
+    stages = STAGES + ('magnetic',) if version == SCHEMA_VERSION else ('installation',)
     unknown = set(doc) - {'format', 'schema_version', 'accelerometer_axes', *stages}
     if unknown:
         raise ValueError(f'unknown sections {sorted(unknown)} in a version {version} file')
     readers = {'installation': installation_from_dict, 'stand': stand_from_dict,
-               'temperature': temperature_from_dict}
+               'temperature': temperature_from_dict, 'magnetic': magnetic_from_dict}
     model = CalibrationModel(accelerometer_axes=axes, **{
         name: readers[name](doc[name]) for name in stages if doc.get(name) is not None})
     if axes == 2 and (model.stand or model.temperature):
@@ -358,3 +401,33 @@ def temperature_from_dict(section):
     if np.max(np.abs(stage.fit().scale_factor([t_ref]) - 1.0)) > 1e-6:
         raise ValueError('temperature.coefficients are not 1 at the reference temperature')
     return stage
+
+
+def magnetic_from_dict(section):
+    """Return a validated Magnetic from its file section."""
+    _check_fields(section, Magnetic, 'magnetic')
+    (w,) = _finite(section, 'magnetic', 'soft_iron', shape=(2, 2))
+    _finite(section, 'magnetic', 'hard_iron_nT', shape=(2,))
+    (eps,) = _finite(section, 'magnetic', 'interference_nT', shape=(3,))
+    if np.linalg.cond(w) > 2.0 or np.any(np.abs(np.diag(w) - 1.0) > 0.5):
+        raise ValueError(f'magnetic.soft_iron {w.tolist()} is not a plausible correction')
+    if np.max(np.abs(eps)) > 1e5:
+        raise ValueError(f'magnetic.interference_nT {eps.tolist()} exceeds 100000 nT')
+    for key in ('rotation_fitted_at', 'msa_fitted_at'):
+        if section[key] is not None:
+            _time(section, 'magnetic', key)
+    if section['msa_method'] is not None:
+        if section['msa_method'] not in ('improved', 'classic', 'axial'):
+            raise ValueError(f'magnetic.msa_method = {section["msa_method"]!r} is unknown')
+        _count(section, 'magnetic', 'msa_stations')
+        _finite(section, 'magnetic', 'msa_reference_total_nT', 'msa_reference_dip_deg')
+    return Magnetic(**dict(section, hard_iron_nT=tuple(section['hard_iron_nT']),
+                           soft_iron=tuple(map(tuple, section['soft_iron'])),
+                           interference_nT=tuple(section['interference_nT'])))
+
+
+#: A magnetic stage that changes nothing, to build the first correction on.
+NO_MAGNETIC_CORRECTION = Magnetic(
+    hard_iron_nT=(0.0, 0.0), soft_iron=((1.0, 0.0), (0.0, 1.0)),
+    interference_nT=(0.0, 0.0, 0.0), rotation_fitted_at=None, msa_method=None,
+    msa_stations=0, msa_reference_total_nT=0.0, msa_reference_dip_deg=0.0, msa_fitted_at=None)

@@ -11,6 +11,9 @@ import math
 
 from inclino_ros.attitude import (
     complete_two_axis, inclination, orientation_quaternion, TOOLFACE_CONVENTIONS)
+from inclino_ros.magnetics import (
+    azimuth_deg, b_total_nT, dip_deg, gravity_from_specific_force, iscwsa_from_tool, QcLimits,
+    survey_qc, SurveyQc, true_azimuth_deg)
 from inclino_ros.screening import ACCEPTED, screen
 import numpy as np
 
@@ -38,6 +41,28 @@ class Settings:
 
 
 @dataclass(frozen=True)
+class MagneticSettings:
+    """The reference field and QC limits of the azimuth (the node's magnetic.* parameters)."""
+
+    reference_total_nT: float = 0.0   # 0: no reference known, QC not checked
+    reference_dip_deg: float = 0.0
+    declination_deg: float = 0.0
+    limits: QcLimits = QcLimits()
+
+
+@dataclass(frozen=True)
+class AzimuthSurvey:
+    """Azimuth of the accepted samples that came with a magnetometer reading."""
+
+    azimuth_deg: np.ndarray       # (M,) magnetic azimuth, NaN where not trusted
+    true_azimuth_deg: np.ndarray  # (M,) azimuth_deg + declination
+    b_total_nT: np.ndarray        # (M,) of the corrected field
+    dip_deg: np.ndarray           # (M,)
+    qc: SurveyQc                  # None without a reference field
+    trusted: np.ndarray           # (M,) paired, finite and passing QC
+
+
+@dataclass(frozen=True)
 class Survey:
     """Results for the accepted samples of a batch, in input order."""
 
@@ -47,6 +72,7 @@ class Survey:
     toolface_deg: np.ndarray     # (M,), NaN below the minimum inclination
     orientation_wxyz: np.ndarray  # (M, 4)
     g_total_mps2: np.ndarray     # (M,)
+    magnetic: AzimuthSurvey = None  # when magnetometer readings were given
 
     @property
     def accepted(self):
@@ -62,12 +88,42 @@ def sensor_vectors(raw, settings):
     return raw
 
 
-def run(raw, model, settings, temperature_c=None):
+def resolve_azimuth(corrected_mps2, field_nT, model, settings, magnetic_settings):
+    """
+    Return the AzimuthSurvey of corrected accelerometer and raw magnetometer readings.
+
+    Both in the z-up tool frame, (M, 3); a NaN field row (no paired reading)
+    gives a NaN azimuth.  The field is corrected by the model's magnetic stage
+    and turned into the ISCWSA frame with the gravity vector
+    (``magnetics.gravity_from_specific_force``) for the azimuth of seed 001
+    Eq. 4; a sample failing QC against the reference is not trusted.
+    """
+    gravity = gravity_from_specific_force(corrected_mps2)
+    field = iscwsa_from_tool(model.apply_magnetic(field_nT))
+    azimuth = azimuth_deg(gravity, field)
+    trusted = np.isfinite(azimuth)
+    qc = None
+    if magnetic_settings.reference_total_nT > 0:
+        qc = survey_qc(gravity, field, magnetic_settings.reference_total_nT,
+                       magnetic_settings.reference_dip_deg, settings.gravity_mps2,
+                       magnetic_settings.limits)
+        trusted &= qc.ok
+    azimuth = np.where(trusted, azimuth, math.nan)
+    return AzimuthSurvey(
+        azimuth_deg=azimuth,
+        true_azimuth_deg=true_azimuth_deg(azimuth, magnetic_settings.declination_deg),
+        b_total_nT=b_total_nT(field), dip_deg=dip_deg(gravity, field), qc=qc,
+        trusted=trusted)
+
+
+def run(raw, model, settings, temperature_c=None, field_nT=None,
+        magnetic_settings=MagneticSettings()):
     """
     Screen, correct and resolve a batch of raw readings (N x 3, m/s^2).
 
     ``temperature_c`` (scalar or (N,)) feeds the model's temperature stage;
-    None compensates at the reference temperature.
+    None compensates at the reference temperature.  ``field_nT`` (N x 3,
+    tool frame, NaN rows where no reading is paired) adds the azimuth.
     """
     raw = np.asarray(raw, dtype=float).reshape(-1, 3)
     codes = screen(raw, settings.accelerometer_axes,
@@ -77,6 +133,8 @@ def run(raw, model, settings, temperature_c=None):
         raw = raw[accepted]
         if np.ndim(temperature_c) == 1:
             temperature_c = np.asarray(temperature_c)[accepted]
+        if field_nT is not None:
+            field_nT = np.asarray(field_nT, dtype=float).reshape(-1, 3)[accepted]
     corrected = model.apply(sensor_vectors(raw, settings), temperature_c)
     incl_deg = np.degrees(inclination(corrected))
     toolface_deg = np.degrees(TOOLFACE_CONVENTIONS[settings.toolface_convention](corrected))
@@ -84,7 +142,10 @@ def run(raw, model, settings, temperature_c=None):
     return Survey(codes=codes, corrected_mps2=corrected, inclination_deg=incl_deg,
                   toolface_deg=toolface_deg,
                   orientation_wxyz=orientation_quaternion(corrected),
-                  g_total_mps2=np.sqrt(np.einsum('ij,ij->i', corrected, corrected)))
+                  g_total_mps2=np.sqrt(np.einsum('ij,ij->i', corrected, corrected)),
+                  magnetic=None if field_nT is None else resolve_azimuth(
+                      corrected, np.asarray(field_nT, dtype=float).reshape(-1, 3), model,
+                      settings, magnetic_settings))
 
 
 def imu_covariances(survey, model, settings, noise_std_mps2):
