@@ -163,6 +163,15 @@ def test_true_azimuth_adds_declination_and_removes_convergence():
     assert true_azimuth_deg(-1e-15, 0.0) == 0.0
 
 
+def test_nan_angles_stay_nan():
+    """An undefined angle (no paired reading, a vertical tool) is NaN, never 0 deg."""
+    assert np.isnan(true_azimuth_deg(np.nan, 3.0))
+    np.testing.assert_array_equal(np.isnan(true_azimuth_deg([np.nan, 10.0], 0.0)), [True, False])
+    G, B = forward(50.0, 120.0, 200.0, G_STD, 5.0e4, 70.0)
+    assert np.isnan(azimuth_deg(G, np.full(3, np.nan)))
+    assert np.isnan(gravity_toolface_deg(np.full(3, np.nan)))
+
+
 def test_survey_qc_flags_each_test_at_its_limit():
     G, B = forward(np.full(4, 60.0), 80.0, 30.0, G_STD, 5.0e4, 70.0)
     B = B * np.array([1.0, 1.0, 1.0, 1.01])[:, None]             # sample 3: +500 nT

@@ -71,9 +71,13 @@ def forward(inclination_deg, azimuth_deg, toolface_deg, g, b_total_nT, dip_deg):
 
 
 def _wrap_360(angle_deg):
-    """Return ``angle mod 360`` in [0, 360): np.mod rounds ``-1e-15`` up to 360 itself."""
+    """
+    Return ``angle mod 360`` in [0, 360); NaN stays NaN.
+
+    np.mod rounds ``-1e-15`` up to 360 itself, which is folded to 0.
+    """
     angle_deg = np.mod(angle_deg, 360.0)
-    return np.where(angle_deg < 360.0, angle_deg, 0.0)
+    return np.where(angle_deg == 360.0, 0.0, angle_deg)
 
 
 def _dot(u, v):
