@@ -1,8 +1,8 @@
 """
-ROS 2 bags of Imu, Vector3Stamped and Temperature series, read and written as numpy arrays.
+ROS 2 bags of Imu, MagneticField, Vector3Stamped and Temperature series as numpy arrays.
 
 Bags are read and written with rosbags (mcap or sqlite3; the reader detects
-which).  All three message types are a ``std_msgs/Header`` followed by float64s
+which).  All four message types are a ``std_msgs/Header`` followed by float64s
 only, so their CDR is encoded and decoded here for a whole batch at once with
 numpy structured arrays instead of message by message: byte-for-byte what
 rosbags' ``serialize_cdr`` gives (the tests check it), at a fraction of the
@@ -20,6 +20,9 @@ from rosbags.typesys import get_typestore, Stores
 IMU = 'sensor_msgs/msg/Imu'
 VECTOR3_STAMPED = 'geometry_msgs/msg/Vector3Stamped'
 TEMPERATURE = 'sensor_msgs/msg/Temperature'
+MAGNETIC_FIELD = 'sensor_msgs/msg/MagneticField'
+#: nT per tesla: sensor_msgs/MagneticField is in tesla, the magnetic core in nT.
+NT_PER_TESLA = 1e9
 STORAGES = {'mcap': StoragePlugin.MCAP, 'sqlite3': StoragePlugin.SQLITE3}
 CHUNK_SIZE = 10_000
 
@@ -84,6 +87,30 @@ class TemperatureSeries:
 
 
 @dataclass(frozen=True)
+class MagneticFieldSeries:
+    """sensor_msgs/MagneticField messages as arrays (SI: tesla)."""
+
+    stamps_ns: np.ndarray         # (N,) int64 header stamps
+    frame_ids: np.ndarray         # (N,) str
+    magnetic_field_T: np.ndarray  # (N, 3) x, y, z [T]
+    covariance_T2: np.ndarray     # (N, 9) row-major [T^2], all 0 = unknown
+
+    def values(self):
+        """Return the float64 fields after the header, one row per message."""
+        return np.concatenate([self.magnetic_field_T, self.covariance_T2], axis=1)
+
+    @classmethod
+    def from_values(cls, stamps_ns, frame_ids, values):
+        """Return the series whose post-header float64 fields are ``values`` (N x 12)."""
+        return cls(stamps_ns, frame_ids, values[:, :3], values[:, 3:])
+
+    @property
+    def field_nT(self):
+        """Return the field in nT, (N, 3)."""
+        return self.magnetic_field_T * NT_PER_TESLA
+
+
+@dataclass(frozen=True)
 class ImuSeries:
     """sensor_msgs/Imu messages as arrays, fields in message order."""
 
@@ -110,7 +137,7 @@ class ImuSeries:
 
 #: Float64 count after the header, and the array type, of each supported message.
 _LAYOUTS = {IMU: (37, ImuSeries), VECTOR3_STAMPED: (3, Vector3Series),
-            TEMPERATURE: (2, TemperatureSeries)}
+            TEMPERATURE: (2, TemperatureSeries), MAGNETIC_FIELD: (12, MagneticFieldSeries)}
 
 
 def frame_id_array(frame_id, count):
@@ -146,6 +173,21 @@ def raw_imu(stamps_ns, frame_id, linear_acceleration_mps2, noise_std_mps2):
         angular_velocity_radps=np.zeros((n, 3)),
         angular_velocity_covariance=not_measured_covariance(n),
         linear_acceleration_mps2=acc, linear_acceleration_covariance=acc_cov)
+
+
+def magnetometer(stamps_ns, frame_id, field_nT, noise_std_nT):
+    """
+    Return a magnetometer series as a driver publishes it, from readings in nT.
+
+    The message holds tesla (``field_nT / NT_PER_TESLA``) and the covariance
+    ``noise_std_nT^2`` (in T^2) on the diagonal; a NaN row stays NaN.
+    """
+    field = np.asarray(field_nT, dtype=float).reshape(-1, 3) / NT_PER_TESLA
+    n = field.shape[0]
+    covariance = np.zeros((n, 9))
+    covariance[:, [0, 4, 8]] = (noise_std_nT / NT_PER_TESLA) ** 2
+    return MagneticFieldSeries(np.asarray(stamps_ns, dtype=np.int64),
+                               frame_id_array(frame_id, n), field, covariance)
 
 
 def _values_offset(frame_len):
@@ -314,8 +356,9 @@ def read(path, topic, chunk_size=CHUNK_SIZE):
     """
     Yield the messages of ``topic`` as series of at most ``chunk_size`` messages.
 
-    The topic must hold sensor_msgs/Imu, geometry_msgs/Vector3Stamped or
-    sensor_msgs/Temperature; raises BagError naming the topics there are when it does not.
+    The topic must hold sensor_msgs/Imu, sensor_msgs/MagneticField,
+    geometry_msgs/Vector3Stamped or sensor_msgs/Temperature; raises BagError
+    naming the topics there are when it does not.
     """
     with _open(path) as reader:
         connections, msgtype = _topic_connections(reader, topic)
@@ -329,7 +372,7 @@ def read(path, topic, chunk_size=CHUNK_SIZE):
 
 class BagWriter:
     """
-    A new bag of Imu, Vector3Stamped and Temperature topics, written from series.
+    A new bag of Imu, MagneticField, Vector3Stamped and Temperature topics, from series.
 
     Use as a context manager; on an exception the bag is left unfinished by
     rosbags' own abort.  Series written together are interleaved message by
@@ -358,7 +401,7 @@ class BagWriter:
         return self._writer.__exit__(*exc_info)
 
     def add_topic(self, topic, msgtype):
-        """Declare ``topic`` of ``msgtype`` (IMU, VECTOR3_STAMPED or TEMPERATURE)."""
+        """Declare ``topic`` of ``msgtype`` (a supported type: IMU, MAGNETIC_FIELD, ...)."""
         if msgtype not in _LAYOUTS:
             raise ValueError(f'msgtype must be one of {sorted(_LAYOUTS)}, not {msgtype!r}')
         self._connections[topic] = self._writer.add_connection(
