@@ -143,7 +143,7 @@ def test_codec_matches_rosbags_byte_for_byte(frame_id):
 
 @pytest.mark.parametrize('frame_id', ['', 'mag', 'imu_link', 'magnetometer'])
 def test_magnetic_field_codec_matches_rosbags(frame_id):
-    """Encode MagneticField (tesla, 9 covariances) as rosbags' CDR byte for byte, decoded back exactly."""
+    """Encode MagneticField (tesla, 9 covariances) as rosbags' CDR, byte for byte; decode back."""
     rng = np.random.default_rng(len(frame_id))
     stamps_ns = np.array([0, 7, 1_767_225_600_123_456_789])
     field_nT = rng.normal(0.0, 3e4, size=(3, 3))
