@@ -4,23 +4,39 @@
 Reads sensor_msgs/Imu from a bag, runs ``pipeline.run`` on batches of
 samples and writes, for every accepted sample and with its stamp and
 frame_id, ``/survey`` (Vector3Stamped: x inclination_deg, y toolface_deg,
-z NaN azimuth) and ``/imu/data`` (corrected specific force, roll/pitch
-orientation and the node's covariances).  Dropped samples produce no output.
+z azimuth_deg, NaN without ``--mag-topic``) and ``/imu/data`` (corrected
+specific force, roll/pitch orientation and the node's covariances).  Dropped samples produce no output.
 With ``--temperature-topic`` the calibration's temperature stage gets the
 temperature of each sample (sensor_msgs/Temperature interpolated linearly to
 its stamp, the first or last value held outside their span); without it the
 stage compensates at its reference temperature.
+
+With ``--mag-topic`` (sensor_msgs/MagneticField, tesla, z-up tool frame)
+each Imu sample is paired with the magnetometer message nearest in time;
+one further than ``--max-pairing-s`` away (or none) leaves the sample
+without a field: its azimuth is NaN and it is counted unpaired.  The field
+(in nT) goes through the calibration's magnetic stage to ``pipeline.run``,
+and ``/survey`` z is the magnetic azimuth where it is trusted (paired,
+defined and passing the survey QC against the reference field: B-total,
+dip, G-total), NaN elsewhere.  The reference is ``--reference-total-nT``,
+``--reference-dip-deg`` or ``--site`` (WMM), else the one of the
+calibration's multi-station analysis; an azimuth is never written without
+one to check it against.
 """
 
+from dataclasses import dataclass
 import math
 import sys
 
 from inclino_ros.bag import (
-    BagError, BagWriter, CHUNK_SIZE, concatenate, IMU, ImuSeries, not_measured_covariance, read,
-    STORAGES, TEMPERATURE, topic_info, VECTOR3_STAMPED, Vector3Series)
+    BagError, BagWriter, CHUNK_SIZE, concatenate, IMU, ImuSeries, MAGNETIC_FIELD,
+    not_measured_covariance, read, STORAGES, TEMPERATURE, topic_info, VECTOR3_STAMPED,
+    Vector3Series)
+from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.model import CalibrationFileError, load_model
 from inclino_ros.node.parameters import PARAMETERS
-from inclino_ros.pipeline import imu_covariances, run as run_pipeline, Settings
+from inclino_ros.pipeline import (
+    imu_covariances, MagneticSettings, run as run_pipeline, Settings)
 from inclino_ros.screening import count_reasons, REASONS
 import numpy as np
 from tqdm import tqdm
@@ -28,10 +44,46 @@ from tqdm import tqdm
 SURVEY_TOPIC = '/survey'
 IMU_TOPIC = '/imu/data'
 NODE_DEFAULTS = {parameter.name: parameter.default for parameter in PARAMETERS}
+#: Azimuth counts of the summary (accepted samples only).
+MAGNETIC_COUNTS = ('mag_paired', 'mag_unpaired', 'azimuth_trusted', 'azimuth_untrusted',
+                   'qc_failed', 'qc_failed_b_total', 'qc_failed_dip', 'qc_failed_g_total')
 
 
 class CommandError(Exception):
     """A reason to stop before processing, reported with exit code 2."""
+
+
+@dataclass(frozen=True)
+class Magnetometer:
+    """A magnetometer topic read whole, and how its readings pair with the Imu samples."""
+
+    stamps_ns: np.ndarray     # (M,) int64, sorted
+    field_nT: np.ndarray      # (M, 3) tool frame
+    max_pairing_ns: int
+    settings: MagneticSettings
+
+    @classmethod
+    def from_series(cls, series, max_pairing_s, settings):
+        """Return the Magnetometer of a MagneticFieldSeries (any order; tesla -> nT)."""
+        order = np.argsort(series.stamps_ns, kind='stable')
+        return cls(series.stamps_ns[order], series.field_nT[order],
+                   round(max_pairing_s * 1e9), settings)
+
+    def field_at(self, stamps_ns):
+        """
+        Return (field_nT (N, 3), paired (N,)) of the readings nearest ``stamps_ns``.
+
+        A stamp with no reading within ``max_pairing_ns`` gets a NaN row
+        (unpaired); of two readings equally near, the earlier one is taken.
+        """
+        stamps_ns = np.asarray(stamps_ns, dtype=np.int64)
+        last = self.stamps_ns.size - 1
+        after = np.clip(np.searchsorted(self.stamps_ns, stamps_ns), 0, last)
+        before = np.clip(after - 1, 0, last)
+        nearest = np.where(np.abs(self.stamps_ns[after] - stamps_ns)
+                           < np.abs(stamps_ns - self.stamps_ns[before]), after, before)
+        paired = np.abs(self.stamps_ns[nearest] - stamps_ns) <= self.max_pairing_ns
+        return np.where(paired[:, None], self.field_nT[nearest], np.nan), paired
 
 
 class Summary:
@@ -47,6 +99,7 @@ class Summary:
         self._inclination_sum_deg = 0.0
         self._g_offset_sum = 0.0
         self._g_offset_sum_sq = 0.0
+        self.magnetic = None
 
     @property
     def accepted(self):
@@ -68,11 +121,33 @@ class Summary:
             self._g_offset_sum += float(offset.sum())
             self._g_offset_sum_sq += float(offset @ offset)
 
+    def add_magnetic(self, survey, paired):
+        """
+        Count the azimuths of one batch: ``paired`` (N,) says which input samples had a field.
+
+        Counts (of accepted samples): paired, unpaired, trusted, untrusted,
+        and the paired ones failing QC, in all and per test.
+        """
+        counts = self.magnetic or dict.fromkeys(MAGNETIC_COUNTS, 0)
+        paired = np.asarray(paired)[survey.accepted]
+        azimuth = survey.magnetic
+        counts['mag_paired'] += int(paired.sum())
+        counts['mag_unpaired'] += int((~paired).sum())
+        counts['azimuth_trusted'] += int(azimuth.trusted.sum())
+        counts['azimuth_untrusted'] += int((~azimuth.trusted).sum())
+        qc = azimuth.qc
+        for name, ok in (('qc_failed', qc.ok), ('qc_failed_b_total', qc.b_total_ok),
+                         ('qc_failed_dip', qc.dip_ok), ('qc_failed_g_total', qc.g_total_ok)):
+            counts[name] += int((paired & ~ok).sum())
+        self.magnetic = counts
+
     def lines(self):
         """Return the summary as ``name: value`` lines."""
         n = self.accepted
         lines = [f'samples_in: {self.samples_in}', f'accepted: {n}']
         lines += [f'dropped_{reason}: {count}' for reason, count in self.dropped.items()]
+        if self.magnetic is not None:
+            lines += [f'{name}: {count}' for name, count in self.magnetic.items()]
         if n == 0:
             return lines + ['inclination_deg: none accepted', 'g_total_mps2: none accepted']
         g_mean = self.gravity_mps2 + self._g_offset_sum / n
@@ -117,6 +192,14 @@ def register(subparsers):
                              'covariances (default: %(default)s)')
     parser.add_argument('--chunk-size', type=int, default=CHUNK_SIZE,
                         help='samples processed per batch (default: %(default)s)')
+    magnetic = parser.add_argument_group('magnetic azimuth (seed 002)')
+    magnetic.add_argument('--mag-topic', metavar='TOPIC',
+                          help='sensor_msgs/MagneticField topic of IN (tesla, tool frame): '
+                               'adds the azimuth on /survey z (default: none, z NaN)')
+    magnetic.add_argument('--max-pairing-s', type=float, default=0.05, metavar='S',
+                          help='largest time between an Imu sample and its magnetometer '
+                               'message [s]; beyond it the azimuth is NaN (default: %(default)s)')
+    add_reference_arguments(magnetic)
     parser.set_defaults(func=run)
 
 
@@ -124,9 +207,11 @@ def run(args):
     """Process IN into OUT; return 0, 1 if no sample was accepted, 2 on an error."""
     try:
         model, settings, count, temperature = _prepare(args)
+        magnetometer = _magnetometer(args, model)
         with BagWriter(args.output, args.storage) as out:
             summary = process(args.input, args.topic, out, model, settings,
-                              args.noise_std_mps2, args.chunk_size, count, temperature)
+                              args.noise_std_mps2, args.chunk_size, count, temperature,
+                              magnetometer)
     except (CommandError, BagError) as err:
         print(f'inclino process: error: {err}', file=sys.stderr)
         return 2
@@ -180,14 +265,47 @@ def _prepare(args):
     return model, settings, count, concatenate(read(args.input, args.temperature_topic))
 
 
+def _magnetometer(args, model):
+    """Return the Magnetometer of --mag-topic, or None without it; CommandError if unusable."""
+    if args.mag_topic is None:
+        return None
+    if not args.max_pairing_s >= 0.0:
+        raise CommandError('--max-pairing-s must not be negative')
+    stage = model.magnetic
+    fallback = ((stage.msa_reference_total_nT, stage.msa_reference_dip_deg)
+                if stage is not None and stage.msa_method is not None else (None, None))
+    try:
+        total_nT, dip_deg, declination_deg, source = resolve_reference(args, fallback)
+    except ValueError as err:
+        raise CommandError(str(err)) from None
+    if total_nT is None or dip_deg is None:
+        raise CommandError('--mag-topic needs the reference field to check each azimuth '
+                           'against: --reference-total-nT and --reference-dip-deg, or --site '
+                           '(the calibration holds no multi-station analysis to take it from)')
+    msgtype, count = topic_info(args.input, args.mag_topic)
+    if msgtype != MAGNETIC_FIELD or count == 0:
+        raise CommandError(f'{args.mag_topic} in {args.input} holds {count} {msgtype} '
+                           f'messages, not {MAGNETIC_FIELD} ones')
+    if stage is None:
+        print(f'inclino process: warning: {args.calibration} has no magnetic stage: the '
+              'azimuth is of the raw magnetometer', file=sys.stderr)
+    print(f'reference field: {total_nT:.1f} nT, dip {dip_deg:.3f} deg, declination '
+          f'{declination_deg:.3f} deg ({source}); /survey z is the magnetic azimuth',
+          file=sys.stderr)
+    settings = MagneticSettings(reference_total_nT=total_nT, reference_dip_deg=dip_deg,
+                                declination_deg=declination_deg)
+    return Magnetometer.from_series(concatenate(read(args.input, args.mag_topic)),
+                                    args.max_pairing_s, settings)
+
+
 def process(in_path, topic, out, model, settings, noise_std_mps2, chunk_size, count=None,
-            temperature=None):
+            temperature=None, magnetometer=None):
     """
     Correct ``topic`` of the bag ``in_path`` into the open BagWriter ``out``.
 
     ``temperature`` (a TemperatureSeries or None) gives each sample its
-    temperature.  Returns the Summary; shows a progress bar of ``count``
-    messages on stderr.
+    temperature, ``magnetometer`` (a Magnetometer or None) its field.
+    Returns the Summary; shows a progress bar of ``count`` messages on stderr.
     """
     out.add_topic(SURVEY_TOPIC, VECTOR3_STAMPED)
     out.add_topic(IMU_TOPIC, IMU)
@@ -195,7 +313,14 @@ def process(in_path, topic, out, model, settings, noise_std_mps2, chunk_size, co
     with tqdm(total=count, unit='msg', desc='inclino process', file=sys.stderr) as progress:
         for batch in read(in_path, topic, chunk_size):
             temperature_c = None if temperature is None else temperature.at(batch.stamps_ns)
-            survey = run_pipeline(batch.linear_acceleration_mps2, model, settings, temperature_c)
+            if magnetometer is None:
+                survey = run_pipeline(batch.linear_acceleration_mps2, model, settings,
+                                      temperature_c)
+            else:
+                field_nT, paired = magnetometer.field_at(batch.stamps_ns)
+                survey = run_pipeline(batch.linear_acceleration_mps2, model, settings,
+                                      temperature_c, field_nT, magnetometer.settings)
+                summary.add_magnetic(survey, paired)
             summary.add(survey)
             out.write_series(_outputs(batch, survey, model, settings, noise_std_mps2))
             progress.update(batch.stamps_ns.size)
@@ -209,10 +334,11 @@ def _outputs(batch, survey, model, settings, noise_std_mps2):
     n = stamps_ns.size
     acceleration_cov, orientation_cov = imu_covariances(survey, model, settings, noise_std_mps2)
     w, x, y, z = survey.orientation_wxyz.T
+    azimuth_deg = np.full(n, np.nan) if survey.magnetic is None else survey.magnetic.azimuth_deg
     return {
         SURVEY_TOPIC: Vector3Series(
             stamps_ns, frame_ids,
-            np.stack([survey.inclination_deg, survey.toolface_deg, np.full(n, np.nan)], axis=1)),
+            np.stack([survey.inclination_deg, survey.toolface_deg, azimuth_deg], axis=1)),
         IMU_TOPIC: ImuSeries(
             stamps_ns, frame_ids, orientation_xyzw=np.stack([x, y, z, w], axis=1),
             orientation_covariance=orientation_cov, angular_velocity_radps=np.zeros((n, 3)),
