@@ -7,9 +7,10 @@ frame_id, ``/survey`` (Vector3Stamped: x inclination_deg, y toolface_deg,
 z azimuth_deg, NaN without ``--mag-topic``) and ``/imu/data`` (corrected
 specific force, roll/pitch orientation and the node's covariances).
 Dropped samples produce no output.  With ``--temperature-topic`` the
-calibration's temperature stage gets the temperature of each sample (sensor_msgs/Temperature interpolated linearly to
-its stamp, the first or last value held outside their span); without it the
-stage compensates at its reference temperature.
+calibration's temperature stage gets the temperature of each sample
+(sensor_msgs/Temperature interpolated linearly to its stamp, the first or
+last value held outside their span); without it the stage compensates at
+its reference temperature.
 
 With ``--mag-topic`` (sensor_msgs/MagneticField, tesla, z-up tool frame)
 each Imu sample is paired with the magnetometer message nearest in time;
