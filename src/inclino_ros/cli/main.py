@@ -11,7 +11,7 @@ import importlib
 import sys
 
 COMMANDS = ('simulate', 'process', 'play', 'calibrate', 'demo', 'fit-stand', 'fit-temperature',
-            'msa', 'simulate-well')
+            'msa', 'simulate-well', 'fit-rotation')
 
 
 def build_parser():

@@ -1,0 +1,143 @@
+"""
+``inclino fit-rotation``: the cross-axial magnetometer correction of a rotation (seed 002 §2.1).
+
+Input: a bag with sensor_msgs/MagneticField on ``--mag-topic`` (tesla,
+z-up tool frame), the messages between ``--start-s`` and ``--end-s``
+(seconds after the topic's first message; default: all of them), or a CSV
+with the columns ``bx, by, bz`` (nT, tool frame), one row per reading.  The
+tool turns about its own axis at one attitude (what ``inclino simulate
+--magnetic --rotation-s`` records): the cross-axial readings lie on an
+ellipse that ``cross_axial.fit_cross_axial`` fits (hard iron c, symmetric
+soft-iron correction W of ``B_xy = W (m_xy - c)``).
+
+The magnetic stage of the calibration file gets ``hard_iron_nT``,
+``soft_iron`` and ``rotation_fitted_at`` (a file without one starts from
+``model.NO_MAGNETIC_CORRECTION``); its interference and every other stage
+are kept.  Report: the readings before and after with the fitted ellipse and
+circle (seed 002 Fig. 4) in ``fit_rotation.png`` and the summary in
+``fit_rotation.txt``.
+
+Refused (exit 1, the calibration file untouched): too few readings, a
+non-finite one, no ellipse, too flat an ellipse, too short an arc or too
+large a radial RMSE (``cross_axial.RotationLimits``).
+"""
+
+from dataclasses import replace
+
+from inclino_ros.cli.fitting import (
+    finish_figure, is_bag, load_existing, new_figure, read_csv, read_topic, Refused,
+    report_paths, run_fit, save, write_text)
+from inclino_ros.cli.process import CommandError
+from inclino_ros.cross_axial import apply_cross_axial, fit_cross_axial, RotationFitRefused
+from inclino_ros.model import NO_MAGNETIC_CORRECTION, utc_now_iso
+import numpy as np
+
+MAG_TOPIC = '/imu/mag'
+FIELD_COLUMNS = ('bx', 'by', 'bz')
+REPORT_NAME = 'fit_rotation'
+#: Points of the drawn ellipse and circle.
+CURVE_POINTS = 361
+
+
+def register(subparsers):
+    """Add the ``fit-rotation`` subcommand."""
+    parser = subparsers.add_parser(
+        'fit-rotation',
+        help='fit the cross-axial magnetometer correction of a rotation (seed 002) into a '
+             'calibration file', description=__doc__.split('\n\n', 1)[1])
+    parser.add_argument('input', metavar='BAG_OR_CSV',
+                        help='bag directory (mcap or sqlite3) or CSV file with bx, by, bz [nT]')
+    parser.add_argument('--calibration', required=True, metavar='FILE',
+                        help='calibration file to update (created if missing)')
+    parser.add_argument('--report-dir', metavar='DIR',
+                        help='folder of the PNG and text report (default: that of FILE)')
+    parser.add_argument('--mag-topic', default=MAG_TOPIC,
+                        help='sensor_msgs/MagneticField topic of a bag (default: %(default)s)')
+    parser.add_argument('--start-s', type=float,
+                        help='bag: first reading, seconds after the first message (default: 0)')
+    parser.add_argument('--end-s', type=float,
+                        help='bag: last reading, seconds after the first message '
+                             '(default: the last message)')
+    parser.set_defaults(func=run)
+
+
+def run(args):
+    """Fit, report and write the cross-axial correction; return the exit code."""
+    return run_fit('fit-rotation', args, fit)
+
+
+def load_readings(args):
+    """Return the rotation's readings (N, 3) [nT, tool frame]; CommandError if unusable."""
+    if not is_bag(args.input):
+        table = read_csv(args.input, FIELD_COLUMNS)
+        return np.column_stack([table[name] for name in FIELD_COLUMNS])
+    series = read_topic(args.input, args.mag_topic)
+    seconds = (series.stamps_ns - series.stamps_ns.min()) / 1e9
+    start_s = 0.0 if args.start_s is None else args.start_s
+    end_s = seconds.max() if args.end_s is None else args.end_s
+    window = (seconds >= start_s) & (seconds <= end_s)
+    if not window.any():
+        raise CommandError(f'no {args.mag_topic} message between {start_s} and {end_s} s '
+                           f'(the topic spans 0 .. {seconds.max():.3f} s)')
+    return series.field_nT[window]
+
+
+def fit(args, lines):
+    """Fit the rotation of ``args.input`` into ``args.calibration``; see ``run_fit``."""
+    existing = load_existing(args.calibration)
+    readings = load_readings(args)
+    try:
+        result = fit_cross_axial(readings)
+    except RotationFitRefused as err:
+        raise Refused(str(err)) from None
+    corrected = apply_cross_axial(readings, result)
+    lines += summary_lines(result, readings)
+    stage = replace(existing.magnetic or NO_MAGNETIC_CORRECTION,
+                    hard_iron_nT=tuple(result.offset_nT.tolist()),
+                    soft_iron=tuple(map(tuple, result.correction.tolist())),
+                    rotation_fitted_at=utc_now_iso())
+    png, txt = report_paths(args, REPORT_NAME)
+    plot_rotation(png, readings, corrected, result)
+    save(args.calibration, replace(existing, magnetic=stage))
+    lines += [f'wrote the magnetic stage (hard and soft iron) to {args.calibration}',
+              f'report: {png}, {txt}']
+    write_text(txt, lines)
+
+
+def summary_lines(result, readings):
+    """Return the text summary of a CrossAxialFit of ``readings``."""
+    w = result.correction
+    radial_nT = np.linalg.norm(readings[:, :2] - readings[:, :2].mean(axis=0), axis=1)
+    return [
+        f'rotation: {result.sample_count} readings, coverage {result.coverage_deg:.1f} deg, '
+        f'axial field {readings[:, 2].mean():.1f} nT (spread {readings[:, 2].std():.1f} nT)',
+        f'hard iron c (tool x, y): {result.offset_nT[0]:.2f}, {result.offset_nT[1]:.2f} nT',
+        f'soft iron W: [[{w[0, 0]:.6f}, {w[0, 1]:.6f}], [{w[1, 0]:.6f}, {w[1, 1]:.6f}]]',
+        f'axis ratio {result.axis_ratio:.5f}, circle radius {result.radius_nT:.1f} nT',
+        f'radial RMSE after {result.rmse_nT:.2f} nT (about the raw mean: '
+        f'{np.std(radial_nT):.2f} nT)']
+
+
+def plot_rotation(path, readings, corrected, result):
+    """Plot the cross-axial readings before (with the ellipse) and after (with the circle)."""
+    pyplot, fig, axes = new_figure(2, 'inclino fit-rotation: cross-axial readings of one '
+                                      'rotation (seed 002 Fig. 4)')
+    fig.set_size_inches(7, 13)
+    angle = np.linspace(0.0, 2.0 * np.pi, CURVE_POINTS)
+    unit = np.stack([np.cos(angle), np.sin(angle)], axis=1) * result.radius_nT
+    ellipse = result.offset_nT + unit @ np.linalg.inv(result.correction).T
+    axes[0].plot(readings[:, 0], readings[:, 1], '.', color='tab:red', markersize=3,
+                 label='raw readings')
+    axes[0].plot(ellipse[:, 0], ellipse[:, 1], color='black', linewidth=1,
+                 label=f'fitted ellipse, axis ratio {result.axis_ratio:.4f}')
+    axes[0].plot(*result.offset_nT, 'k+', markersize=12,
+                 label=f'centre c = ({result.offset_nT[0]:.1f}, {result.offset_nT[1]:.1f}) nT')
+    axes[1].plot(corrected[:, 0], corrected[:, 1], '.', color='tab:green', markersize=3,
+                 label='W (m - c)')
+    axes[1].plot(unit[:, 0], unit[:, 1], color='black', linewidth=1,
+                 label=f'circle r = {result.radius_nT:.1f} nT, RMSE {result.rmse_nT:.2f} nT')
+    for ax in axes:
+        ax.set_aspect('equal', adjustable='datalim')
+        ax.set_xlabel('Bx (tool) [nT]')
+        ax.set_ylabel('By (tool) [nT]')
+    finish_figure(pyplot, fig, axes, path)
