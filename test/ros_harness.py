@@ -16,7 +16,7 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
 from rclpy.parameter_client import AsyncParameterClient
 from rclpy.qos import QoSProfile, ReliabilityPolicy
-from sensor_msgs.msg import Imu, Temperature
+from sensor_msgs.msg import Imu, MagneticField, Temperature
 from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
 
@@ -93,18 +93,23 @@ class Probe:
             qos.reliability = ReliabilityPolicy.BEST_EFFORT
         self.publisher = self.node.create_publisher(Imu, 'imu/data_raw', qos)
         self.received = {'survey': [], 'inclination': [], 'toolface': [], 'imu/data': [],
-                         '/diagnostics': []}
+                         'azimuth': [], '/diagnostics': []}
         self.subscriptions = [
             self.node.create_subscription(
                 kind, topic, self.received[topic].append, QoSProfile(depth=1000))
             for topic, kind in (('survey', Vector3Stamped), ('inclination', Float64),
-                                ('toolface', Float64), ('imu/data', Imu),
+                                ('toolface', Float64), ('azimuth', Float64),
+                                ('imu/data', Imu),
                                 ('/diagnostics', DiagnosticArray))]
         self.services = {name: self.node.create_client(Trigger, f'{node_name}/{name}')
                          for name in ('calibrate_level', 'capture_position',
-                                      'solve_stand_calibration', 'clear_positions')}
+                                      'solve_stand_calibration', 'clear_positions',
+                                      'capture_rotation', 'take_survey', 'solve_msa',
+                                      'clear_surveys')}
         self.client = self.services['calibrate_level']
         self.parameters = AsyncParameterClient(self.node, node_name)
+        self.mag_publisher = self.node.create_publisher(
+            MagneticField, 'imu/mag', QoSProfile(depth=100))
         self.temperature_publisher = self.node.create_publisher(
             Temperature, 'imu/temperature', QoSProfile(depth=10))
         self.executor = SingleThreadedExecutor()
@@ -177,6 +182,15 @@ class Probe:
         future = self.parameters.set_parameters(parameters)
         self.executor.spin_until_future_complete(future, timeout_sec=10.0)
         assert all(result.successful for result in future.result().results), future.result()
+
+    def publish_pair(self, acceleration, field_nT):
+        """Publish one imu/mag reading (tesla) and then the raw sample of the same stamp."""
+        mag = MagneticField()
+        mag.header.stamp.sec = self.sent
+        mag.magnetic_field.x, mag.magnetic_field.y, mag.magnetic_field.z = (
+            float(v) * 1e-9 for v in field_nT)
+        self.mag_publisher.publish(mag)
+        return self.publish(acceleration)
 
     def publish_temperature(self, temperature_c):
         """Publish one imu/temperature reading."""

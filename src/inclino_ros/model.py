@@ -232,14 +232,19 @@ def age_seconds(iso_time, now=None):
 
 def save_model(path, model):
     """Write ``model`` to ``path`` atomically: a reader sees old or new, whole."""
-    path = os.path.abspath(os.path.expanduser(path))
     model_from_dict(model.to_dict())  # never write what load_model would refuse
+    write_json_atomically(path, model.to_dict())
+
+
+def write_json_atomically(path, doc):
+    """Write ``doc`` as JSON to ``path``: temporary file, fsync, rename, fsync the folder."""
+    path = os.path.abspath(os.path.expanduser(path))
     folder = os.path.dirname(path)
     os.makedirs(folder, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix='.calibration-', suffix='.tmp', dir=folder)
+    fd, tmp = tempfile.mkstemp(prefix=f'.{os.path.basename(path)}-', suffix='.tmp', dir=folder)
     try:
         with os.fdopen(fd, 'w') as out:
-            json.dump(model.to_dict(), out, indent=2)
+            json.dump(doc, out, indent=2)
             out.write('\n')
             out.flush()
             os.fsync(out.fileno())

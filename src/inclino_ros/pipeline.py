@@ -17,6 +17,8 @@ from inclino_ros.magnetics import (
 from inclino_ros.screening import ACCEPTED, screen
 import numpy as np
 
+#: Smallest field [nT] taken for the Earth's (which is 22000-67000 nT at the surface).
+MIN_FIELD_NT = 1000.0
 #: Variance of a yaw that nothing observes: uniform on [-pi, pi).
 UNOBSERVED_YAW_VARIANCE = math.pi ** 2 / 3.0
 
@@ -101,7 +103,9 @@ def resolve_azimuth(corrected_mps2, field_nT, model, settings, magnetic_settings
     gravity = gravity_from_specific_force(corrected_mps2)
     field = iscwsa_from_tool(model.apply_magnetic(field_nT))
     azimuth = azimuth_deg(gravity, field)
-    trusted = np.isfinite(azimuth)
+    field_total_nT = b_total_nT(field)
+    # Below MIN_FIELD_NT there is no Earth field in the reading (a dead magnetometer).
+    trusted = np.isfinite(azimuth) & (field_total_nT >= MIN_FIELD_NT)
     qc = None
     if magnetic_settings.reference_total_nT > 0:
         qc = survey_qc(gravity, field, magnetic_settings.reference_total_nT,
@@ -112,7 +116,7 @@ def resolve_azimuth(corrected_mps2, field_nT, model, settings, magnetic_settings
     return AzimuthSurvey(
         azimuth_deg=azimuth,
         true_azimuth_deg=true_azimuth_deg(azimuth, magnetic_settings.declination_deg),
-        b_total_nT=b_total_nT(field), dip_deg=dip_deg(gravity, field), qc=qc,
+        b_total_nT=field_total_nT, dip_deg=dip_deg(gravity, field), qc=qc,
         trusted=trusted)
 
 

@@ -15,21 +15,25 @@ import sys
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Vector3Stamped
+from inclino_ros.magnetics import QcLimits
 from inclino_ros.model import (
     age_seconds, CalibrationFileError, CalibrationModel, load_model, STAGES)
+from inclino_ros.node.capture import Collector
 from inclino_ros.node.executor import init, spin
+from inclino_ros.node.magnetic_services import MagneticServices
 from inclino_ros.node.parameters import PARAMETERS
 from inclino_ros.node.services import CalibrationServices
-from inclino_ros.node.stats import InputStats, TemperatureInput
-from inclino_ros.pipeline import imu_covariances, run, Settings
+from inclino_ros.node.stats import InputStats, MagneticInput, TemperatureInput
+from inclino_ros.pipeline import imu_covariances, MagneticSettings, run, Settings
 from inclino_ros.screening import ACCEPTED
+from inclino_ros.stations import load_stations, StationsFileError
 import numpy as np
 import rclpy
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.node import Node
 from rclpy.qos import (
     DurabilityPolicy, HistoryPolicy, qos_profile_sensor_data, QoSProfile, ReliabilityPolicy)
-from sensor_msgs.msg import Imu, Temperature
+from sensor_msgs.msg import Imu, MagneticField, Temperature
 from std_msgs.msg import Float64
 
 
@@ -51,25 +55,30 @@ class InclinometerNode(Node):
         self.frame_id = self.param('frame_id')
         self.calibration_file = os.path.expanduser(self.param('calibration_file'))
         self.model = self._load_model()
+        self.stations_file = os.path.expanduser(self.param('stations_file'))
+        stations = load_stations(self.stations_file)
+        self.magnetic_settings = self._magnetic_settings()
+        self.add_post_set_parameters_callback(self._on_parameters_set)
         self.stats = InputStats()
         self.temperature = TemperatureInput()
+        self.magnetometer = MagneticInput()
 
         # Output messages are built once and refilled per sample (publish copies them).
         self._survey_msg = Vector3Stamped()
-        self._survey_msg.vector.z = math.nan  # magnetic azimuth: no magnetics yet
         self._inclination_msg, self._toolface_msg = Float64(), Float64()
+        self._azimuth_msg = Float64()
         self._imu_msg = Imu()
         self._imu_msg.angular_velocity_covariance[0] = -1.0  # no angular rate is measured
         # Every QoS event handler is one more waitable the executor polls on every
         # wake-up (~150 us per message with rclpy's defaults on all seven entities):
         # only the raw input keeps one, to say why a publisher does not match.
         quiet = PublisherEventCallbacks(use_default_callbacks=False)
-        self.survey_pub, self.inclination_pub, self.toolface_pub, self.imu_pub, \
-            self.diagnostics_pub = (
+        self.survey_pub, self.inclination_pub, self.toolface_pub, self.azimuth_pub, \
+            self.imu_pub, self.diagnostics_pub = (
                 self.create_publisher(kind, topic, 10, event_callbacks=quiet)
                 for kind, topic in ((Vector3Stamped, 'survey'), (Float64, 'inclination'),
-                                    (Float64, 'toolface'), (Imu, 'imu/data'),
-                                    (DiagnosticArray, '/diagnostics')))
+                                    (Float64, 'toolface'), (Float64, 'azimuth'),
+                                    (Imu, 'imu/data'), (DiagnosticArray, '/diagnostics')))
         sensor_qos = QoSProfile(
             history=HistoryPolicy.KEEP_LAST, depth=self.param('imu_queue_depth'),
             reliability=ReliabilityPolicy.BEST_EFFORT, durability=DurabilityPolicy.VOLATILE)
@@ -80,7 +89,12 @@ class InclinometerNode(Node):
         self.create_subscription(
             Temperature, 'imu/temperature', self._on_temperature, qos_profile_sensor_data,
             event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
-        self.calibration = CalibrationServices(self)
+        self.create_subscription(
+            MagneticField, 'imu/mag', self._on_mag, qos_profile_sensor_data,
+            event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
+        self.collector = Collector(self)
+        self.calibration = CalibrationServices(self, self.collector)
+        self.magnetic = MagneticServices(self, self.collector, stations)
         self.create_timer(self.param('diagnostics_period_s'), self._publish_diagnostics)
 
     def param(self, name):
@@ -119,17 +133,43 @@ class InclinometerNode(Node):
     def _on_temperature(self, msg):
         self.temperature.update(msg.temperature, self.get_clock().now().nanoseconds * 1e-9)
 
+    def _magnetic_settings(self):
+        return MagneticSettings(
+            reference_total_nT=self.param('magnetic.reference_total_nT'),
+            reference_dip_deg=self.param('magnetic.reference_dip_deg'),
+            declination_deg=self.param('magnetic.declination_deg'),
+            limits=QcLimits(
+                b_total_tolerance_nT=self.param('magnetic.b_total_tolerance_nT'),
+                dip_tolerance_deg=self.param('magnetic.dip_tolerance_deg'),
+                g_total_tolerance=self.param('magnetic.g_total_tolerance_mps2')))
+
+    def _on_parameters_set(self, parameters):
+        if any(p.name.startswith('magnetic.') for p in parameters):
+            self.magnetic_settings = self._magnetic_settings()
+
+    def _on_mag(self, msg):
+        field = msg.magnetic_field
+        self.magnetometer.update(stamp_ns(msg.header.stamp), (field.x, field.y, field.z))
+
     def _on_imu(self, msg):
         acc = msg.linear_acceleration
         raw = (acc.x, acc.y, acc.z)
         temperature_c = self.temperature.value_c
-        survey = run(np.array([raw]), self.model, self.settings, temperature_c)
+        field_nT = None
+        if self.magnetometer.stamp_ns is not None:  # no azimuth work without a magnetometer
+            field_nT = self.magnetometer.paired(stamp_ns(msg.header.stamp),
+                                                self.param('magnetic.max_pairing_s'))
+        survey = run(np.array([raw]), self.model, self.settings, temperature_c,
+                     None if field_nT is None else np.array([field_nT]),
+                     self.magnetic_settings)
         code = int(survey.codes[0])
         if code != ACCEPTED:
             self.stats.drop(code)
             return
         self.stats.accept(float(survey.g_total_mps2[0]))
-        self.calibration.add_sample(raw, temperature_c)
+        if survey.magnetic is not None:
+            self.magnetometer.count(survey.magnetic, math.isfinite(field_nT[0]))
+        self.collector.add_sample(raw, temperature_c, field_nT or (math.nan,) * 3)
         self._publish(msg.header, survey)
 
     def _publish(self, header, survey):
@@ -140,8 +180,13 @@ class InclinometerNode(Node):
         incl_deg = float(survey.inclination_deg[0])
         toolface_deg = float(survey.toolface_deg[0])
         survey_msg.header = imu.header = header
+        azimuth = survey.magnetic
         survey_msg.vector.x, survey_msg.vector.y = incl_deg, toolface_deg
+        survey_msg.vector.z = math.nan if azimuth is None else float(azimuth.azimuth_deg[0])
         self.survey_pub.publish(survey_msg)
+        if azimuth is not None:
+            self._azimuth_msg.data = float(azimuth.true_azimuth_deg[0])
+            self.azimuth_pub.publish(self._azimuth_msg)
         self._inclination_msg.data = incl_deg
         self.inclination_pub.publish(self._inclination_msg)
         self._toolface_msg.data = toolface_deg
@@ -166,7 +211,9 @@ class InclinometerNode(Node):
             self.stats.status(self.get_name(), now_s, self.settings.gravity_mps2,
                               self.param('level_capture.g_total_tolerance_mps2')),
             self.temperature.status(self.get_name(), now_s, self.param('temperature.max_age_s'),
-                                    self.model.temperature)]
+                                    self.model.temperature),
+            self.magnetometer.status(self.get_name(), self.magnetic_settings,
+                                     self.model.magnetic, len(self.magnetic.stations))]
         self.diagnostics_pub.publish(array)
 
     def _calibration_status(self):
@@ -174,7 +221,7 @@ class InclinometerNode(Node):
                                   hardware_id=self.calibration_file)
         model = self.model
         values = {'calibration_file': self.calibration_file,
-                  'capture_running': str(self.calibration.capture is not None),
+                  'capture_running': str(self.collector.capture is not None),
                   'stand_positions_held': str(len(self.calibration.positions))}
         stages = [name for name in STAGES if getattr(model, name) is not None]
         if not stages:
@@ -204,12 +251,17 @@ class InclinometerNode(Node):
         return status
 
 
+def stamp_ns(stamp):
+    """Return a builtin_interfaces/Time as integer nanoseconds."""
+    return stamp.sec * 1_000_000_000 + stamp.nanosec
+
+
 def main(args=None):
     """Run the node until shutdown; exit non-zero on a bad calibration file."""
     init(args)
     try:
         node = InclinometerNode()
-    except (CalibrationFileError, ValueError) as err:
+    except (CalibrationFileError, StationsFileError, ValueError) as err:
         rclpy.logging.get_logger('inclinometer').fatal(f'{err}: refusing to start')
         rclpy.try_shutdown()
         return 1

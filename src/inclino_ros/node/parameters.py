@@ -101,6 +101,41 @@ PARAMETERS = (
     Parameter('stand.max_rms_deg', 0.05,
               'Largest inclination residual RMS [deg] of a stand fit over its own positions: '
               'beyond it ~/solve_stand_calibration refuses.', 1e-4, 10.0, read_only=False),
+    Parameter('stations_file', '~/.ros/inclino_ros/stations.json',
+              'Survey stations of ~/take_survey for ~/solve_msa: loaded at start (a corrupt '
+              'file stops the node), written atomically.'),
+    Parameter('magnetic.reference_total_nT', 0.0,
+              'Reference field total [nT] (site model or IFR); 0: unknown, azimuth QC off '
+              'and ~/solve_msa refused.', 0.0, 100000.0, read_only=False),
+    Parameter('magnetic.reference_dip_deg', 0.0,
+              'Reference dip [deg], positive down.', -90.0, 90.0, read_only=False),
+    Parameter('magnetic.declination_deg', 0.0,
+              'Declination [deg] added to the magnetic azimuth for the azimuth topic.',
+              -180.0, 180.0, read_only=False),
+    Parameter('magnetic.b_total_tolerance_nT', 300.0,
+              'QC: largest deviation [nT] of B-total from the reference.', 1.0, 10000.0,
+              read_only=False),
+    Parameter('magnetic.dip_tolerance_deg', 0.25,
+              'QC: largest deviation [deg] of the dip from the reference.', 0.01, 10.0,
+              read_only=False),
+    Parameter('magnetic.g_total_tolerance_mps2', 0.019,
+              'QC: largest deviation [m/s^2] of G-total from gravity_mps2 (3 sigma of the '
+              'ISCWSA MWD accelerometer terms).', 1e-4, 5.0, read_only=False),
+    Parameter('magnetic.max_pairing_s', 0.05,
+              'Largest stamp difference [s] between an accelerometer sample and the '
+              'imu/mag reading paired with it; beyond it the azimuth is NaN.', 1e-4, 10.0,
+              read_only=False),
+    Parameter('rotation.duration_s', 10.0,
+              'Seconds ~/capture_rotation records while the tool turns.', 1.0, 600.0,
+              read_only=False),
+    Parameter('survey.samples', 100,
+              'Samples ~/take_survey averages into one station.', 2, 1000000, read_only=False),
+    Parameter('survey.timeout_s', 10.0,
+              'Seconds ~/take_survey waits for its samples before refusing.', 0.1, 3600.0,
+              read_only=False),
+    Parameter('msa.method', 'improved',
+              'Multi-station analysis of ~/solve_msa: improved (seed 002), classic (Brooks '
+              'eps x, y, z) or axial (eps z only).', read_only=False),
     Parameter('temperature.max_age_s', 5.0,
               'Age [s] beyond which the latest imu/temperature is reported stale (it is '
               'still used).', 0.1, 3600.0, read_only=False),

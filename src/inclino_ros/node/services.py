@@ -1,54 +1,28 @@
 """
-The node's calibration services: level bench (seed 000) and stand (seed 001).
+The node's accelerometer calibration services: level bench (seed 000), stand (seed 001).
 
-Every capture collects samples that arrive *after* the call while the node
-keeps processing (the callbacks are ``async`` in a reentrant group), and one
-capture runs at a time.  A refused request changes nothing: the model, its
-file and the captured stand positions stay as they were.
+Captures go through the node's ``capture.Collector``.  A refused request
+changes nothing: the model, its file and the captured stand positions stay
+as they were.
 """
 
 from dataclasses import replace
 
 from inclino_ros.level_capture import CaptureRefused, LevelLimits, solve_level_capture
-from inclino_ros.model import save_model
 from inclino_ros.stand import StandFitRefused
 from inclino_ros.stand_capture import average_position, check_new_attitude, solve_positions
 import numpy as np
 from rclpy.callback_groups import ReentrantCallbackGroup
-from rclpy.task import Future
 from std_srvs.srv import Trigger
-
-
-class Capture:
-    """Raw accepted samples, and the temperature of each, collected for one service call."""
-
-    def __init__(self, count):
-        """Collect ``count`` samples, then complete ``self.future`` with them."""
-        self.count = count
-        self.future = Future()
-        self.samples = []
-        self.temperatures_c = []
-
-    def add(self, raw, temperature_c):
-        """Add one raw reading; complete the future when enough are in."""
-        self.samples.append(raw)
-        self.temperatures_c.append(np.nan if temperature_c is None else temperature_c)
-        if len(self.samples) == self.count and not self.future.done():
-            self.future.set_result((np.array(self.samples), np.array(self.temperatures_c)))
-
-    def expire(self):
-        """Complete the future empty-handed: the time is up."""
-        if not self.future.done():
-            self.future.set_result(None)
 
 
 class CalibrationServices:
     """~/calibrate_level, ~/capture_position, ~/solve_stand_calibration, ~/clear_positions."""
 
-    def __init__(self, node):
-        """Create the services on ``node`` (an InclinometerNode)."""
+    def __init__(self, node, collector):
+        """Create the services on ``node`` (an InclinometerNode), capturing with ``collector``."""
         self.node = node
-        self.capture = None
+        self.collector = collector
         self.positions = []
         # Reentrant: a capture awaits samples without holding the default group
         # (the subscriptions keep running) and a second call is answered at once.
@@ -59,54 +33,6 @@ class CalibrationServices:
                                ('~/clear_positions', self.clear_positions)):
             node.create_service(Trigger, name, callback, callback_group=group)
 
-    def add_sample(self, raw, temperature_c):
-        """Give an accepted raw sample to the running capture, if any."""
-        if self.capture is not None:
-            self.capture.add(raw, temperature_c)
-
-    async def _collect(self, prefix):
-        """Return (raw samples, temperatures or None) of a new capture; CaptureRefused if none."""
-        if self.capture is not None:
-            raise CaptureRefused('a capture is already running')
-        count = self.node.param(f'{prefix}.samples')
-        timeout_s = self.node.param(f'{prefix}.timeout_s')
-        capture = self.capture = Capture(count)
-        timer = self.node.create_timer(timeout_s, capture.expire)
-        self.node.get_logger().info(f'{prefix}: collecting {count} samples on imu/data_raw')
-        try:
-            result = await capture.future
-        finally:
-            self.node.destroy_timer(timer)
-            self.capture = None
-        if result is None:
-            raise CaptureRefused(
-                f'no data: {len(capture.samples)} of {count} samples arrived on '
-                f'{self.node.resolve_topic_name("imu/data_raw")} within {timeout_s} s')
-        samples, temperatures_c = result
-        if self.node.model.temperature is None:
-            return samples, None
-        if np.isnan(temperatures_c).any():
-            raise CaptureRefused('no temperature on imu/temperature for some samples: the '
-                                 'temperature stage of the model needs one')
-        return samples, temperatures_c
-
-    def _commit(self, model):
-        """Write ``model`` atomically, then apply it (OSError: neither happens)."""
-        save_model(self.node.calibration_file, model)
-        self.node.model = model
-
-    def _answer(self, response, message):
-        response.success = True
-        response.message = f'{message}; saved to {self.node.calibration_file}'
-        self.node.get_logger().info(response.message)
-        return response
-
-    def _refuse(self, response, reason):
-        response.success = False
-        response.message = f'refused: {reason}; previous calibration kept'
-        self.node.get_logger().warning(response.message)
-        return response
-
     async def calibrate_level(self, request, response):
         """Capture the tool on a level bench and apply gamma, beta (seed 000 Eqs. 11-14)."""
         node = self.node
@@ -116,16 +42,16 @@ class CalibrationServices:
             gravity_mps2=node.settings.gravity_mps2,
             g_total_tolerance_mps2=node.param('level_capture.g_total_tolerance_mps2'))
         try:
-            raw, temperatures_c = await self._collect('level_capture')
+            captured = await self.collector.collect('level_capture')
             installation = solve_level_capture(
-                node.model.apply(raw, temperatures_c, before='installation'),
+                node.model.apply(captured.raw, captured.temperatures_c, before='installation'),
                 node.settings.accelerometer_axes, limits)
-            self._commit(replace(node.model, installation=installation))
+            self.collector.commit(replace(node.model, installation=installation))
         except CaptureRefused as err:
-            return self._refuse(response, str(err))
+            return self.collector.refuse(response, str(err))
         except OSError as err:
-            return self._refuse(response, f'cannot write {node.calibration_file}: {err}')
-        return self._answer(response, (
+            return self.collector.refuse(response, f'cannot write {node.calibration_file}: {err}')
+        return self.collector.answer(response, (
             f'calibrated from {installation.sample_count} samples: '
             f'gamma_deg={installation.gamma_deg:.4f} beta_deg={installation.beta_deg:.4f} '
             f'theta_deg={installation.theta_deg:.4f} (spread {installation.std_deg:.4f} deg)'))
@@ -134,20 +60,19 @@ class CalibrationServices:
         """Average a still capture at the stand attitude held in the stand.* parameters."""
         node = self.node
         if node.settings.accelerometer_axes != 3:
-            return self._refuse(response, 'stand calibration needs a three-axis accelerometer')
+            return self.collector.refuse(
+                response, 'stand calibration needs a three-axis accelerometer')
         inclination_deg = node.param('stand.inclination_deg')
         toolface_deg = node.param('stand.toolface_deg')
         try:
             check_new_attitude(self.positions, inclination_deg, toolface_deg)
-            raw, temperatures_c = await self._collect('stand')
+            captured = await self.collector.collect('stand')
             position = average_position(
-                node.model.apply(raw, temperatures_c, before='stand'),
+                node.model.apply(captured.raw, captured.temperatures_c, before='stand'),
                 inclination_deg, toolface_deg, node.param('stand.max_std_deg'))
         except CaptureRefused as err:
-            response.success = False
-            response.message = f'refused: {err}; {len(self.positions)} positions kept'
-            node.get_logger().warning(response.message)
-            return response
+            return self.collector.refuse(
+                response, str(err), f'{len(self.positions)} positions kept')
         self.positions.append(position)
         mean = ', '.join(f'{v:.5f}' for v in position.reading_mps2)
         response.success = True
@@ -167,13 +92,13 @@ class CalibrationServices:
                                     node.param('stand.max_rms_deg'))
             # K is fitted against the tool's attitude on the stand, so it already
             # holds the mounting misalignment: a kept gamma/beta would count it twice.
-            self._commit(replace(node.model, stand=stand, installation=None))
+            self.collector.commit(replace(node.model, stand=stand, installation=None))
         except StandFitRefused as err:
-            return self._refuse(response, str(err))
+            return self.collector.refuse(response, str(err))
         except OSError as err:
-            return self._refuse(response, f'cannot write {node.calibration_file}: {err}')
+            return self.collector.refuse(response, f'cannot write {node.calibration_file}: {err}')
         k = np.array(stand.scale_matrix)
-        return self._answer(response, (
+        return self.collector.answer(response, (
             f'stand calibration from {stand.positions} positions: K diagonal '
             f'({", ".join(f"{v:.5f}" for v in np.diag(k))}), bias '
             f'({", ".join(f"{v:.5f}" for v in stand.bias_mps2)}) m/s^2, condition number '

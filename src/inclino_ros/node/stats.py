@@ -112,3 +112,67 @@ class TemperatureInput:
             status.message = f'{self.value_c:.2f} C'
         status.values = [KeyValue(key=k, value=v) for k, v in values.items()]
         return status
+
+
+class MagneticInput:
+    """The latest imu/mag reading, and how the azimuths of the last period fared."""
+
+    def __init__(self):
+        """Start with no magnetometer."""
+        self.stamp_ns = None
+        self.field_nT = None
+        self.rejected = 0
+        self._period = {'trusted': 0, 'unpaired': 0, 'untrusted': 0}
+        self._last = None
+
+    def update(self, stamp_ns, field_tesla):
+        """Keep a finite reading (converted to nT) as the latest; count a non-finite one."""
+        if all(math.isfinite(v) for v in field_tesla):
+            self.stamp_ns = stamp_ns
+            self.field_nT = tuple(v * 1e9 for v in field_tesla)
+        else:
+            self.rejected += 1
+
+    def paired(self, stamp_ns, max_pairing_s):
+        """Return the reading to pair with a sample stamped ``stamp_ns``: NaNs if too far."""
+        if self.stamp_ns is None or abs(stamp_ns - self.stamp_ns) > max_pairing_s * 1e9:
+            return (math.nan, math.nan, math.nan)
+        return self.field_nT
+
+    def count(self, azimuth_survey, paired):
+        """Count one sample's azimuth outcome (an AzimuthSurvey of one row)."""
+        trusted = bool(azimuth_survey.trusted[0])
+        key = 'trusted' if trusted else ('untrusted' if paired else 'unpaired')
+        self._period[key] += 1
+        self._last = azimuth_survey
+
+    def status(self, node_name, settings, model_stage, stations):
+        """Return the magnetics DiagnosticStatus for the period; reset the period."""
+        status = DiagnosticStatus(name=f'{node_name}: magnetics', level=DiagnosticStatus.OK)
+        values = {key: str(n) for key, n in self._period.items()}
+        values.update(rejected_non_finite=str(self.rejected), stations_held=str(stations),
+                      reference_total_nT=f'{settings.reference_total_nT:g}',
+                      reference_dip_deg=f'{settings.reference_dip_deg:g}',
+                      rotation_fitted_at=str(model_stage and model_stage.rotation_fitted_at),
+                      msa_method=str(model_stage and model_stage.msa_method))
+        last = self._last
+        if last is not None:
+            values.update(b_total_nT=f'{last.b_total_nT[0]:.0f}', dip_deg=f'{last.dip_deg[0]:.3f}')
+            if last.qc is not None:
+                values.update(b_total_delta_nT=f'{last.qc.b_total_delta_nT[0]:+.0f}',
+                              dip_delta_deg=f'{last.qc.dip_delta_deg[0]:+.3f}')
+        if self.stamp_ns is None:
+            status.message = 'no imu/mag: azimuth not computed (NaN)'
+        elif self._period['unpaired'] or self._period['untrusted']:
+            status.level = DiagnosticStatus.WARN
+            status.message = (f'{self._period["unpaired"]} samples without a paired imu/mag '
+                              f'reading and {self._period["untrusted"]} failing QC: their '
+                              'azimuth is NaN')
+        elif settings.reference_total_nT <= 0:
+            status.level = DiagnosticStatus.WARN
+            status.message = 'no reference field: azimuth QC not checked'
+        else:
+            status.message = f'{self._period["trusted"]} trusted azimuths'
+        status.values = [KeyValue(key=k, value=v) for k, v in values.items()]
+        self._period = dict.fromkeys(self._period, 0)
+        return status

@@ -1,0 +1,155 @@
+"""
+The node's magnetometer services (seed 002): rotation fit, survey stations, MSA.
+
+- ``~/capture_rotation``: records ``rotation.duration_s`` of magnetometer
+  samples while the tool turns about its axis, fits the cross-axial ellipse
+  (§2.1), persists and applies W and c; the MSA interference is reset, as it
+  was solved on the old cross-axial correction.
+- ``~/take_survey``: averages a still station (``survey.samples``), appends it
+  to the persisted station list, answers inclination, azimuth and QC.
+- ``~/solve_msa``: multi-station analysis of the stations against the
+  reference field (§2.2, ``msa.method``), persists and applies the interference.
+- ``~/clear_surveys``: empties the station list.
+"""
+
+from dataclasses import replace
+
+from inclino_ros.cross_axial import fit_cross_axial, RotationFitRefused
+from inclino_ros.level_capture import CaptureRefused
+from inclino_ros.magnetics import iscwsa_from_tool
+from inclino_ros.model import NO_MAGNETIC_CORRECTION, utc_now_iso
+from inclino_ros.msa import (
+    MsaRefused, solve_msa_axial, solve_msa_classic, solve_msa_improved)
+from inclino_ros.pipeline import run
+from inclino_ros.stations import msa_inputs, save_stations, Station
+import numpy as np
+from rclpy.callback_groups import ReentrantCallbackGroup
+from std_srvs.srv import Trigger
+
+SOLVERS = {'improved': solve_msa_improved, 'classic': solve_msa_classic,
+           'axial': solve_msa_axial}
+
+
+class MagneticServices:
+    """~/capture_rotation, ~/take_survey, ~/solve_msa, ~/clear_surveys."""
+
+    def __init__(self, node, collector, stations):
+        """Create the services on ``node``, capturing with ``collector``; ``stations`` loaded."""
+        self.node = node
+        self.collector = collector
+        self.stations = stations
+        group = ReentrantCallbackGroup()
+        for name, callback in (('~/capture_rotation', self.capture_rotation),
+                               ('~/take_survey', self.take_survey),
+                               ('~/solve_msa', self.solve_msa),
+                               ('~/clear_surveys', self.clear_surveys)):
+            node.create_service(Trigger, name, callback, callback_group=group)
+
+    def _stage(self):
+        return self.node.model.magnetic or NO_MAGNETIC_CORRECTION
+
+    async def capture_rotation(self, request, response):
+        """Fit the cross-axial ellipse of a rotation capture (seed 002 §2.1) and apply it."""
+        node = self.node
+        try:
+            captured = await self.collector.collect(
+                'rotation', duration_s=node.param('rotation.duration_s'))
+            field = captured.field_nT[np.isfinite(captured.field_nT).all(axis=1)]
+            fit = fit_cross_axial(field)
+            stage = replace(self._stage(), hard_iron_nT=tuple(fit.offset_nT.tolist()),
+                            soft_iron=tuple(map(tuple, fit.correction.tolist())),
+                            interference_nT=(0.0, 0.0, 0.0), rotation_fitted_at=utc_now_iso(),
+                            msa_method=None, msa_stations=0, msa_fitted_at=None)
+            self.collector.commit(replace(node.model, magnetic=stage))
+        except (CaptureRefused, RotationFitRefused) as err:
+            return self.collector.refuse(response, str(err))
+        except OSError as err:
+            return self.collector.refuse(response, f'cannot write {node.calibration_file}: {err}')
+        return self.collector.answer(response, (
+            f'rotation fit of {fit.sample_count} samples: hard iron '
+            f'({fit.offset_nT[0]:.1f}, {fit.offset_nT[1]:.1f}) nT, axis ratio '
+            f'{fit.axis_ratio:.4f}, RMSE {fit.rmse_nT:.1f} nT, coverage {fit.coverage_deg:.0f} '
+            'deg; MSA interference reset (solve again with ~/solve_msa)'))
+
+    async def take_survey(self, request, response):
+        """Average a still station, store it, and answer its inclination, azimuth and QC."""
+        node = self.node
+        kept = f'{len(self.stations)} stations kept'
+        try:
+            captured = await self.collector.collect('survey')
+        except CaptureRefused as err:
+            return self.collector.refuse(response, str(err), kept)
+        paired = np.isfinite(captured.field_nT).all(axis=1)
+        if paired.sum() < 2:
+            return self.collector.refuse(
+                response, f'only {paired.sum()} of {paired.size} samples had a paired imu/mag '
+                'reading', kept)
+        temperatures_c = (None if captured.temperatures_c is None
+                          else captured.temperatures_c[paired].mean())
+        survey = run(captured.raw[paired].mean(axis=0), node.model, node.settings,
+                     temperatures_c, captured.field_nT[paired].mean(axis=0)[None],
+                     node.magnetic_settings)
+        if not survey.accepted.all():
+            return self.collector.refuse(response, 'the averaged station is not a valid '
+                                         'reading', kept)
+        station = Station(
+            specific_force_mps2=tuple(survey.corrected_mps2[0].tolist()),
+            field_nT=tuple(captured.field_nT[paired].mean(axis=0).tolist()),
+            samples=int(paired.sum()), captured_at=utc_now_iso())
+        try:
+            save_stations(node.stations_file, self.stations + [station])
+        except OSError as err:
+            return self.collector.refuse(response, f'cannot write {node.stations_file}: {err}',
+                                         kept)
+        self.stations.append(station)
+        magnetic = survey.magnetic
+        qc = 'not checked (no reference field)' if magnetic.qc is None else (
+            f'B-total {magnetic.qc.b_total_delta_nT[0]:+.0f} nT, dip '
+            f'{magnetic.qc.dip_delta_deg[0]:+.3f} deg off the reference: '
+            f'{"pass" if magnetic.qc.ok[0] else "FAIL"}')
+        return self.collector.answer(response, (
+            f'station {len(self.stations)} from {station.samples} samples: inclination_deg='
+            f'{survey.inclination_deg[0]:.3f} azimuth_deg={magnetic.azimuth_deg[0]:.3f} '
+            f'b_total_nT={magnetic.b_total_nT[0]:.0f} dip_deg={magnetic.dip_deg[0]:.3f}; '
+            f'QC {qc}; stored in {node.stations_file}'), saved=False)
+
+    def solve_msa(self, request, response):
+        """Solve the multi-station analysis (seed 002 §2.2), persist and apply it."""
+        node = self.node
+        settings = node.magnetic_settings
+        method = node.param('msa.method')
+        if settings.reference_total_nT <= 0:
+            return self.collector.refuse(response, 'MSA needs the reference field: set '
+                                         'magnetic.reference_total_nT and reference_dip_deg')
+        stage = self._stage()
+        gravity, field = msa_inputs(self.stations, node.model.magnetic)
+        try:
+            result = SOLVERS[method](gravity, field, settings.reference_total_nT,
+                                     settings.reference_dip_deg)
+            stage = replace(stage, interference_nT=tuple(iscwsa_from_tool(
+                result.eps_nT).tolist()), msa_method=method, msa_stations=len(self.stations),
+                msa_reference_total_nT=settings.reference_total_nT,
+                msa_reference_dip_deg=settings.reference_dip_deg, msa_fitted_at=utc_now_iso())
+            self.collector.commit(replace(node.model, magnetic=stage))
+        except MsaRefused as err:
+            return self.collector.refuse(response, str(err))
+        except OSError as err:
+            return self.collector.refuse(response, f'cannot write {node.calibration_file}: {err}')
+        change = np.abs(((result.azimuth_deg - result.azimuth_raw_deg + 180.0) % 360.0) - 180.0)
+        return self.collector.answer(response, (
+            f'{method} MSA of {len(self.stations)} stations: interference (x, y, z) = '
+            f'({", ".join(f"{v:.1f}" for v in result.eps_nT)}) nT (ISCWSA axes), V '
+            f'{result.v_before_nT2:.3g} -> {result.v_after_nT2:.3g} nT^2, azimuths moved by up '
+            f'to {np.nanmax(change):.3f} deg'))
+
+    def clear_surveys(self, request, response):
+        """Forget the stations (and empty their file)."""
+        count = len(self.stations)
+        try:
+            save_stations(self.node.stations_file, [])
+        except OSError as err:
+            return self.collector.refuse(
+                response, f'cannot write {self.node.stations_file}: {err}',
+                f'{count} stations kept')
+        self.stations.clear()
+        return self.collector.answer(response, f'cleared {count} stations', saved=False)

@@ -1,0 +1,156 @@
+"""Magnetic azimuth in the live node: rotation fit, survey stations, MSA (seed 002)."""
+
+import json
+import math
+
+from diagnostic_msgs.msg import DiagnosticStatus
+from inclino_ros.magnetics import forward, iscwsa_from_tool
+from inclino_ros.model import load_model
+import numpy as np
+import pytest
+import rclpy
+from ros_harness import G, NodeProcess, Probe
+
+REFERENCE_TOTAL_NT, REFERENCE_DIP_DEG, DECLINATION_DEG = 50000.0, 60.0, 5.0
+HARD_IRON_NT = np.array([80.0, -80.0])           # tool x, y: turns with the tool
+AXIAL_NT = -2000.0                               # drill string along the tool axis (tool z)
+NOISE_G, NOISE_NT = 1e-4, 5.0
+
+
+def readings(inclination_deg, azimuth_deg, toolface_deg, rng=None):
+    """
+    Return (specific force [m/s^2], field [nT]) the tool reads, z-up tool frame.
+
+    The ISCWSA forward model (formulas.md), turned into the tool frame, plus the
+    interference: a hard-iron offset on x, y and an axial offset on z.
+    """
+    gravity, field = forward(inclination_deg, azimuth_deg, toolface_deg, G,
+                             REFERENCE_TOTAL_NT, REFERENCE_DIP_DEG)
+    force = -iscwsa_from_tool(gravity)
+    field = iscwsa_from_tool(field) + np.array([*HARD_IRON_NT, AXIAL_NT])
+    if rng is not None:
+        force = force + rng.normal(0.0, NOISE_G * G, 3)
+        field = field + rng.normal(0.0, NOISE_NT, 3)
+    return force, field
+
+
+@pytest.fixture
+def node_and_probe(tmp_path):
+    """Start a node with a reference field and short captures, and a probe; stop both."""
+    rclpy.init()
+    node = NodeProcess(
+        str(tmp_path / 'node.log'), calibration_file=str(tmp_path / 'calibration.json'),
+        stations_file=str(tmp_path / 'stations.json'), diagnostics_period_s=0.5,
+        **{'magnetic.reference_total_nT': REFERENCE_TOTAL_NT,
+           'magnetic.reference_dip_deg': REFERENCE_DIP_DEG,
+           'magnetic.declination_deg': DECLINATION_DEG,
+           'rotation.duration_s': 3.0, 'survey.samples': 20})
+    probe = Probe()
+    probe.wait_for_node()
+    yield node, probe
+    probe.destroy()
+    node.stop()
+    rclpy.shutdown()
+
+
+def azimuth_of(probe, force, field):
+    """Publish one paired sample; return (survey azimuth, azimuth topic)."""
+    probe.spin_for(0.2)
+    probe.clear()
+    index = probe.sent
+    probe.mag_publisher.publish(mag_message(index, field))
+    probe.spin_for(0.05)
+    probe.publish(force)
+    (survey,) = probe.wait_outputs('survey', 1)
+    assert survey.header.stamp.sec == index
+    topic = probe.wait_outputs('azimuth', 1)
+    return survey.vector.z, topic[0].data if topic else math.nan
+
+
+def mag_message(index, field_nT):
+    """Return a MagneticField stamped like the index-th raw sample."""
+    from sensor_msgs.msg import MagneticField
+    msg = MagneticField()
+    msg.header.stamp.sec = index
+    msg.magnetic_field.x, msg.magnetic_field.y, msg.magnetic_field.z = (
+        float(v) * 1e-9 for v in field_nT)
+    return msg
+
+
+def error_deg(a, b):
+    """Return a - b wrapped to [-180, 180)."""
+    return (a - b + 180.0) % 360.0 - 180.0
+
+
+def test_rotation_stations_and_msa_give_the_true_azimuth(node_and_probe, tmp_path):
+    """Rotation fit, 20 stations, MSA: then the azimuth is within 0.1 deg (east-west well)."""
+    node, probe = node_and_probe
+    rng = np.random.default_rng(11)
+    # 1. The tool turns at one attitude: the rotation fit finds the hard iron.
+    answer = probe.calibrate(
+        lambda i: probe.mag_publisher.publish(mag_message(probe.sent, readings(
+            60.0, 100.0, (i * 3.0) % 360.0, rng)[1])) or readings(60.0, 100.0, i * 3.0, rng)[0],
+        service='capture_rotation')
+    assert answer.success, answer.message
+    magnetic = load_model(tmp_path / 'calibration.json').magnetic
+    # 5 nT noise over ~500 samples on a 25000 nT circle: offsets to about 1 nT.
+    np.testing.assert_allclose(magnetic.hard_iron_nT, HARD_IRON_NT, atol=3.0)
+
+    # 2. Stations with spread toolfaces along an east-west well, inclination 30-90.
+    stations = [(30.0 + 3.0 * k, 88.0 + 0.2 * k, (k * 137.0) % 360.0) for k in range(20)]
+    for incl_deg, az_deg, tf_deg in stations:
+        probe.spin_for(0.2)
+        answer = probe.calibrate(
+            lambda i: probe.mag_publisher.publish(mag_message(probe.sent, readings(
+                incl_deg, az_deg, tf_deg, rng)[1])) or readings(incl_deg, az_deg, tf_deg,
+                                                                rng)[0],
+            service='take_survey')
+        assert answer.success, answer.message
+    doc = json.loads((tmp_path / 'stations.json').read_text())
+    assert len(doc['stations']) == 20
+
+    # Before MSA the 2000 nT axial error turns east-west azimuths by degrees.
+    before, _ = azimuth_of(probe, *readings(70.0, 90.0, 40.0))
+    assert math.isnan(before) or abs(error_deg(before, 90.0)) > 1.0
+
+    answer = probe.call('solve_msa')
+    assert answer.success, answer.message
+    interference = load_model(tmp_path / 'calibration.json').magnetic.interference_nT
+    assert interference[2] == pytest.approx(AXIAL_NT, abs=20.0)
+
+    # Station-averaged noise (20 samples) sets a floor of a few hundredths of a degree.
+    for incl_deg, az_deg, tf_deg in ((45.0, 90.0, 10.0), (85.0, 270.0, 200.0),
+                                     (60.0, 30.0, 300.0)):
+        survey_z, true_az = azimuth_of(probe, *readings(incl_deg, az_deg, tf_deg))
+        assert abs(error_deg(survey_z, az_deg)) < 0.1
+        assert true_az == pytest.approx((survey_z + DECLINATION_DEG) % 360.0, abs=1e-9)
+
+    cleared = probe.call('clear_surveys')
+    assert cleared.success and 'cleared 20 stations' in cleared.message
+    assert json.loads((tmp_path / 'stations.json').read_text())['stations'] == []
+    assert node.stop() == 0
+
+
+def test_unpaired_and_dead_field_give_no_azimuth(node_and_probe):
+    """A sample without a near magnetometer reading, or a zero field, has NaN azimuth."""
+    _, probe = node_and_probe
+    force, field = readings(50.0, 120.0, 0.0)
+    # With its 2000 nT interference the field fails B-total QC: not trusted.
+    assert math.isnan(azimuth_of(probe, force, field)[0])
+    clean = field - np.array([*HARD_IRON_NT, AXIAL_NT])
+    survey_z, _ = azimuth_of(probe, force, clean)
+    assert survey_z == pytest.approx(120.0, abs=1e-6)  # paired and passing QC
+    probe.spin_for(0.2)
+    probe.clear()
+    probe.publish(force)                    # its stamp is 1 s after the last imu/mag
+    (survey,) = probe.wait_outputs('survey', 1)
+    assert math.isnan(survey.vector.z)
+    assert survey.vector.x == pytest.approx(50.0, abs=1e-9)
+    survey_z, _ = azimuth_of(probe, force, np.zeros(3))
+    assert math.isnan(survey_z)
+    probe.received['/diagnostics'].clear()
+    probe.spin_for(1.2)
+    statuses = [s for a in probe.received['/diagnostics'] for s in a.status
+                if s.name.endswith(': magnetics')]
+    assert any(s.level == DiagnosticStatus.WARN and 'azimuth is NaN' in s.message
+               for s in statuses)
