@@ -154,3 +154,14 @@ def test_unpaired_and_dead_field_give_no_azimuth(node_and_probe):
                 if s.name.endswith(': magnetics')]
     assert any(s.level == DiagnosticStatus.WARN and 'azimuth is NaN' in s.message
                for s in statuses)
+
+
+def test_a_corrupt_stations_file_stops_the_node(tmp_path):
+    """A stations file that cannot be trusted is a loud error and a non-zero exit."""
+    path = tmp_path / 'stations.json'
+    path.write_text('{"format": "inclino_ros.stations", "schema_version": 1, "stations": '
+                    '[{"specific_force_mps2": [0, 0, "x"]}]}')
+    node = NodeProcess(str(tmp_path / 'node.log'), stations_file=str(path),
+                       calibration_file=str(tmp_path / 'calibration.json'))
+    assert node.process.wait(timeout=30) != 0
+    assert str(path) in node.log() and 'refusing to start' in node.log()
