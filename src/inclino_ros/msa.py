@@ -57,7 +57,6 @@ import math
 
 from inclino_ros import magnetics
 import numpy as np
-from scipy.optimize import minimize_scalar
 
 #: Gravity of the QC tolerance in ``magnetics.QcLimits`` (m/s^2), to make it relative.
 STANDARD_GRAVITY_MPS2 = 9.80665
@@ -375,6 +374,9 @@ def _improved(G, B, reference_total_nT, reference, limits):
              / (mean_k @ mean_k + sigma_k ** 2))
     half_width = max(limits.interval_margin * bound, limits.min_interval_nT)
     interval = (eps_z0 - half_width, eps_z0 + half_width)
+    # Imported here: scipy.optimize takes 0.5 s to import, which every ``inclino``
+    # command would pay (the CLI registers all subcommands at start).
+    from scipy.optimize import minimize_scalar
     found = minimize_scalar(
         lambda eps_z: np.sum(residual_nT(G, B - eps_z * axial, reference) ** 2),
         bounds=interval, method='bounded', options={'xatol': 1e-3})
