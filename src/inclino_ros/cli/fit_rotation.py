@@ -25,8 +25,8 @@ large a radial RMSE (``cross_axial.RotationLimits``).
 from dataclasses import replace
 
 from inclino_ros.cli.fitting import (
-    finish_figure, is_bag, load_existing, new_figure, read_csv, read_topic, Refused,
-    report_paths, run_fit, save, write_text)
+    add_file_arguments, finish_figure, is_bag, load_existing, new_figure, read_csv, read_topic,
+    Refused, report_paths, run_fit, save, write_text)
 from inclino_ros.cli.process import CommandError
 from inclino_ros.cross_axial import apply_cross_axial, fit_cross_axial, RotationFitRefused
 from inclino_ros.model import NO_MAGNETIC_CORRECTION, utc_now_iso
@@ -45,12 +45,7 @@ def register(subparsers):
         'fit-rotation',
         help='fit the cross-axial magnetometer correction of a rotation (seed 002) into a '
              'calibration file', description=__doc__.split('\n\n', 1)[1])
-    parser.add_argument('input', metavar='BAG_OR_CSV',
-                        help='bag directory (mcap or sqlite3) or CSV file with bx, by, bz [nT]')
-    parser.add_argument('--calibration', required=True, metavar='FILE',
-                        help='calibration file to update (created if missing)')
-    parser.add_argument('--report-dir', metavar='DIR',
-                        help='folder of the PNG and text report (default: that of FILE)')
+    add_file_arguments(parser, 'CSV file with bx, by, bz [nT]')
     parser.add_argument('--mag-topic', default=MAG_TOPIC,
                         help='sensor_msgs/MagneticField topic of a bag (default: %(default)s)')
     parser.add_argument('--start-s', type=float,

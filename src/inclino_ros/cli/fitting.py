@@ -28,14 +28,19 @@ class Refused(Exception):
     """A fit that must not be written: exit code 1, the calibration file untouched."""
 
 
-def add_common_arguments(parser):
-    """Add the input, --calibration, --report-dir and topic options."""
+def add_file_arguments(parser, csv_help='CSV file with a header row'):
+    """Add the input, --calibration and --report-dir options."""
     parser.add_argument('input', metavar='BAG_OR_CSV',
-                        help='bag directory (mcap or sqlite3) or CSV file with a header row')
+                        help=f'bag directory (mcap or sqlite3) or {csv_help}')
     parser.add_argument('--calibration', required=True, metavar='FILE',
                         help='calibration file to update (created if missing)')
     parser.add_argument('--report-dir', metavar='DIR',
                         help='folder of the PNG and text report (default: that of FILE)')
+
+
+def add_common_arguments(parser):
+    """Add the input, --calibration, --report-dir and accelerometer topic options."""
+    add_file_arguments(parser)
     parser.add_argument('--raw-topic', default=RAW_TOPIC,
                         help='sensor_msgs/Imu topic of a bag (default: %(default)s)')
     parser.add_argument('--temperature-topic', default=TEMPERATURE_TOPIC,

@@ -24,17 +24,34 @@ east_west`` for short-collar and ``true_azimuth_deg, azimuth_error_deg``
 when the input has the truth) and OUT.msa.json (the corrections, V
 before/after, the interval, the diagnostics).
 
-Exit codes: 0 corrected, 1 refused (the reason printed, nothing written),
-2 unusable input.
+The reference field is ``--reference-total-nT`` and ``--reference-dip-deg``,
+or the World Magnetic Model at ``--site LAT LON ALT_M DATE`` (explicit values
+win; the site gives the declination too).
+
+With ``--calibration FILE`` the stations' B are the magnetometer readings
+before the file's magnetic stage: its cross-axial correction (hard and soft
+iron of ``inclino fit-rotation``) is applied to them first (turned into the
+ISCWSA axes), and for ``improved`` the cross-axial interference is then
+taken as removed.  The solved eps, turned into the tool frame
+(``magnetics.iscwsa_from_tool``), replaces the stage's ``interference_nT``,
+with ``msa_method, msa_stations, msa_reference_*`` and ``msa_fitted_at``;
+its hard and soft iron and every other stage are kept, the file written
+atomically.  ``short-collar`` (one correction per station) cannot be stored.
+
+Exit codes: 0 corrected, 1 refused (the reason printed, nothing written,
+the calibration file untouched), 2 unusable input.
 """
 
-from dataclasses import asdict
+from dataclasses import asdict, replace
 import json
 import sys
 
 from inclino_ros import magnetics
-from inclino_ros.cli.fitting import finish_figure, new_figure, read_csv
+from inclino_ros.cli.fitting import finish_figure, load_existing, new_figure, read_csv, save
 from inclino_ros.cli.process import CommandError
+from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
+from inclino_ros.cross_axial import apply_cross_axial
+from inclino_ros.model import NO_MAGNETIC_CORRECTION, utc_now_iso
 from inclino_ros.msa import (
     azimuth_difference_deg, MAX_INTERFERENCE_NT, misfit_nT2, MsaLimits, MsaRefused, short_collar,
     solve_msa_axial, solve_msa_classic, solve_msa_improved, toolface_gap_deg)
@@ -56,12 +73,10 @@ def register(subparsers):
     parser.add_argument('stations', metavar='STATIONS.csv', help='station CSV (see above)')
     parser.add_argument('-o', '--output', required=True, metavar='OUT.csv',
                         help='corrected stations CSV; the corrections go to OUT.msa.json')
-    parser.add_argument('--reference-total-nT', type=float, required=True, metavar='F',
-                        help='reference total field [nT] (e.g. WMM/IFR at the well)')
-    parser.add_argument('--reference-dip-deg', type=float, required=True, metavar='D',
-                        help='reference dip [deg], positive downward')
-    parser.add_argument('--declination-deg', type=float, metavar='X',
-                        help='declination [deg]: adds azimuth_true_north_deg')
+    add_reference_arguments(parser)
+    parser.add_argument('--calibration', metavar='FILE',
+                        help='calibration file: its cross-axial correction is applied first, '
+                             'the solved interference stored in its magnetic stage')
     parser.add_argument('--method', choices=METHODS, default='improved',
                         help='correction method (default: %(default)s)')
     parser.add_argument('--cross-axial-nT', type=float, nargs=2, metavar=('EX', 'EY'),
@@ -78,6 +93,7 @@ def run(args):
     lines = []
     try:
         table = load_stations(args)
+        model = None if args.calibration is None else calibrated_field(args, table, lines)
         output = correct(args, table, lines)
     except MsaRefused as err:
         print('\n'.join(lines + [f'inclino msa: refused: {err.reason}; nothing written']),
@@ -88,24 +104,73 @@ def run(args):
         return 2
     try:
         write_outputs(args, table, output, lines)
+        if model is not None:
+            store(args, model, output[0], lines)
     except OSError as err:
         print(f'inclino msa: error: cannot write: {err}', file=sys.stderr)
+        return 2
+    except CommandError as err:
+        print(f'inclino msa: error: {err}', file=sys.stderr)
         return 2
     print('\n'.join(lines))
     return 0
 
 
 def load_stations(args):
-    """Return the station table; CommandError for a bad file or reference."""
-    if not args.reference_total_nT > 0.0:
-        raise CommandError('--reference-total-nT must be positive')
-    if not -90.0 < args.reference_dip_deg < 90.0:
-        raise CommandError('--reference-dip-deg must lie strictly between -90 and 90')
+    """
+    Return the station table; CommandError for a bad file or reference.
+
+    The reference resolved (options, then ``--site``) is put back in
+    ``args.reference_total_nT``, ``args.reference_dip_deg`` and
+    ``args.declination_deg``.
+    """
+    try:
+        reference = resolve_reference(args)
+    except ValueError as err:
+        raise CommandError(str(err)) from None
+    if reference[0] is None or reference[1] is None:
+        raise CommandError('the reference field is needed: --reference-total-nT and '
+                           '--reference-dip-deg, or --site')
+    args.reference_total_nT, args.reference_dip_deg, args.declination_deg = reference[:3]
+    if args.calibration is not None and args.method == 'short-collar':
+        raise CommandError('short-collar gives one correction per station: it cannot be '
+                           'stored in --calibration')
     table = read_csv(args.stations, GRAVITY_COLUMNS + FIELD_COLUMNS,
                      optional=('md', TRUTH_COLUMN))
     table['G'] = np.column_stack([table[name] for name in GRAVITY_COLUMNS])
     table['B'] = np.column_stack([table[name] for name in FIELD_COLUMNS])
     return table
+
+
+def calibrated_field(args, table, lines):
+    """
+    Return the model of ``args.calibration``; its cross-axial stage applied to ``table['B']``.
+
+    ISCWSA and tool axes differ by a turn about x (``magnetics.iscwsa_from_tool``,
+    its own inverse): B is turned into the tool frame, corrected and turned back.
+    """
+    model = load_existing(args.calibration)
+    stage = model.magnetic
+    if stage is not None and stage.rotation_fitted_at is not None:
+        table['B'] = magnetics.iscwsa_from_tool(
+            apply_cross_axial(magnetics.iscwsa_from_tool(table['B']), stage))
+        table['rotation_fitted_at'] = stage.rotation_fitted_at
+        lines.append(f'hard and soft iron of {args.calibration} applied to B')
+    return model
+
+
+def store(args, model, result, lines):
+    """Write the solved eps into the magnetic stage of ``args.calibration`` (tool frame)."""
+    eps_tool_nT = magnetics.iscwsa_from_tool(result.eps_nT)
+    stage = replace(model.magnetic or NO_MAGNETIC_CORRECTION,
+                    interference_nT=tuple(eps_tool_nT.tolist()), msa_method=result.method,
+                    msa_stations=int(result.diagnostics.stations_used),
+                    msa_reference_total_nT=float(args.reference_total_nT),
+                    msa_reference_dip_deg=float(args.reference_dip_deg),
+                    msa_fitted_at=utc_now_iso())
+    save(args.calibration, replace(model, magnetic=stage))
+    lines.append('wrote the interference (tool x, y, z: '
+                 + ', '.join(f'{v:.1f}' for v in eps_tool_nT) + f' nT) to {args.calibration}')
 
 
 def correct(args, table, lines):
@@ -125,17 +190,25 @@ def correct(args, table, lines):
     elif args.method == 'axial':
         result = solve_msa_axial(G, B, *reference, **options)
     else:
-        cross_axial, source = cross_axial_of(args, G, B, reference, options)
+        cross_axial, source = cross_axial_of(args, G, B, reference, options,
+                                             table.get('rotation_fitted_at'))
         lines.append(f'cross-axial {cross_axial[0]:.1f}, {cross_axial[1]:.1f} nT: {source}')
         result = solve_msa_improved(G, B, *reference, cross_axial_nT=cross_axial, **options)
     lines += result_lines(result)
     return result, source
 
 
-def cross_axial_of(args, G, B, reference, options):
-    """Return ((eps_x, eps_y) [nT], where they come from) for the improved method."""
+def cross_axial_of(args, G, B, reference, options, rotation_fitted_at=None):
+    """
+    Return ((eps_x, eps_y) [nT], where they come from) for the improved method.
+
+    ``rotation_fitted_at``: when the calibration's rotation fit was applied to B.
+    """
     if args.cross_axial_nT:
         return tuple(args.cross_axial_nT), 'given (--cross-axial-nT)'
+    if rotation_fitted_at is not None:
+        return (0.0, 0.0), (f'removed by the rotation fit of {args.calibration} '
+                            f'({rotation_fitted_at})')
     gap_deg = toolface_gap_deg(G)
     if gap_deg <= MsaLimits().max_toolface_gap_deg:
         classic = solve_msa_classic(G, B, *reference, **options)

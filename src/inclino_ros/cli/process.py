@@ -290,6 +290,7 @@ def _magnetometer(args, model):
     if stage is None:
         print(f'inclino process: warning: {args.calibration} has no magnetic stage: the '
               'azimuth is of the raw magnetometer', file=sys.stderr)
+    declination_deg = declination_deg or 0.0
     print(f'reference field: {total_nT:.1f} nT, dip {dip_deg:.3f} deg, declination '
           f'{declination_deg:.3f} deg ({source}); /survey z is the magnetic azimuth',
           file=sys.stderr)

@@ -51,8 +51,8 @@ def resolve_reference(args, fallback=(None, None)):
     Return (total_nT, dip_deg, declination_deg, source) of the options.
 
     Each of F and D comes from its option, else ``--site``, else
-    ``fallback`` (F, D); None where none gives it.  The declination is 0
-    unless given or from the site.  ValueError for an impossible value.
+    ``fallback`` (F, D); None where none gives it, the declination too.
+    ValueError for an impossible value.
     """
     site = None if args.site is None else site_reference(args.site)
     total_nT, dip_deg, declination_deg = (
@@ -70,4 +70,4 @@ def resolve_reference(args, fallback=(None, None)):
         raise ValueError('--reference-total-nT must be positive')
     if dip_deg is not None and not -90.0 < dip_deg < 90.0:
         raise ValueError('--reference-dip-deg must lie strictly between -90 and 90')
-    return total_nT, dip_deg, 0.0 if declination_deg is None else declination_deg, source
+    return total_nT, dip_deg, declination_deg, source

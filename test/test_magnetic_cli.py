@@ -1,0 +1,308 @@
+"""
+Magnetic azimuth (seed 002) end to end: simulate --magnetic -> fit-rotation -> msa -> process.
+
+Scenario: the bench (gamma 0.8, beta -1.2 deg; 12 stations at inclination 0.5 .. 60 deg,
+azimuth 85 -> 95 deg: east, the hard case), reference F = 50000 nT, dip 60 deg, interference
+2000 nT axial and (80, -80) nT cross-axial, and a 10 s rotation (two turns at 60 deg, 90 deg).
+Each station holds N = 16 samples whose noise, sigma_a = 1e-4 g sqrt(N) = 4e-4 g and
+sigma_m = 5 nT sqrt(N) = 20 nT per axis, averages to the issue's 1e-4 g and 5 nT per station.
+
+Targets, on the station mean of the per-sample azimuth error written by ``inclino process``:
+
+- The floor is the same chain with the TRUE interference in the model: the noise alone.  A
+  station's mean azimuth moves by ~1e-4 rad / sin I for 1e-4 g of cross-axial gravity
+  (the tool's horizontal projection turns) plus 5 nT / Bh (Bh = 25000 nT: 0.011 deg), so its
+  1 sigma is 0.028 deg at I = 12 deg and 0.33 deg at 1 deg.  Hence the issue's <= 0.1 deg
+  (3.5 sigma) is asserted where I >= 12 deg; the low stations are compared with the floor only.
+- Corrected minus floor <= 0.02 deg at every station: the rotation fit leaves ~20 nT /
+  sqrt(1000) = 0.6 nT on c, the MSA a few nT on eps_z (48 nT x 4e-5 deg/nT = 0.01 deg at the
+  worst), both well inside.
+- Uncorrected (raw magnetometer, calibrated accelerometer) the 2000 nT cost > 3 deg at 60 deg
+  (sin I sin A 2000 / Bh = 3.97 deg).
+Seeds are fixed; the margins are several sigma.
+"""
+
+from dataclasses import replace
+import json
+import os
+
+from inclino_ros import bag, magnetics, pipeline
+from inclino_ros.level_capture import LevelLimits, solve_level_capture
+from inclino_ros.model import (
+    CalibrationModel, load_model, NO_MAGNETIC_CORRECTION, save_model)
+from inclino_ros.msa import azimuth_difference_deg
+from inclino_ros.well_sim import simulate_well, WellScenario, write_stations_csv
+import numpy as np
+import pytest
+from test_msa_cli import quiet
+
+G = 9.80665
+SAMPLES = 16
+NOISE_MPS2 = 1e-4 * G * np.sqrt(SAMPLES)
+NOISE_NT = 5.0 * np.sqrt(SAMPLES)
+REFERENCE = ('--reference-total-nT', '50000', '--reference-dip-deg', '60')
+MAX_ERROR_DEG = 0.1
+MIN_TARGET_INCLINATION_DEG = 12.0
+OVER_FLOOR_DEG = 0.02
+
+
+def summary_values(stdout):
+    """Return the ``name: value`` lines of a process summary as a dict of strings."""
+    return dict(line.split(': ', 1) for line in stdout.splitlines() if ': ' in line)
+
+
+def simulate_bench(path, storage='mcap'):
+    """Simulate the test bench into ``path``; return its truth record."""
+    code, _, err = quiet(['simulate', path, '--magnetic', '--rotation-s', 10, '--storage', storage,
+                          '--station-s', SAMPLES / 200.0, '--noise-mps2', NOISE_MPS2,
+                          '--mag-noise-nT', NOISE_NT])
+    assert code == 0, err
+    with open(f'{path}.truth.json') as stream:
+        return json.load(stream)
+
+
+def level_calibration(path, truth, calibration):
+    """Write the installation stage of the level segment (seed 000) to ``calibration``."""
+    level = truth['segments'][0]
+    imu = bag.concatenate(bag.read(path, '/imu/data_raw'))
+    selected = (imu.stamps_ns >= level['start_ns']) & (imu.stamps_ns <= level['end_ns'])
+    installation = solve_level_capture(
+        imu.linear_acceleration_mps2[selected], 3,
+        LevelLimits(max_std_deg=0.1, max_tilt_deg=5.0, gravity_mps2=G,
+                    g_total_tolerance_mps2=0.05))
+    save_model(calibration, CalibrationModel(accelerometer_axes=3, installation=installation))
+
+
+def rotation_window_s(truth):
+    """Return (start_s, end_s) of the rotation segment after the first message."""
+    origin, rotation = truth['segments'][0]['start_ns'], truth['segments'][-1]
+    return (rotation['start_ns'] - origin) / 1e9, (rotation['end_ns'] - origin) / 1e9
+
+
+def station_masks(truth, stamps_ns):
+    """Yield (segment record, mask of ``stamps_ns``) of each station."""
+    for record in truth['segments']:
+        if record['kind'] == 'station':
+            yield record, (stamps_ns >= record['start_ns']) & (stamps_ns <= record['end_ns'])
+
+
+def write_stations(path, truth, calibration, out_csv):
+    """
+    Write the msa station CSV of the bag: per station the mean corrected G and raw B (ISCWSA).
+
+    G from the calibration's accelerometer stages, B before its magnetic stage (msa
+    --calibration applies the rotation fit itself).
+    """
+    model = load_model(calibration)
+    imu = bag.concatenate(bag.read(path, '/imu/data_raw'))
+    mag = bag.concatenate(bag.read(path, '/imu/mag'))
+    rows = []
+    for record, mask in station_masks(truth, imu.stamps_ns):
+        f = model.apply(imu.linear_acceleration_mps2[mask]).mean(axis=0)
+        rows.append([*magnetics.gravity_from_specific_force(f),
+                     *magnetics.iscwsa_from_tool(mag.field_nT[mask].mean(axis=0)),
+                     record['azimuth_deg']])
+    with open(out_csv, 'w') as stream:
+        stream.write('gx,gy,gz,bx,by,bz,true_azimuth_deg\n')
+        stream.writelines(','.join(repr(float(v)) for v in row) + '\n' for row in rows)
+
+
+@pytest.fixture(scope='module')
+def chain(tmp_path_factory):
+    """Run the whole chain once (mcap); return paths, truth and the outputs."""
+    work = tmp_path_factory.mktemp('magnetic')
+    sim, calibration, report = (str(work / n) for n in ('sim', 'cal.json', 'report'))
+    truth = simulate_bench(sim)
+    level_calibration(sim, truth, calibration)
+    start_s, end_s = rotation_window_s(truth)
+    rotation = quiet(['fit-rotation', sim, '--calibration', calibration, '--start-s', start_s,
+                      '--end-s', end_s, '--report-dir', report])
+    stations = str(work / 'stations.csv')
+    write_stations(sim, truth, calibration, stations)
+    msa = quiet(['msa', stations, '-o', work / 'msa.csv', *REFERENCE, '--calibration',
+                 calibration, '--report', work / 'msa.png'])
+    out = str(work / 'out')
+    process = quiet(['process', sim, out, '--calibration', calibration, '--mag-topic',
+                     '/imu/mag'])
+    return {'work': work, 'sim': sim, 'calibration': calibration, 'report': report,
+            'truth': truth, 'rotation': rotation, 'msa': msa, 'process': process, 'out': out}
+
+
+def test_simulated_magnetometer_bag(chain):
+    """/imu/mag: tesla, the accelerometer's stamps, the tool-frame field of the truth."""
+    sim, truth = chain['sim'], chain['truth']
+    assert bag.topic_info(sim, '/imu/mag')[0] == bag.MAGNETIC_FIELD
+    imu = bag.concatenate(bag.read(sim, '/imu/data_raw'))
+    mag = bag.concatenate(bag.read(sim, '/imu/mag'))
+    np.testing.assert_array_equal(mag.stamps_ns, imu.stamps_ns)
+    assert np.all(np.abs(mag.magnetic_field_T) < 1e-4)   # tesla, not nT
+    np.testing.assert_allclose(mag.covariance_T2[:, 0], (NOISE_NT * 1e-9) ** 2)
+    assert truth['magnetic']['interference_tool_nT'] == [80.0, 80.0, -2000.0]
+    survey = bag.concatenate(bag.read(sim, '/truth/survey'))
+    for record, mask in station_masks(truth, survey.stamps_ns):
+        assert np.all(survey.vector[mask, 2] == record['azimuth_deg'])
+    assert truth['segments'][-1]['kind'] == 'rotation'
+
+
+def test_fit_rotation_writes_the_stage_and_report(chain):
+    """Hard iron within 3 nT of the truth (80, 80 nT tool), W ~ I, report files, stages kept."""
+    code, out, err = chain['rotation']
+    assert code == 0, err
+    assert 'hard iron c' in out and 'RMSE' in out
+    model = load_model(chain['calibration'])
+    assert model.installation is not None
+    np.testing.assert_allclose(model.magnetic.hard_iron_nT, (80.0, 80.0), atol=3.0)
+    np.testing.assert_allclose(model.magnetic.soft_iron, np.eye(2), atol=1e-3)
+    assert model.magnetic.rotation_fitted_at is not None
+    for name in ('fit_rotation.png', 'fit_rotation.txt'):
+        assert os.path.getsize(os.path.join(chain['report'], name)) > 0
+
+
+def test_msa_stores_the_interference_in_the_tool_frame(chain):
+    """eps_z 2000 nT (ISCWSA, toward the bit) is stored as -2000 nT on the up tool z."""
+    code, out, err = chain['msa']
+    assert code == 0, err
+    assert 'removed by the rotation fit' in out
+    magnetic = load_model(chain['calibration']).magnetic
+    assert magnetic.interference_nT[2] == pytest.approx(-2000.0, abs=15.0)
+    assert np.max(np.abs(magnetic.interference_nT[:2])) < 5.0
+    np.testing.assert_allclose(magnetic.hard_iron_nT, (80.0, 80.0), atol=3.0)   # kept
+    assert (magnetic.msa_method, magnetic.msa_stations) == ('improved', 12)
+    assert (magnetic.msa_reference_total_nT, magnetic.msa_reference_dip_deg) == (50000.0, 60.0)
+
+
+def test_process_azimuth_within_target_of_truth(chain):
+    """Corrected station azimuths: <= 0.1 deg (I >= 12 deg), <= floor + 0.02; raw > 3 deg."""
+    code, out, err = chain['process']
+    assert code == 0, err
+    values = summary_values(out)
+    assert values['mag_unpaired'] == values['azimuth_untrusted'] == values['qc_failed'] == '0'
+    imu = bag.concatenate(bag.read(chain['sim'], '/imu/data_raw'))
+    mag = bag.concatenate(bag.read(chain['sim'], '/imu/mag'))
+    truth = bag.concatenate(bag.read(chain['sim'], '/truth/survey')).vector[:, 2]
+    survey = bag.concatenate(bag.read(chain['out'], '/survey'))
+    model = load_model(chain['calibration'])
+    true_stage = replace(NO_MAGNETIC_CORRECTION, interference_nT=(80.0, 80.0, -2000.0))
+    # The raw field fails the B-total QC (that is the point): no reference for it.
+    floor, raw = (pipeline.run(imu.linear_acceleration_mps2, replace(model, magnetic=stage),
+                               pipeline.Settings(), field_nT=mag.field_nT,
+                               magnetic_settings=settings).magnetic.azimuth_deg
+                  for stage, settings in ((true_stage, pipeline.MagneticSettings(50000.0, 60.0)),
+                                          (None, pipeline.MagneticSettings())))
+    lines, worst = [], {'target': 0.0, 'over_floor': 0.0, 'raw': 0.0}
+    for record, mask in station_masks(chain['truth'], survey.stamps_ns):
+        error, floor_error, raw_error = (np.mean(azimuth_difference_deg(a[mask], truth[mask]))
+                                         for a in (survey.vector[:, 2], floor, raw))
+        lines.append(f'I {record["inclination_deg"]:5.1f} A {record["azimuth_deg"]:6.2f}: '
+                     f'corrected {error:+.4f} floor {floor_error:+.4f} raw {raw_error:+.3f} deg')
+        if record['inclination_deg'] >= MIN_TARGET_INCLINATION_DEG:
+            worst['target'] = max(worst['target'], abs(error))
+        worst['over_floor'] = max(worst['over_floor'], abs(error - floor_error))
+        worst['raw'] = max(worst['raw'], abs(raw_error))
+    print('\n'.join(lines + [str(worst)]))
+    assert worst['target'] <= MAX_ERROR_DEG
+    assert worst['over_floor'] <= OVER_FLOOR_DEG
+    assert worst['raw'] > 3.0
+
+
+def test_unpaired_stale_and_failing_samples(chain, tmp_path):
+    """sqlite3: a gap in /imu/mag, a zero and a saturated field: NaN azimuth, each counted."""
+    imu = bag.concatenate(bag.read(chain['sim'], '/imu/data_raw'))
+    mag = bag.concatenate(bag.read(chain['sim'], '/imu/mag'))
+    field_nT = mag.field_nT.copy()
+    zero, saturated = 900, 1000
+    field_nT[zero] = 0.0
+    field_nT[saturated] = 1e6            # 1 mT: a clipped reading far off the reference
+    # A 155 ms gap inside the still level segment (across a station change the stale
+    # reading would be of another attitude and fail the dip QC as well).
+    keep = np.setdiff1d(np.arange(mag.stamps_ns.size), np.arange(300, 331))
+    # Brute force: a sample is unpaired when no kept reading lies within 50 ms (stale).
+    distance_ns = np.min(np.abs(imu.stamps_ns[:, None] - mag.stamps_ns[keep][None, :]), axis=1)
+    unpaired = np.flatnonzero(distance_ns > 50_000_000)
+    assert 10 <= unpaired.size < 31
+    in_bag, out_bag = str(tmp_path / 'in'), str(tmp_path / 'out')
+    with bag.BagWriter(in_bag, 'sqlite3') as writer:
+        writer.add_topic('/imu/data_raw', bag.IMU)
+        writer.add_topic('/imu/mag', bag.MAGNETIC_FIELD)
+        writer.write_series({'/imu/data_raw': imu})
+        writer.write_series({'/imu/mag': bag.magnetometer(mag.stamps_ns[keep], 'mag',
+                                                          field_nT[keep], NOISE_NT)})
+    code, out, err = quiet(['process', in_bag, out_bag, '--calibration', chain['calibration'],
+                            '--mag-topic', '/imu/mag', '--max-pairing-s', '0.05',
+                            '--storage', 'sqlite3'])
+    assert code == 0, err
+    values = summary_values(out)
+    assert values['mag_unpaired'] == str(unpaired.size)
+    assert values['qc_failed'] == values['qc_failed_b_total'] == '2', out
+    assert values['azimuth_untrusted'] == str(unpaired.size + 2)
+    azimuth = bag.concatenate(bag.read(out_bag, '/survey')).vector[:, 2]
+    bad = np.concatenate([unpaired, [zero, saturated]])
+    assert np.all(np.isnan(azimuth[bad]))
+    assert np.isfinite(np.delete(azimuth, bad)).all()
+
+
+def file_bytes(path):
+    """Return the content of ``path``."""
+    with open(path, 'rb') as stream:
+        return stream.read()
+
+
+def test_refusals_leave_the_file_untouched(chain, tmp_path):
+    """A half rotation (fit-rotation) and four stations (msa): exit 1, file byte-identical."""
+    before = file_bytes(chain['calibration'])
+    start_s, end_s = rotation_window_s(chain['truth'])
+    code, _, err = quiet(['fit-rotation', chain['sim'], '--calibration', chain['calibration'],
+                          '--start-s', start_s, '--end-s', start_s + 2.0,
+                          '--report-dir', tmp_path])
+    assert code == 1 and 'covers' in err and 'left unchanged' in err
+    stations = tmp_path / 'four.csv'
+    write_stations_csv(stations, simulate_well(WellScenario(stations=4)))
+    code, _, err = quiet(['msa', stations, '-o', tmp_path / 'o.csv', *REFERENCE,
+                          '--calibration', chain['calibration']])
+    assert code == 1 and 'refused' in err
+    code, _, err = quiet(['msa', stations, '-o', tmp_path / 'o.csv', *REFERENCE,
+                          '--calibration', chain['calibration'], '--method', 'short-collar'])
+    assert code == 2 and 'cannot be stored' in err
+    assert file_bytes(chain['calibration']) == before
+
+
+def test_fit_rotation_from_csv_matches_the_bag(chain, tmp_path):
+    """The rotation as a CSV of bx, by, bz [nT] gives the same hard iron as the bag window."""
+    mag = bag.concatenate(bag.read(chain['sim'], '/imu/mag'))
+    rotation = chain['truth']['segments'][-1]
+    window = mag.stamps_ns >= rotation['start_ns']
+    path, calibration = tmp_path / 'rotation.csv', tmp_path / 'cal.json'
+    np.savetxt(path, mag.field_nT[window], delimiter=',', header='bx,by,bz', comments='')
+    code, _, err = quiet(['fit-rotation', path, '--calibration', calibration])
+    assert code == 0, err
+    np.testing.assert_allclose(load_model(calibration).magnetic.hard_iron_nT,
+                               load_model(chain['calibration']).magnetic.hard_iron_nT, atol=1e-6)
+
+
+def test_process_needs_a_reference(chain, tmp_path):
+    """Without a reference (options, --site or an MSA in the file) no azimuth: exit 2."""
+    calibration = tmp_path / 'cal.json'
+    save_model(calibration, CalibrationModel(accelerometer_axes=3))
+    code, _, err = quiet(['process', chain['sim'], tmp_path / 'out', '--calibration',
+                          calibration, '--mag-topic', '/imu/mag'])
+    assert code == 2 and 'reference field' in err
+
+
+def test_msa_site_reference(tmp_path):
+    """--site takes F, dip and declination from the WMM (pygeomag); a bad date exits 2."""
+    from inclino_ros.reference_field import reference_from_model
+
+    site = ('29.7', '-95.4', '0', '2026-07-01')
+    field = reference_from_model(29.7, -95.4, 0.0, 2026.5)
+    stations = tmp_path / 'stations.csv'
+    write_stations_csv(stations, simulate_well(WellScenario(
+        reference_total_nT=field.total_nT, reference_dip_deg=field.dip_deg)))
+    code, out, err = quiet(['msa', stations, '-o', tmp_path / 'o.csv', '--site', *site])
+    assert code == 0, err
+    record = json.loads((tmp_path / 'o.csv.msa.json').read_text())
+    assert record['reference_total_nT'] == pytest.approx(field.total_nT, abs=1.0)
+    assert record['declination_deg'] == pytest.approx(field.declination_deg, abs=0.01)
+    assert record['eps_nT'][2] == pytest.approx(2000.0, abs=15.0)
+    code, _, err = quiet(['msa', stations, '-o', tmp_path / 'o.csv', '--site', '0', '0', '0',
+                          '1990-01-01'])
+    assert code == 2 and 'World Magnetic Model' in err
