@@ -1,10 +1,12 @@
 """Input health for /diagnostics: samples accepted, dropped and why, rate, G-total."""
 
+from collections import deque
 import math
 
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 
 from inclino_ros.screening import REASONS
+import numpy as np
 
 
 class InputStats:
@@ -115,36 +117,51 @@ class TemperatureInput:
 
 
 class MagneticInput:
-    """The latest imu/mag reading, and how the azimuths of the last period fared."""
+    """Recent imu/mag readings, and how the azimuths of the last period fared."""
 
-    def __init__(self):
-        """Start with no magnetometer."""
-        self.stamp_ns = None
-        self.field_nT = None
+    def __init__(self, keep=256):
+        """Start with no magnetometer; keep the latest ``keep`` readings for pairing."""
+        self.recent = deque(maxlen=keep)
         self.rejected = 0
         self._period = {'trusted': 0, 'unpaired': 0, 'untrusted': 0}
         self._last = None
 
+    @property
+    def stamp_ns(self):
+        """Return the stamp of the latest reading, None before the first."""
+        return self.recent[-1][0] if self.recent else None
+
     def update(self, stamp_ns, field_tesla):
-        """Keep a finite reading (converted to nT) as the latest; count a non-finite one."""
+        """Keep a finite reading (converted to nT); count a non-finite one."""
         if all(math.isfinite(v) for v in field_tesla):
-            self.stamp_ns = stamp_ns
-            self.field_nT = tuple(v * 1e9 for v in field_tesla)
+            self.recent.append((stamp_ns, *(v * 1e9 for v in field_tesla)))
         else:
             self.rejected += 1
 
-    def paired(self, stamp_ns, max_pairing_s):
-        """Return the reading to pair with a sample stamped ``stamp_ns``: NaNs if too far."""
-        if self.stamp_ns is None or abs(stamp_ns - self.stamp_ns) > max_pairing_s * 1e9:
-            return (math.nan, math.nan, math.nan)
-        return self.field_nT
+    def paired(self, stamps_ns, max_pairing_s):
+        """
+        Return (N, 3) fields [nT] paired with samples stamped ``stamps_ns``.
 
-    def count(self, azimuth_survey, paired):
-        """Count one sample's azimuth outcome (an AzimuthSurvey of one row)."""
-        trusted = bool(azimuth_survey.trusted[0])
+        Each sample gets the reading nearest to it in time, NaNs when none is
+        within ``max_pairing_s``.
+        """
+        recent = np.array(self.recent)
+        stamps = np.asarray(stamps_ns, dtype=np.int64)
+        after = np.clip(np.searchsorted(recent[:, 0], stamps), 1, len(recent) - 1) \
+            if len(recent) > 1 else np.zeros(stamps.size, dtype=int)
+        before = np.maximum(after - 1, 0)
+        nearest = np.where(np.abs(recent[after, 0] - stamps) < np.abs(recent[before, 0] - stamps),
+                           after, before)
+        fields = recent[nearest, 1:].copy()
+        fields[np.abs(recent[nearest, 0] - stamps) > max_pairing_s * 1e9] = math.nan
+        return fields
+
+    def count(self, azimuth_survey, row, paired):
+        """Count the azimuth outcome of one sample (``row`` of an AzimuthSurvey)."""
+        trusted = bool(azimuth_survey.trusted[row])
         key = 'trusted' if trusted else ('untrusted' if paired else 'unpaired')
         self._period[key] += 1
-        self._last = azimuth_survey
+        self._last = (azimuth_survey, row)
 
     def status(self, node_name, settings, model_stage, stations):
         """Return the magnetics DiagnosticStatus for the period; reset the period."""
@@ -155,12 +172,13 @@ class MagneticInput:
                       reference_dip_deg=f'{settings.reference_dip_deg:g}',
                       rotation_fitted_at=str(model_stage and model_stage.rotation_fitted_at),
                       msa_method=str(model_stage and model_stage.msa_method))
-        last = self._last
-        if last is not None:
-            values.update(b_total_nT=f'{last.b_total_nT[0]:.0f}', dip_deg=f'{last.dip_deg[0]:.3f}')
+        if self._last is not None:
+            last, row = self._last
+            values.update(b_total_nT=f'{last.b_total_nT[row]:.0f}',
+                          dip_deg=f'{last.dip_deg[row]:.3f}')
             if last.qc is not None:
-                values.update(b_total_delta_nT=f'{last.qc.b_total_delta_nT[0]:+.0f}',
-                              dip_delta_deg=f'{last.qc.dip_delta_deg[0]:+.3f}')
+                values.update(b_total_delta_nT=f'{last.qc.b_total_delta_nT[row]:+.0f}',
+                              dip_delta_deg=f'{last.qc.dip_delta_deg[row]:+.3f}')
         if self.stamp_ns is None:
             status.message = 'no imu/mag: azimuth not computed (NaN)'
         elif self._period['unpaired'] or self._period['untrusted']:
