@@ -199,3 +199,22 @@ def test_settings_defaults():
             s.toolface_convention, s.toolface_min_inclination_deg) == \
         (3, 9.80665, 2.0 * 9.80665, 'seed000', 0.01)
     assert Settings(accelerometer_axes=2, toolface_convention='iscwsa_highside')
+
+
+def test_azimuth_is_not_trusted_near_vertical_or_without_a_field():
+    """A vertical tool or a dead magnetometer gives a NaN azimuth, never a number."""
+    from inclino_ros.magnetics import forward, iscwsa_from_tool
+    from inclino_ros.pipeline import MagneticSettings
+    settings = MagneticSettings(min_inclination_deg=0.5)
+    rows = []
+    for inclination_deg in (0.2, 30.0):
+        gravity, field = forward(inclination_deg, 100.0, 40.0, G, 50000.0, 60.0)
+        rows.append((-iscwsa_from_tool(gravity), iscwsa_from_tool(field)))
+    force = np.array([r[0] for r in rows] + [rows[1][0]])
+    field = np.array([r[1] for r in rows] + [np.zeros(3)])
+    survey = run(force, CalibrationModel(3), Settings(), field_nT=field,
+                 magnetic_settings=settings)
+    azimuth = survey.magnetic.azimuth_deg
+    assert np.isnan(azimuth[0]) and np.isnan(azimuth[2])
+    assert azimuth[1] == pytest.approx(100.0, abs=1e-9)
+    assert survey.magnetic.true_azimuth_deg[1] == pytest.approx(100.0, abs=1e-9)

@@ -50,6 +50,7 @@ class MagneticSettings:
     reference_dip_deg: float = 0.0
     declination_deg: float = 0.0
     limits: QcLimits = QcLimits()
+    min_inclination_deg: float = 0.5  # the azimuth of a vertical tool is undefined
 
 
 @dataclass(frozen=True)
@@ -98,14 +99,17 @@ def resolve_azimuth(corrected_mps2, field_nT, model, settings, magnetic_settings
     gives a NaN azimuth.  The field is corrected by the model's magnetic stage
     and turned into the ISCWSA frame with the gravity vector
     (``magnetics.gravity_from_specific_force``) for the azimuth of seed 001
-    Eq. 4; a sample failing QC against the reference is not trusted.
+    Eq. 4; a sample failing QC against the reference, or below the minimum
+    inclination (where the azimuth is undefined), is not trusted.
     """
     gravity = gravity_from_specific_force(corrected_mps2)
     field = iscwsa_from_tool(model.apply_magnetic(field_nT))
     azimuth = azimuth_deg(gravity, field)
     field_total_nT = b_total_nT(field)
     # Below MIN_FIELD_NT there is no Earth field in the reading (a dead magnetometer).
-    trusted = np.isfinite(azimuth) & (field_total_nT >= MIN_FIELD_NT)
+    steep_enough = (inclination(corrected_mps2)
+                    >= math.radians(magnetic_settings.min_inclination_deg))
+    trusted = np.isfinite(azimuth) & (field_total_nT >= MIN_FIELD_NT) & steep_enough
     qc = None
     if magnetic_settings.reference_total_nT > 0:
         qc = survey_qc(gravity, field, magnetic_settings.reference_total_nT,

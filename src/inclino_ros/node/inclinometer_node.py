@@ -142,6 +142,7 @@ class InclinometerNode(Node):
             reference_total_nT=self.param('magnetic.reference_total_nT'),
             reference_dip_deg=self.param('magnetic.reference_dip_deg'),
             declination_deg=self.param('magnetic.declination_deg'),
+            min_inclination_deg=self.param('magnetic.min_inclination_deg'),
             limits=QcLimits(
                 b_total_tolerance_nT=self.param('magnetic.b_total_tolerance_nT'),
                 dip_tolerance_deg=self.param('magnetic.dip_tolerance_deg'),

@@ -121,6 +121,9 @@ PARAMETERS = (
     Parameter('magnetic.g_total_tolerance_mps2', 0.019,
               'QC: largest deviation [m/s^2] of G-total from gravity_mps2 (3 sigma of the '
               'ISCWSA MWD accelerometer terms).', 1e-4, 5.0, read_only=False),
+    Parameter('magnetic.min_inclination_deg', 0.5,
+              'Below this inclination [deg] the azimuth is undefined and published as NaN.',
+              0.0, 10.0, read_only=False),
     Parameter('magnetic.max_pairing_s', 0.05,
               'Largest stamp difference [s] between an accelerometer sample and the '
               'imu/mag reading paired with it; beyond it the azimuth is NaN.', 1e-4, 10.0,
