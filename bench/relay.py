@@ -5,7 +5,7 @@ Subscribes ``imu/data_raw`` with the inclinometer node's subscription QoS
 (sensor data: best effort, keep last, depth ``imu_queue_depth``) and
 republishes every message unchanged on ``relay/imu`` with the QoS of the
 node's outputs (reliable, depth 10).  It is spun by
-``inclino_ros.node.executor.spin``, so the only difference to the node is the
+``inclino_ros.node.executor.run_node``, so the only difference to the node is the
 work done per message: what the benchmark compares the node against.
 
 Run with the venv's interpreter: ``.venv/bin/python bench/relay.py``.
@@ -14,10 +14,9 @@ Run with the venv's interpreter: ``.venv/bin/python bench/relay.py``.
 import copy
 import sys
 
-from inclino_ros.node.executor import spin
+from inclino_ros.node.executor import run_node
 from inclino_ros.node.parameters import PARAMETERS
-import rclpy
-from rclpy.executors import ExternalShutdownException
+from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import Imu
@@ -32,24 +31,21 @@ class Relay(Node):
     def __init__(self, **kwargs):
         """Create the subscription and the publisher with the node's QoS."""
         super().__init__('imu_relay', **kwargs)
-        self.relay_pub = self.create_publisher(Imu, 'relay/imu', 10)
+        # No QoS event handlers, as the node has none on its outputs: the same
+        # executor work per wake-up.
+        self.relay_pub = self.create_publisher(
+            Imu, 'relay/imu', 10,
+            event_callbacks=PublisherEventCallbacks(use_default_callbacks=False))
         qos = copy.copy(qos_profile_sensor_data)
         qos.depth = IMU_QUEUE_DEPTH
-        self.create_subscription(Imu, 'imu/data_raw', self.relay_pub.publish, qos)
+        self.create_subscription(
+            Imu, 'imu/data_raw', self.relay_pub.publish, qos,
+            event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
 
 
 def main(args=None):
-    """Run the relay until SIGINT or shutdown."""
-    rclpy.init(args=args)
-    node = Relay()
-    try:
-        spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    """Run the relay until SIGINT, SIGTERM or shutdown."""
+    return run_node(Relay, args)
 
 
 if __name__ == '__main__':

@@ -8,8 +8,7 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from inclino_ros.model import load_model
 import numpy as np
 import pytest
-import rclpy
-from ros_harness import G, NodeProcess, Probe, tilted_reading
+from ros_harness import G, Probe, tilted_reading
 from std_srvs.srv import Trigger
 import transforms3d
 
@@ -21,39 +20,6 @@ CAPTURE_SAMPLES = 100
 # 4 sigma bounds the angles; a corrected inclination inherits at most the tilt error.
 ANGLE_TOL_DEG = 4 * math.degrees(NOISE_MPS2 / G / math.sqrt(CAPTURE_SAMPLES))
 STATIONS = ((2.0, 30.0), (0.5, 200.0), (5.0, 300.0), (30.0, 120.0))
-
-
-@pytest.fixture(scope='module')
-def ros():
-    """Initialise rclpy once for the module."""
-    rclpy.init()
-    yield
-    rclpy.shutdown()
-
-
-@pytest.fixture
-def start_node(tmp_path, ros):
-    """Return a starter of node processes, all stopped after the test."""
-    started = []
-
-    def start(**parameters):
-        parameters.setdefault('calibration_file', str(tmp_path / 'calibration.json'))
-        parameters.setdefault('diagnostics_period_s', 0.5)
-        node = NodeProcess(str(tmp_path / f'node{len(started)}.log'), **parameters)
-        started.append(node)
-        return node
-
-    yield start
-    for node in started:
-        node.stop()
-
-
-@pytest.fixture
-def probe(ros):
-    """Return a probe node, destroyed after the test."""
-    probe = Probe()
-    yield probe
-    probe.destroy()
 
 
 def level_samples(seed=1, scale=1.0):

@@ -8,8 +8,7 @@ from inclino_ros.magnetics import forward, iscwsa_from_tool
 from inclino_ros.model import load_model
 import numpy as np
 import pytest
-import rclpy
-from ros_harness import G, NodeProcess, Probe
+from ros_harness import G
 
 REFERENCE_TOTAL_NT, REFERENCE_DIP_DEG, DECLINATION_DEG = 50000.0, 60.0, 5.0
 HARD_IRON_NT = np.array([80.0, -80.0])           # tool x, y: turns with the tool
@@ -35,22 +34,15 @@ def readings(inclination_deg, azimuth_deg, toolface_deg, rng=None):
 
 
 @pytest.fixture
-def node_and_probe(tmp_path):
-    """Start a node with a reference field and short captures, and a probe; stop both."""
-    rclpy.init()
-    node = NodeProcess(
-        str(tmp_path / 'node.log'), calibration_file=str(tmp_path / 'calibration.json'),
-        stations_file=str(tmp_path / 'stations.json'), diagnostics_period_s=0.5,
-        **{'magnetic.reference_total_nT': REFERENCE_TOTAL_NT,
-           'magnetic.reference_dip_deg': REFERENCE_DIP_DEG,
-           'magnetic.declination_deg': DECLINATION_DEG,
-           'rotation.duration_s': 3.0, 'survey.samples': 20})
-    probe = Probe()
+def node_and_probe(start_node, probe):
+    """Start a node with a reference field and short captures; wait for the probe."""
+    node = start_node(**{
+        'magnetic.reference_total_nT': REFERENCE_TOTAL_NT,
+        'magnetic.reference_dip_deg': REFERENCE_DIP_DEG,
+        'magnetic.declination_deg': DECLINATION_DEG,
+        'rotation.duration_s': 3.0, 'survey.samples': 20})
     probe.wait_for_node()
-    yield node, probe
-    probe.destroy()
-    node.stop()
-    rclpy.shutdown()
+    return node, probe
 
 
 def azimuth_of(probe, force, field):
@@ -156,12 +148,11 @@ def test_unpaired_and_dead_field_give_no_azimuth(node_and_probe):
                for s in statuses)
 
 
-def test_a_corrupt_stations_file_stops_the_node(tmp_path):
+def test_a_corrupt_stations_file_stops_the_node(start_node, tmp_path):
     """A stations file that cannot be trusted is a loud error and a non-zero exit."""
     path = tmp_path / 'stations.json'
     path.write_text('{"format": "inclino_ros.stations", "schema_version": 1, "stations": '
                     '[{"specific_force_mps2": [0, 0, "x"]}]}')
-    node = NodeProcess(str(tmp_path / 'node.log'), stations_file=str(path),
-                       calibration_file=str(tmp_path / 'calibration.json'))
+    node = start_node()
     assert node.process.wait(timeout=30) != 0
     assert str(path) in node.log() and 'refusing to start' in node.log()

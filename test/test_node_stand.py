@@ -7,8 +7,7 @@ from inclino_ros.model import (
     CalibrationModel, load_model, save_model, Temperature, utc_now_iso)
 import numpy as np
 import pytest
-import rclpy
-from ros_harness import G, NodeProcess, Probe
+from ros_harness import G
 
 # The sensor's true errors (seed 001 Eq. 10, A = K G + b): scales off by up to
 # 0.3 %, axes 0.1-0.4 deg off orthogonal/aligned, biases of tens of mg.
@@ -40,36 +39,15 @@ def sensor_reading(inclination_deg, toolface_deg, rng=None):
     return reading
 
 
-@pytest.fixture(scope='module')
-def ros():
-    """Initialise rclpy once for the module."""
-    rclpy.init()
-    yield
-    rclpy.shutdown()
-
-
 @pytest.fixture
-def node_and_probe(tmp_path, ros):
-    """Start a node (stand parameters for speed) and a probe; stop both after."""
-    started = []
-
+def node_and_probe(start_node, probe):
+    """Return a starter of a node (stand captures of SAMPLES) that waits for the probe."""
     def start(**parameters):
-        parameters.setdefault('calibration_file', str(tmp_path / 'calibration.json'))
-        parameters.setdefault('diagnostics_period_s', 0.5)
-        parameters.setdefault('stand.samples', SAMPLES)
-        node = NodeProcess(str(tmp_path / 'node.log'), **parameters)
-        started.append(node)
-        probe = Probe()
-        started.append(probe)
+        node = start_node(**{'stand.samples': SAMPLES, **parameters})
         probe.wait_for_node()
         return node, probe
 
-    yield start
-    for item in reversed(started):
-        if isinstance(item, Probe):
-            item.destroy()
-        else:
-            item.stop()
+    return start
 
 
 def inclination_of(probe, reading):

@@ -38,3 +38,25 @@ def spin(node, period_s=0.1):
         executor.shutdown()
         for sig, handler in previous.items():
             signal.signal(sig, handler)
+
+
+def run_node(make_node, args=None, refusals=()):
+    """
+    Initialise rclpy, build a node with ``make_node()`` and spin it; return the exit code.
+
+    An exception of a type in ``refusals`` while building is logged as fatal
+    and gives exit code 1 (e.g. a corrupt calibration file).
+    """
+    init(args)
+    try:
+        node = make_node()
+    except refusals as err:
+        rclpy.logging.get_logger('inclino_ros').fatal(f'{err}: refusing to start')
+        rclpy.try_shutdown()
+        return 1
+    try:
+        spin(node)
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    return 0

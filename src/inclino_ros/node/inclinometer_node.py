@@ -19,7 +19,7 @@ from inclino_ros.magnetics import QcLimits
 from inclino_ros.model import (
     age_seconds, CalibrationFileError, CalibrationModel, load_model, STAGES)
 from inclino_ros.node.capture import Collector
-from inclino_ros.node.executor import init, spin
+from inclino_ros.node.executor import run_node
 from inclino_ros.node.magnetic_services import MagneticServices
 from inclino_ros.node.parameters import PARAMETERS
 from inclino_ros.node.services import CalibrationServices
@@ -28,7 +28,6 @@ from inclino_ros.pipeline import imu_covariances, MagneticSettings, run, Setting
 from inclino_ros.screening import ACCEPTED
 from inclino_ros.stations import load_stations, StationsFileError
 import numpy as np
-import rclpy
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.node import Node
 from rclpy.qos import (
@@ -286,20 +285,9 @@ def stamp_ns(stamp):
 
 
 def main(args=None):
-    """Run the node until shutdown; exit non-zero on a bad calibration file."""
-    init(args)
-    try:
-        node = InclinometerNode()
-    except (CalibrationFileError, StationsFileError, ValueError) as err:
-        rclpy.logging.get_logger('inclinometer').fatal(f'{err}: refusing to start')
-        rclpy.try_shutdown()
-        return 1
-    try:
-        spin(node)
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    """Run the node until shutdown; exit non-zero on a bad calibration or stations file."""
+    return run_node(InclinometerNode, args,
+                    refusals=(CalibrationFileError, StationsFileError, ValueError))
 
 
 if __name__ == '__main__':
