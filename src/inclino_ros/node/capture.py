@@ -94,8 +94,11 @@ class Collector:
         return Captured(raw=rows[:, :3], temperatures_c=temperatures_c, field_nT=rows[:, 4:])
 
     def commit(self, model):
-        """Write ``model`` atomically, then apply it (OSError: neither happens)."""
-        save_model(self.node.calibration_file, model)
+        """Write ``model`` atomically, then apply it; CaptureRefused when it cannot be written."""
+        try:
+            save_model(self.node.calibration_file, model)
+        except OSError as err:
+            raise CaptureRefused(f'cannot write {self.node.calibration_file}: {err}') from None
         self.node.model = model
 
     def answer(self, response, message, saved=True):

@@ -63,8 +63,6 @@ class MagneticServices:
             self.collector.commit(replace(node.model, magnetic=stage))
         except (CaptureRefused, RotationFitRefused) as err:
             return self.collector.refuse(response, str(err))
-        except OSError as err:
-            return self.collector.refuse(response, f'cannot write {node.calibration_file}: {err}')
         return self.collector.answer(response, (
             f'rotation fit of {fit.sample_count} samples: hard iron '
             f'({fit.offset_nT[0]:.1f}, {fit.offset_nT[1]:.1f}) nT, axis ratio '
@@ -131,10 +129,8 @@ class MagneticServices:
                 msa_reference_total_nT=settings.reference_total_nT,
                 msa_reference_dip_deg=settings.reference_dip_deg, msa_fitted_at=utc_now_iso())
             self.collector.commit(replace(node.model, magnetic=stage))
-        except MsaRefused as err:
+        except (MsaRefused, CaptureRefused) as err:
             return self.collector.refuse(response, str(err))
-        except OSError as err:
-            return self.collector.refuse(response, f'cannot write {node.calibration_file}: {err}')
         change = np.abs(((result.azimuth_deg - result.azimuth_raw_deg + 180.0) % 360.0) - 180.0)
         return self.collector.answer(response, (
             f'{method} MSA of {len(self.stations)} stations: interference (x, y, z) = '

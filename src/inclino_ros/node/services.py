@@ -49,8 +49,6 @@ class CalibrationServices:
             self.collector.commit(replace(node.model, installation=installation))
         except CaptureRefused as err:
             return self.collector.refuse(response, str(err))
-        except OSError as err:
-            return self.collector.refuse(response, f'cannot write {node.calibration_file}: {err}')
         return self.collector.answer(response, (
             f'calibrated from {installation.sample_count} samples: '
             f'gamma_deg={installation.gamma_deg:.4f} beta_deg={installation.beta_deg:.4f} '
@@ -93,10 +91,8 @@ class CalibrationServices:
             # K is fitted against the tool's attitude on the stand, so it already
             # holds the mounting misalignment: a kept gamma/beta would count it twice.
             self.collector.commit(replace(node.model, stand=stand, installation=None))
-        except StandFitRefused as err:
+        except (StandFitRefused, CaptureRefused) as err:
             return self.collector.refuse(response, str(err))
-        except OSError as err:
-            return self.collector.refuse(response, f'cannot write {node.calibration_file}: {err}')
         k = np.array(stand.scale_matrix)
         return self.collector.answer(response, (
             f'stand calibration from {stand.positions} positions: K diagonal '
