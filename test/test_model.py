@@ -278,3 +278,9 @@ def test_times():
     now = datetime(2026, 3, 1, 11, 20, 30, tzinfo=timezone.utc)
     assert age_seconds('2026-03-01T10:20:30+00:00', now) == 3600.0
     assert age_seconds('2026-03-01T12:20:30+02:00', now) == 3600.0
+
+
+def test_an_unreadable_path_is_a_calibration_file_error(tmp_path):
+    """A path that exists but cannot be read as a file is a loud error, not 'missing'."""
+    with pytest.raises(CalibrationFileError, match='cannot be read'):
+        load_model(str(tmp_path))

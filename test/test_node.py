@@ -198,16 +198,15 @@ def test_bad_samples_are_dropped_counted_and_good_ones_answered(start_node, ros)
         probe.destroy()
 
 
-def test_an_unwritable_calibration_file_refuses_and_keeps_the_correction(start_node, probe,
-                                                                          tmp_path):
+def test_an_unwritable_calibration_file_refuses_and_keeps_the_correction(start_node, probe):
     """When the file cannot be written the capture is refused and nothing is applied."""
-    blocker = tmp_path / 'not_a_folder'
-    blocker.write_text('a file where the calibration folder should be')
-    start_node(calibration_file=str(blocker / 'calibration.json'))
+    # /proc takes no new folders, even from root: the file is missing and cannot be made.
+    path = '/proc/inclino-ros-test/calibration.json'
+    start_node(calibration_file=path)
     probe.wait_for_node()
     response = probe.calibrate(level_samples())
     assert not response.success
-    assert f'cannot write {blocker / "calibration.json"}' in response.message
+    assert f'cannot write {path}' in response.message
     # Still uncalibrated: the misaligned reading's own inclination comes out.
     reading = tilted_reading(2.0, 30.0, GAMMA_DEG, BETA_DEG)
     assert survey_of(probe, 2.0, 30.0).x == pytest.approx(

@@ -268,8 +268,13 @@ def load_model(path):
     there is one that cannot be trusted.
     """
     path = os.path.expanduser(path)
-    with open(path, 'rb') as stream:
-        data = stream.read()
+    try:
+        with open(path, 'rb') as stream:
+            data = stream.read()
+    except FileNotFoundError:
+        raise
+    except OSError as err:
+        raise CalibrationFileError(path, f'cannot be read ({err})') from None
     try:
         # From bytes, so undecodable garbage is a ValueError (UnicodeDecodeError) here too.
         doc = json.loads(data)
