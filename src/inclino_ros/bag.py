@@ -77,13 +77,18 @@ class TemperatureSeries:
         Return the temperature at each of ``stamps_ns``, linearly interpolated in time.
 
         Before the first message the first temperature holds, after the last
-        the last one; messages need not be in time order.
+        the last one; messages need not be in time order.  Non-finite
+        temperatures are left out (never interpolated into a NaN compensation);
+        BagError if none is finite.
         """
-        order = np.argsort(self.stamps_ns, kind='stable')
-        origin = self.stamps_ns[order[0]]
+        finite = np.isfinite(self.temperature_c)
+        if not finite.any():
+            raise BagError('no finite temperature in the series')
+        stamps, temperatures = self.stamps_ns[finite], self.temperature_c[finite]
+        order = np.argsort(stamps, kind='stable')
+        origin = stamps[order[0]]
         return np.interp((np.asarray(stamps_ns) - origin).astype(float),
-                         (self.stamps_ns[order] - origin).astype(float),
-                         self.temperature_c[order])
+                         (stamps[order] - origin).astype(float), temperatures[order])
 
 
 @dataclass(frozen=True)

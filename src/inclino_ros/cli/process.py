@@ -39,6 +39,7 @@ from inclino_ros.node.parameters import PARAMETERS
 from inclino_ros.pipeline import (
     imu_covariances, MagneticSettings, run as run_pipeline, Settings)
 from inclino_ros.screening import count_reasons, REASONS
+from inclino_ros.timing import pair_nearest
 import numpy as np
 from tqdm import tqdm
 
@@ -58,7 +59,7 @@ class CommandError(Exception):
 class Magnetometer:
     """A magnetometer topic read whole, and how its readings pair with the Imu samples."""
 
-    stamps_ns: np.ndarray     # (M,) int64, sorted
+    stamps_ns: np.ndarray     # (M,) int64
     field_nT: np.ndarray      # (M, 3) tool frame
     max_pairing_ns: int
     settings: MagneticSettings
@@ -66,25 +67,11 @@ class Magnetometer:
     @classmethod
     def from_series(cls, series, max_pairing_s, settings):
         """Return the Magnetometer of a MagneticFieldSeries (any order; tesla -> nT)."""
-        order = np.argsort(series.stamps_ns, kind='stable')
-        return cls(series.stamps_ns[order], series.field_nT[order],
-                   round(max_pairing_s * 1e9), settings)
+        return cls(series.stamps_ns, series.field_nT, round(max_pairing_s * 1e9), settings)
 
     def field_at(self, stamps_ns):
-        """
-        Return (field_nT (N, 3), paired (N,)) of the readings nearest ``stamps_ns``.
-
-        A stamp with no reading within ``max_pairing_ns`` gets a NaN row
-        (unpaired); of two readings equally near, the earlier one is taken.
-        """
-        stamps_ns = np.asarray(stamps_ns, dtype=np.int64)
-        last = self.stamps_ns.size - 1
-        after = np.clip(np.searchsorted(self.stamps_ns, stamps_ns), 0, last)
-        before = np.clip(after - 1, 0, last)
-        nearest = np.where(np.abs(self.stamps_ns[after] - stamps_ns)
-                           < np.abs(stamps_ns - self.stamps_ns[before]), after, before)
-        paired = np.abs(self.stamps_ns[nearest] - stamps_ns) <= self.max_pairing_ns
-        return np.where(paired[:, None], self.field_nT[nearest], np.nan), paired
+        """Return (field_nT (N, 3), paired (N,)) of the readings nearest ``stamps_ns``."""
+        return pair_nearest(stamps_ns, self.stamps_ns, self.field_nT, self.max_pairing_ns)
 
 
 class Summary:

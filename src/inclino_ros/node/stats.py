@@ -5,8 +5,10 @@ import math
 
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 
+from inclino_ros.bag import NT_PER_TESLA
 from inclino_ros.screening import REASONS
-import numpy as np
+from inclino_ros.temperature import in_range
+from inclino_ros.timing import pair_nearest
 
 
 class InputStats:
@@ -106,7 +108,7 @@ class TemperatureInput:
             status.level = DiagnosticStatus.WARN
             status.message = (f'stale: the last temperature {self.value_c:.2f} C is '
                               f'{age_s:.1f} s old and still used')
-        elif not stage.t_min_c <= self.value_c <= stage.t_max_c:
+        elif not in_range(self.value_c, stage):
             status.level = DiagnosticStatus.WARN
             status.message = (f'{self.value_c:.2f} C is outside the fitted range '
                               f'{stage.t_min_c:g} .. {stage.t_max_c:g} C: clamped to it')
@@ -134,27 +136,14 @@ class MagneticInput:
     def update(self, stamp_ns, field_tesla):
         """Keep a finite reading (converted to nT); count a non-finite one."""
         if all(math.isfinite(v) for v in field_tesla):
-            self.recent.append((stamp_ns, *(v * 1e9 for v in field_tesla)))
+            self.recent.append((stamp_ns, tuple(v * NT_PER_TESLA for v in field_tesla)))
         else:
             self.rejected += 1
 
     def paired(self, stamps_ns, max_pairing_s):
-        """
-        Return (N, 3) fields [nT] paired with samples stamped ``stamps_ns``.
-
-        Each sample gets the reading nearest to it in time, NaNs when none is
-        within ``max_pairing_s``.
-        """
-        recent = np.array(self.recent)
-        stamps = np.asarray(stamps_ns, dtype=np.int64)
-        after = np.clip(np.searchsorted(recent[:, 0], stamps), 1, len(recent) - 1) \
-            if len(recent) > 1 else np.zeros(stamps.size, dtype=int)
-        before = np.maximum(after - 1, 0)
-        nearest = np.where(np.abs(recent[after, 0] - stamps) < np.abs(recent[before, 0] - stamps),
-                           after, before)
-        fields = recent[nearest, 1:].copy()
-        fields[np.abs(recent[nearest, 0] - stamps) > max_pairing_s * 1e9] = math.nan
-        return fields
+        """Return (N, 3) fields [nT] paired with ``stamps_ns`` (NaN rows: none near enough)."""
+        stamps, fields = zip(*self.recent)
+        return pair_nearest(stamps_ns, stamps, fields, round(max_pairing_s * 1e9))[0]
 
     def count(self, azimuth_survey, row, paired):
         """Count the azimuth outcome of one sample (``row`` of an AzimuthSurvey)."""

@@ -1,0 +1,34 @@
+"""Pairing by stamps: nearest in time, any arrival order, exact nanoseconds."""
+
+from inclino_ros.bag import BagError, TemperatureSeries
+from inclino_ros.timing import pair_nearest
+import numpy as np
+import pytest
+
+T0 = 1_767_225_600 * 10**9  # 2026-01-01 in ns: float64 would round these to 256 ns
+
+
+def test_nearest_reading_in_any_order_with_an_inclusive_gap():
+    """Each stamp takes the nearest reading; out-of-order readings; the limit is inclusive."""
+    reading_stamps = np.array([T0 + 30, T0, T0 + 10])            # arrived out of order
+    readings = np.array([[3.0], [1.0], [2.0]])
+    values, paired = pair_nearest([T0 + 1, T0 + 14, T0 + 26, T0 + 35, T0 + 36, T0 + 5],
+                                  reading_stamps, readings, max_gap_ns=5)
+    np.testing.assert_array_equal(values[:, 0], [1.0, 2.0, 3.0, 3.0, np.nan, 1.0])
+    np.testing.assert_array_equal(paired, [True, True, True, True, False, True])
+
+
+def test_no_readings_pairs_nothing():
+    """Without readings every stamp is unpaired, NaN."""
+    values, paired = pair_nearest([T0], [], np.empty((0, 3)), 10)
+    assert values.shape == (1, 3) and np.isnan(values).all() and not paired.any()
+
+
+def test_temperature_interpolation_skips_non_finite_messages():
+    """A NaN temperature message is left out; none finite is a BagError."""
+    series = TemperatureSeries(np.array([0, 10, 20]), np.array(['t'] * 3),
+                               np.array([25.0, np.nan, 35.0]), np.zeros(3))
+    np.testing.assert_allclose(series.at([0, 10, 20]), [25.0, 30.0, 35.0])
+    empty = TemperatureSeries(np.array([0]), np.array(['t']), np.array([np.nan]), np.zeros(1))
+    with pytest.raises(BagError):
+        empty.at([0])
