@@ -156,12 +156,16 @@ def test_calibration_persists_across_a_restart(start_node, probe, tmp_path):
     assert f'loaded {tmp_path / "calibration.json"}' in restarted.log()
 
 
-@pytest.mark.parametrize('content', [
-    '{"format": "inclino_ros.calibration", "schema_vers',
-    json.dumps({'format': 'inclino_ros.calibration', 'schema_version': 1,
-                'accelerometer_axes': 3, 'installation': {'gamma_deg': 'NaN'}}),
+@pytest.mark.parametrize('content, reason', [
+    ('{"format": "inclino_ros.calibration", "schema_vers', 'not valid JSON'),
+    (json.dumps({'format': 'inclino_ros.calibration', 'schema_version': 2,
+                'accelerometer_axes': 3, 'installation': {
+                    'gamma_deg': float('nan'), 'beta_deg': 0.1, 'sample_count': 100,
+                    'std_deg': 0.01, 'g_total_mps2': 9.8,
+                    'captured_at': '2026-01-01T00:00:00+00:00'}}),
+     'installation.gamma_deg = nan is not a finite number'),
 ])
-def test_a_corrupt_calibration_file_stops_the_node(start_node, tmp_path, content):
+def test_a_corrupt_calibration_file_stops_the_node(start_node, tmp_path, content, reason):
     """A file that cannot be trusted is a loud error and a non-zero exit."""
     path = tmp_path / 'calibration.json'
     path.write_text(content)
@@ -169,6 +173,7 @@ def test_a_corrupt_calibration_file_stops_the_node(start_node, tmp_path, content
     code = node.process.wait(timeout=30)
     assert code != 0
     assert str(path) in node.log() and 'refusing to start' in node.log()
+    assert reason in node.log()
 
 
 def test_bad_samples_are_dropped_counted_and_good_ones_answered(start_node, ros):

@@ -183,9 +183,14 @@ class CalibrationModel:
     magnetic: Magnetic = None
 
     @property
+    def stages(self):
+        """Return the names of the accelerometer stages present, in their order."""
+        return tuple(name for name in STAGES if getattr(self, name) is not None)
+
+    @property
     def calibrated(self):
         """Whether any accelerometer correction stage is present."""
-        return any(getattr(self, stage) is not None for stage in STAGES)
+        return bool(self.stages)
 
     def apply(self, f, temperature_c=None, before=None):
         """

@@ -94,11 +94,13 @@ class Collector:
         return Captured(raw=rows[:, :3], temperatures_c=temperatures_c, field_nT=rows[:, 4:])
 
     def commit(self, model):
-        """Write ``model`` atomically, then apply it; CaptureRefused when it cannot be written."""
+        """Write ``model`` atomically, then apply it; CaptureRefused if it is not written."""
         try:
             save_model(self.node.calibration_file, model)
         except OSError as err:
             raise CaptureRefused(f'cannot write {self.node.calibration_file}: {err}') from None
+        except ValueError as err:  # save_model refuses what load_model would refuse
+            raise CaptureRefused(f'the result is not a plausible calibration: {err}') from None
         self.node.model = model
 
     def answer(self, response, message, saved=True):

@@ -17,17 +17,18 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Vector3Stamped
 from inclino_ros.magnetics import QcLimits
 from inclino_ros.model import (
-    age_seconds, CalibrationFileError, CalibrationModel, load_model, STAGES)
+    age_seconds, CalibrationFileError, CalibrationModel, load_model)
 from inclino_ros.node.capture import Collector
 from inclino_ros.node.executor import run_node
 from inclino_ros.node.magnetic_services import MagneticServices
-from inclino_ros.node.parameters import PARAMETERS
+from inclino_ros.node.parameters import PARAMETERS, refusal
 from inclino_ros.node.services import CalibrationServices
 from inclino_ros.node.stats import InputStats, MagneticInput, TemperatureInput
 from inclino_ros.pipeline import imu_covariances, MagneticSettings, run, Settings
 from inclino_ros.screening import ACCEPTED
 from inclino_ros.stations import load_stations, StationsFileError
 import numpy as np
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.node import Node
 from rclpy.qos import (
@@ -48,6 +49,9 @@ class InclinometerNode(Node):
         super().__init__('inclinometer', **kwargs)
         for parameter in PARAMETERS:
             self.declare_parameter(parameter.name, parameter.default, parameter.descriptor())
+            reason = refusal(parameter.name, self.param(parameter.name))
+            if reason:
+                raise ValueError(reason)
         self.settings = Settings(
             accelerometer_axes=self.param('accelerometer_axes'),
             gravity_mps2=self.param('gravity_mps2'),
@@ -61,6 +65,7 @@ class InclinometerNode(Node):
         self.stations_file = os.path.expanduser(self.param('stations_file'))
         stations = load_stations(self.stations_file)
         self.magnetic_settings = self._magnetic_settings()
+        self.add_on_set_parameters_callback(self._check_parameters)
         self.add_post_set_parameters_callback(self._on_parameters_set)
         self.stats = InputStats()
         self.temperature = TemperatureInput()
@@ -123,9 +128,8 @@ class InclinometerNode(Node):
                 self.calibration_file,
                 f'made for a {model.accelerometer_axes}-axis accelerometer, but '
                 f'accelerometer_axes is {axes}')
-        stages = [name for name in STAGES if getattr(model, name) is not None]
         self.get_logger().info(
-            f'loaded {self.calibration_file}: stages {", ".join(stages) or "none"}')
+            f'loaded {self.calibration_file}: stages {", ".join(model.stages) or "none"}')
         return model
 
     def _on_incompatible_qos(self, event):
@@ -146,6 +150,10 @@ class InclinometerNode(Node):
                 b_total_tolerance_nT=self.param('magnetic.b_total_tolerance_nT'),
                 dip_tolerance_deg=self.param('magnetic.dip_tolerance_deg'),
                 g_total_tolerance=self.param('magnetic.g_total_tolerance_mps2')))
+
+    def _check_parameters(self, parameters):
+        reasons = [r for r in (refusal(p.name, p.value) for p in parameters) if r]
+        return SetParametersResult(successful=not reasons, reason='; '.join(reasons))
 
     def _on_parameters_set(self, parameters):
         if any(p.name.startswith('magnetic.') for p in parameters):
@@ -239,13 +247,12 @@ class InclinometerNode(Node):
         values = {'calibration_file': self.calibration_file,
                   'capture_running': str(self.collector.capture is not None),
                   'stand_positions_held': str(len(self.calibration.positions))}
-        stages = [name for name in STAGES if getattr(model, name) is not None]
-        if not stages:
+        if not model.calibrated:
             status.level = DiagnosticStatus.WARN
             status.message = 'uncalibrated: raw angles published; call ~/calibrate_level'
         else:
             status.level = DiagnosticStatus.OK
-            status.message = f'calibrated: {", ".join(stages)}'
+            status.message = f'calibrated: {", ".join(model.stages)}'
         if model.temperature is not None:
             values.update(temperature_range_c=f'{model.temperature.t_min_c:g} .. '
                                               f'{model.temperature.t_max_c:g}',

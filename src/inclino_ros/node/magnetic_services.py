@@ -5,7 +5,8 @@ The node's magnetometer services (seed 002): rotation fit, survey stations, MSA.
   samples while the tool turns about its axis, fits the cross-axial ellipse
   (§2.1), persists and applies W and c; the MSA interference is reset, as it
   was solved on the old cross-axial correction.
-- ``~/take_survey``: averages a still station (``survey.samples``), appends it
+- ``~/take_survey``: averages a still station (``survey.samples``; refused when
+  the tool moves more than ``survey.max_std_deg``), appends it
   to the persisted station list, answers inclination, azimuth and QC.
 - ``~/solve_msa``: multi-station analysis of the stations against the
   reference field (§2.2, ``msa.method``), persists and applies the interference.
@@ -19,8 +20,9 @@ from inclino_ros.level_capture import CaptureRefused
 from inclino_ros.magnetics import iscwsa_from_tool
 from inclino_ros.model import NO_MAGNETIC_CORRECTION, utc_now_iso
 from inclino_ros.msa import (
-    MsaRefused, solve_msa_axial, solve_msa_classic, solve_msa_improved)
+    azimuth_difference_deg, MsaRefused, solve_msa_axial, solve_msa_classic, solve_msa_improved)
 from inclino_ros.pipeline import run
+from inclino_ros.stand_capture import direction_spread_deg
 from inclino_ros.stations import msa_inputs, save_stations, Station
 import numpy as np
 from rclpy.callback_groups import ReentrantCallbackGroup
@@ -82,6 +84,11 @@ class MagneticServices:
             return self.collector.refuse(
                 response, f'only {paired.sum()} of {paired.size} samples had a paired imu/mag '
                 'reading', kept)
+        spread_deg = direction_spread_deg(captured.raw[paired])
+        if spread_deg > node.param('survey.max_std_deg'):
+            return self.collector.refuse(
+                response, f'tool is moving: spread {spread_deg:.4f} deg exceeds '
+                f'survey.max_std_deg {node.param("survey.max_std_deg")} deg', kept)
         temperatures_c = (None if captured.temperatures_c is None
                           else captured.temperatures_c[paired].mean())
         survey = run(captured.raw[paired].mean(axis=0), node.model, node.settings,
@@ -131,7 +138,7 @@ class MagneticServices:
             self.collector.commit(replace(node.model, magnetic=stage))
         except (MsaRefused, CaptureRefused) as err:
             return self.collector.refuse(response, str(err))
-        change = np.abs(((result.azimuth_deg - result.azimuth_raw_deg + 180.0) % 360.0) - 180.0)
+        change = np.abs(azimuth_difference_deg(result.azimuth_deg, result.azimuth_raw_deg))
         return self.collector.answer(response, (
             f'{method} MSA of {len(self.stations)} stations: interference (x, y, z) = '
             f'({", ".join(f"{v:.1f}" for v in result.eps_nT)}) nT (ISCWSA axes), V '

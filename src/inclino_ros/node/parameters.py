@@ -22,11 +22,14 @@ class Parameter:
     low: float = None
     high: float = None
     read_only: bool = True
+    choices: tuple = None
 
     def descriptor(self):
         """Return the ROS descriptor with description, range and read-only flag."""
         descriptor = ParameterDescriptor(
-            name=self.name, description=self.description, read_only=self.read_only)
+            name=self.name, description=self.description, read_only=self.read_only,
+            additional_constraints='' if self.choices is None else
+            f'one of: {", ".join(self.choices)}')
         if isinstance(self.default, bool) or self.low is None:
             return descriptor
         if isinstance(self.default, int):
@@ -56,7 +59,8 @@ PARAMETERS = (
               'covariances.', 1e-6, 10.0),
     Parameter('toolface_convention', 'seed000',
               'Gravity toolface: seed000 (atan2(a_y, a_x), seed 000 Eq. 16) or '
-              'iscwsa_highside (ISCWSA high-side, = seed000 + 90 deg).'),
+              'iscwsa_highside (ISCWSA high-side, = seed000 + 90 deg).',
+              choices=('seed000', 'iscwsa_highside')),
     Parameter('toolface_min_inclination_deg', 0.01,
               'Below this inclination [deg] the toolface is undefined and published '
               'as NaN.', 0.0, 10.0),
@@ -133,16 +137,28 @@ PARAMETERS = (
               read_only=False),
     Parameter('survey.samples', 100,
               'Samples ~/take_survey averages into one station.', 2, 1000000, read_only=False),
+    Parameter('survey.max_std_deg', 0.1,
+              'Largest spread (RMS angle about the mean direction) [deg] of the accelerometer '
+              'in a still station.', 1e-4, 10.0, read_only=False),
     Parameter('survey.timeout_s', 10.0,
               'Seconds ~/take_survey waits for its samples before refusing.', 0.1, 3600.0,
               read_only=False),
     Parameter('msa.method', 'improved',
               'Multi-station analysis of ~/solve_msa: improved (seed 002), classic (Brooks '
-              'eps x, y, z) or axial (eps z only).', read_only=False),
+              'eps x, y, z) or axial (eps z only).', read_only=False,
+              choices=('improved', 'classic', 'axial')),
     Parameter('temperature.max_age_s', 5.0,
               'Age [s] beyond which the latest imu/temperature is reported stale (it is '
               'still used).', 0.1, 3600.0, read_only=False),
 )
+
+
+def refusal(name, value):
+    """Return why ``value`` is not allowed for parameter ``name``, or None if it is."""
+    for parameter in PARAMETERS:
+        if parameter.name == name and parameter.choices and value not in parameter.choices:
+            return f'{name} must be one of {", ".join(parameter.choices)}, not {value!r}'
+    return None
 
 
 def markdown_table():
