@@ -20,7 +20,8 @@ geometric mean of the semi-axes (the circle of the ellipse's area).  The scale
 of A and r cannot be separated from one rotation; ``r_bar`` keeps the
 cross-axial magnitude to first order in the soft iron (``r sqrt(det A)``).
 
-Vectors are in the ISCWSA survey frame (``inclino_ros.magnetics``), in nT.
+Vectors are in nT, in either frame whose z is the tool axis (the node and the
+calibration file use the z-up tool frame; x and y are the same in ISCWSA).
 """
 
 from dataclasses import dataclass

@@ -2,8 +2,9 @@
 The processing chain shared by the node and the command line.
 
 raw specific force -> screening -> (two-axis completion) -> calibration model
--> inclination, gravity toolface, orientation.  One batch of N samples at a
-time; the node passes batches of one.
+-> inclination, gravity toolface, orientation (and, with magnetometer
+readings, the azimuth and its QC).  One batch of N samples at a time: the
+node passes what one executor wake-up finds queued, the command line 10 000.
 """
 
 from dataclasses import dataclass

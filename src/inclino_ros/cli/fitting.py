@@ -129,10 +129,17 @@ def load_existing(path):
 
 
 def save(path, model):
-    """Write ``model`` to ``path`` atomically; CommandError if it cannot be written."""
+    """
+    Write ``model`` to ``path`` atomically.
+
+    Refused when the fitted model is one load_model would refuse (an
+    implausible result), CommandError when the file cannot be written.
+    """
     try:
         save_model(path, model)
-    except (OSError, ValueError) as err:
+    except ValueError as err:
+        raise Refused(f'the result is not a plausible calibration: {err}') from None
+    except OSError as err:
         raise CommandError(f'cannot write {path}: {err}') from None
 
 

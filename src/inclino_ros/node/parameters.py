@@ -44,7 +44,7 @@ class Parameter:
 PARAMETERS = (
     Parameter('calibration_file', '~/.ros/inclino_ros/calibration.json',
               'Calibration file: loaded at start when present (a corrupt file stops the '
-              'node), written atomically by ~/calibrate_level.'),
+              'node), written atomically by the calibration services.'),
     Parameter('accelerometer_axes', 3,
               'Accelerometer axes: 3, or 2 for a two-axis sensor (z completed from '
               'gravity_mps2, tool upright).', 2, 3),
