@@ -46,7 +46,7 @@ def inclination(f):
 def _wrap_2pi(angle):
     """Return ``angle mod 2 pi`` in [0, 2 pi): np.mod rounds ``-1e-17`` up to 2 pi itself."""
     angle = np.mod(angle, 2.0 * np.pi)
-    return np.where(angle < 2.0 * np.pi, angle, 0.0)
+    return np.where(angle == 2.0 * np.pi, 0.0, angle)  # NaN stays NaN
 
 
 def toolface_seed000(f):

@@ -15,6 +15,7 @@ out in formulas.md, "ISCWSA forward model" and "Inverse").
 
 from dataclasses import dataclass
 
+from inclino_ros.attitude import inclination, toolface_highside
 import numpy as np
 
 
@@ -96,15 +97,27 @@ def b_total_nT(B):
 
 
 def inclination_deg(G):
-    """Return the inclination ``I = atan2(sqrt(Gx^2 + Gy^2), Gz)`` [deg] (seed 001 Eq. 1)."""
-    G = np.asarray(G, dtype=float)
-    return np.degrees(np.arctan2(np.hypot(G[..., 0], G[..., 1]), G[..., 2]))
+    """
+    Return the inclination ``I = atan2(sqrt(Gx^2 + Gy^2), Gz)`` [deg] (seed 001 Eq. 1).
+
+    The same angle as ``attitude.inclination`` of the tool frame's specific
+    force ``f = (-Gx, Gy, Gz)``, which computes it.
+    """
+    return np.degrees(inclination(specific_force_from_gravity(G)))
 
 
 def gravity_toolface_deg(G):
-    """Return the gravity high-side toolface ``GTF = atan2(-Gx, -Gy)`` in [0, 360) [deg]."""
-    G = np.asarray(G, dtype=float)
-    return _wrap_360(np.degrees(np.arctan2(-G[..., 0], -G[..., 1])))
+    """
+    Return the gravity high-side toolface ``GTF = atan2(-Gx, -Gy)`` in [0, 360) [deg].
+
+    Computed by ``attitude.toolface_highside`` of ``f = (-Gx, Gy, Gz)``.
+    """
+    return np.degrees(toolface_highside(specific_force_from_gravity(G)))
+
+
+def specific_force_from_gravity(G):
+    """Return the z-up tool frame specific force of an ISCWSA gravity vector: (-Gx, Gy, Gz)."""
+    return -iscwsa_from_tool(G)
 
 
 def azimuth_deg(G, B):
