@@ -26,6 +26,14 @@ def complete_two_axis(fx, fy, g):
     return np.stack([fx, fy, fz], axis=-1)
 
 
+def as_vectors(values, name):
+    """Return ``values`` as a float (N, 3) array; ValueError naming ``name`` for another shape."""
+    values = np.asarray(values, dtype=float)
+    if values.ndim != 2 or values.shape[1] != 3:
+        raise ValueError(f'{name} must have shape (N, 3), not {values.shape}')
+    return values
+
+
 def angle_between(u, v):
     """Return the angle [rad] between vectors along the last axis (atan2 form, exact near 0)."""
     return np.arctan2(np.linalg.norm(np.cross(u, v), axis=-1), np.sum(u * v, axis=-1))

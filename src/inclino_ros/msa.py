@@ -56,6 +56,7 @@ from dataclasses import dataclass, field
 import math
 
 from inclino_ros import magnetics
+from inclino_ros.attitude import as_vectors
 import numpy as np
 
 #: Gravity of the QC tolerance in ``magnetics.QcLimits`` (m/s^2), to make it relative.
@@ -249,7 +250,7 @@ def short_collar(G, B, reference_total_nT, reference_dip_deg, limits=MsaLimits()
     sensitivity is below ``limits.min_axial_sensitivity`` (its eps_z NaN too).
     Refused for non-finite input.
     """
-    G, B = _as_stations(G, 'G'), _as_stations(B, 'B')
+    G, B = as_vectors(G, 'G'), as_vectors(B, 'B')
     _refuse_non_finite(G, B)
     reference = reference_nT(reference_total_nT, reference_dip_deg)
     with np.errstate(divide='ignore', invalid='ignore'):
@@ -271,7 +272,7 @@ def short_collar(G, B, reference_total_nT, reference_dip_deg, limits=MsaLimits()
 def _solve(method, G, B, reference_total_nT, reference_dip_deg, limits, exclude_failing_qc,
            cross_axial_nT):
     """Check, solve, QC and (optionally) solve again without the failing stations."""
-    G, B = _as_stations(G, 'G'), _as_stations(B, 'B')
+    G, B = as_vectors(G, 'G'), as_vectors(B, 'B')
     finite = _finite(G, B)
     if not exclude_failing_qc:
         _refuse_non_finite(G, B)
@@ -484,11 +485,3 @@ def _refuse_non_finite(G, B):
     finite = _finite(G, B)
     if not finite.all():
         raise MsaRefused(f'non-finite readings at station(s) {_numbers(~finite)}')
-
-
-def _as_stations(values, name):
-    """Return ``values`` as a float (N, 3) array; ValueError for any other shape."""
-    values = np.asarray(values, dtype=float)
-    if values.ndim != 2 or values.shape[1] != 3:
-        raise ValueError(f'{name} must have shape (N, 3), not {values.shape}')
-    return values

@@ -19,7 +19,7 @@ non-orthogonality from ``|G| = g`` alone (no rotation: see its docstring).
 from dataclasses import dataclass
 import math
 
-from inclino_ros.attitude import angle_between, inclination
+from inclino_ros.attitude import angle_between, as_vectors, inclination
 from inclino_ros.simulate import specific_force
 import numpy as np
 
@@ -127,7 +127,7 @@ def fit_stand(readings, truth, min_separation_deg=MIN_SEPARATION_DEG):
     than ``min_separation_deg`` apart (a repeat adds no attitude); a design or
     a fitted K with condition number above MAX_CONDITION_NUMBER.
     """
-    readings, truth = _as_vectors(readings, 'readings'), _as_vectors(truth, 'truth')
+    readings, truth = as_vectors(readings, 'readings'), as_vectors(truth, 'truth')
     if readings.shape != truth.shape:
         raise ValueError(f'readings {readings.shape} and truth {truth.shape} differ in shape')
     count = readings.shape[0]
@@ -185,7 +185,7 @@ def fit_sphere(readings, g):
     non-finite ones, readings not spread over the sphere (design condition
     number above MAX_CONDITION_NUMBER) and readings on no ellipsoid.
     """
-    readings = _as_vectors(readings, 'readings')
+    readings = as_vectors(readings, 'readings')
     count = readings.shape[0]
     if count < MIN_SPHERE_READINGS:
         raise StandFitRefused(
@@ -215,14 +215,6 @@ def fit_sphere(readings, g):
     residual = np.linalg.norm(correct_stand(readings, scale_matrix, bias), axis=1) - g
     return SphereFit(scale_matrix=scale_matrix, bias_mps2=bias, condition_number=condition,
                      residual_mps2=residual, rms_residual_mps2=_rms(residual))
-
-
-def _as_vectors(values, name):
-    """Return ``values`` as a float (N, 3) array; ValueError for any other shape."""
-    values = np.asarray(values, dtype=float)
-    if values.ndim != 2 or values.shape[1] != 3:
-        raise ValueError(f'{name} must have shape (N, 3), not {values.shape}')
-    return values
 
 
 def _refuse_non_finite(values, name):
