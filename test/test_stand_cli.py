@@ -276,7 +276,7 @@ def test_fit_temperature_compensates(runs):
     stage = model.temperature
     assert (stage.t_min_c, stage.t_max_c, stage.samples) == (20.0, 100.0, 1601)
     grid_c = np.linspace(20.0, 100.0, 81)
-    assert np.abs(stage.fit().scale_factor(grid_c) - ERRORS.temperature_scale(grid_c)).max() \
+    assert np.abs(stage.fit.scale_factor(grid_c) - ERRORS.temperature_scale(grid_c)).max() \
         < 1e-4
     f, incl_deg = random_attitudes(400, 11)
     temperature_c = np.random.default_rng(11).uniform(20.0, 100.0, 400)

@@ -108,12 +108,9 @@ class Temperature:
     samples: int
     fitted_at: str
 
+    @cached_property
     def fit(self):
         """Return the TemperatureFit of this stage (built once)."""
-        return self._fit
-
-    @cached_property
-    def _fit(self):
         return TemperatureFit(
             coefficients=np.array(self.coefficients), t_min_c=self.t_min_c,
             t_max_c=self.t_max_c, reference_temperature_c=self.reference_temperature_c,
@@ -133,7 +130,7 @@ class Temperature:
         if temperature_c is None:
             temperature_c = self.reference_temperature_c
         temperature_c = np.broadcast_to(self.clamp(temperature_c), f.shape[:1])
-        return compensate_temperature(f, temperature_c, self._fit)
+        return compensate_temperature(f, temperature_c, self.fit)
 
 
 @dataclass(frozen=True)
@@ -409,11 +406,11 @@ def temperature_from_dict(section):
     _time(section, 'temperature', 'fitted_at')
     stage = Temperature(**dict(section, coefficients=tuple(map(tuple, section['coefficients'])),
                                rms_residual_mps2=tuple(section['rms_residual_mps2'])))
-    scale = stage.fit().scale_factor(np.linspace(t_min, t_max, 101))
+    scale = stage.fit.scale_factor(np.linspace(t_min, t_max, 101))
     if np.any(scale <= 0.5) or np.any(scale >= 1.5):
         raise ValueError('temperature.coefficients give a scale factor outside 0.5..1.5 '
                          'in the fitted range')
-    if np.max(np.abs(stage.fit().scale_factor([t_ref]) - 1.0)) > 1e-6:
+    if np.max(np.abs(stage.fit.scale_factor([t_ref]) - 1.0)) > 1e-6:
         raise ValueError('temperature.coefficients are not 1 at the reference temperature')
     return stage
 
