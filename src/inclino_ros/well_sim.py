@@ -42,7 +42,7 @@ class WellScenario:
     reference_total_nT: float = 50000.0
     reference_dip_deg: float = 60.0
     g: float = 1.0
-    interference_nT: tuple = (80.0, -80.0, 2000.0)   # (eps_x, eps_y, eps_z), tool frame
+    interference_nT: tuple = (80.0, -80.0, 2000.0)   # (eps_x, eps_y, eps_z), ISCWSA tool axes
     gravity_noise: float = 1e-4   # per axis, 1 sigma, unit of g
     field_noise_nT: float = 5.0   # per axis, 1 sigma
     rotation_samples: int = 0     # readings of one rotation capture per station (0: none)
