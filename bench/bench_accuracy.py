@@ -15,10 +15,10 @@ Usage: .venv/bin/python bench/bench_accuracy.py [--trials 500] [--samples 100]
 import argparse
 import math
 
-from inclino_ros.level_capture import LevelLimits, solve_level_capture
-from inclino_ros.model import CalibrationModel
+from inclino_ros.calibration.level_capture import LevelLimits, solve_level_capture
+from inclino_ros.calibration.model import CalibrationModel
 from inclino_ros.pipeline import run, Settings
-from inclino_ros.simulate import sensor_matrix, specific_force
+from inclino_ros.sim.bench import sensor_matrix, specific_force
 import numpy as np
 
 G = 9.80665

@@ -5,7 +5,7 @@ One run starts four processes on a domain of its own (localhost discovery
 only, logs in a temporary folder):
 
 - the node (console script ``inclinometer_node``) with a calibration written by
-  ``inclino_ros.model.save_model``, so the full installation correction runs;
+  ``inclino_ros.calibration.model.save_model``, so the full installation correction runs;
 - ``bench/relay.py``: subscribes ``imu/data_raw`` with the node's QoS and
   republishes it unchanged on ``relay/imu``, spun by the node's own executor
   code (``inclino_ros.node.executor.spin``): the floor;
@@ -398,7 +398,8 @@ def run_once(args, index, attempts=5):
 
 def run_on_domain(args, index, domain):
     """Run node, relay, receiver and publisher once on ``domain``."""
-    from inclino_ros.model import CalibrationModel, Installation, save_model, utc_now_iso
+    from inclino_ros.calibration.model import (
+        CalibrationModel, Installation, save_model, utc_now_iso)
 
     tmp = tempfile.mkdtemp(prefix='inclino-bench-')
     token = secrets.token_hex(4)

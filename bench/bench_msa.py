@@ -16,8 +16,8 @@ import argparse
 from dataclasses import replace
 import time
 
-from inclino_ros.msa import azimuth_difference_deg, solve_msa_classic, solve_msa_improved
-from inclino_ros.well_sim import simulate_well, WellScenario
+from inclino_ros.core.msa import azimuth_difference_deg, solve_msa_classic, solve_msa_improved
+from inclino_ros.sim.well import simulate_well, WellScenario
 import numpy as np
 
 TARGET_S = 0.3

@@ -19,10 +19,10 @@ import sys
 import tempfile
 import time
 
-from inclino_ros.bag import read
+from inclino_ros.calibration.level_capture import LevelLimits, solve_level_capture
+from inclino_ros.calibration.model import CalibrationModel, save_model
 from inclino_ros.cli.main import main as inclino
-from inclino_ros.level_capture import LevelLimits, solve_level_capture
-from inclino_ros.model import CalibrationModel, save_model
+from inclino_ros.io.bag import read
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore, Stores
 

@@ -10,7 +10,7 @@ import math
 
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
-from inclino_ros.attitude import (
+from inclino_ros.core.attitude import (
     complete_two_axis, inclination, orientation_quaternion, roll_pitch,
     TOOLFACE_CONVENTIONS, toolface_highside, toolface_seed000)
 import numpy as np

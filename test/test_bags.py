@@ -28,12 +28,12 @@ import math
 import os
 import subprocess
 
-from inclino_ros import bag
-from inclino_ros.attitude import inclination, toolface_seed000
+from inclino_ros.calibration.level_capture import LevelLimits, solve_level_capture
+from inclino_ros.calibration.model import CalibrationModel, save_model
 from inclino_ros.cli.main import main as inclino
-from inclino_ros.level_capture import LevelLimits, solve_level_capture
-from inclino_ros.model import CalibrationModel, save_model
-from inclino_ros.simulate import Scenario, simulate
+from inclino_ros.core.attitude import inclination, toolface_seed000
+from inclino_ros.io import bag
+from inclino_ros.sim.bench import Scenario, simulate
 import numpy as np
 import pytest
 from ros_harness import installed_script

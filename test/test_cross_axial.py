@@ -12,9 +12,9 @@ checked to 1e-4, over ten times that.
 
 import math
 
-from inclino_ros.cross_axial import (
+from inclino_ros.core.cross_axial import (
     apply_cross_axial, fit_cross_axial, fit_ellipse, RotationFitRefused, RotationLimits)
-from inclino_ros.magnetics import azimuth_deg, forward
+from inclino_ros.core.magnetics import azimuth_deg, forward
 import numpy as np
 import pytest
 

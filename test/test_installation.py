@@ -11,8 +11,8 @@ import math
 
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from inclino_ros.attitude import inclination
-from inclino_ros.installation import (
+from inclino_ros.core.attitude import inclination
+from inclino_ros.core.installation import (
     correct_installation, installation_angles, installation_matrix,
     inverse_installation_matrix, level_axis_angles, pseudo_inclination)
 import numpy as np

@@ -12,9 +12,9 @@ exceeded with probability 6e-5 (the seeds are fixed, so the runs are reproducibl
 from datetime import datetime
 import math
 
-from inclino_ros.installation import installation_matrix
-from inclino_ros.level_capture import CaptureRefused, LevelLimits, solve_level_capture
-from inclino_ros.model import age_seconds
+from inclino_ros.calibration.level_capture import CaptureRefused, LevelLimits, solve_level_capture
+from inclino_ros.calibration.model import age_seconds
+from inclino_ros.core.installation import installation_matrix
 import numpy as np
 import pytest
 

@@ -26,12 +26,14 @@ from dataclasses import replace
 import json
 import os
 
-from inclino_ros import bag, magnetics, pipeline
-from inclino_ros.level_capture import LevelLimits, solve_level_capture
-from inclino_ros.model import (
+from inclino_ros import pipeline
+from inclino_ros.calibration.level_capture import LevelLimits, solve_level_capture
+from inclino_ros.calibration.model import (
     CalibrationModel, load_model, NO_MAGNETIC_CORRECTION, save_model)
-from inclino_ros.msa import azimuth_difference_deg
-from inclino_ros.well_sim import simulate_well, WellScenario, write_stations_csv
+from inclino_ros.core import magnetics
+from inclino_ros.core.msa import azimuth_difference_deg
+from inclino_ros.io import bag
+from inclino_ros.sim.well import simulate_well, WellScenario, write_stations_csv
 import numpy as np
 import pytest
 from test_msa_cli import quiet
@@ -298,7 +300,7 @@ def test_process_needs_a_reference(chain, tmp_path):
 
 def test_msa_site_reference(tmp_path):
     """--site takes F, dip and declination from the WMM (pygeomag); a bad date exits 2."""
-    from inclino_ros.reference_field import reference_from_model
+    from inclino_ros.core.reference_field import reference_from_model
 
     site = ('29.7', '-95.4', '0', '2026-07-01')
     field = reference_from_model(29.7, -95.4, 0.0, 2026.5)

@@ -11,7 +11,7 @@ import math
 
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
-from inclino_ros.magnetics import (
+from inclino_ros.core.magnetics import (
     azimuth_deg, azimuth_sensitivity_deg, b_total_nT, dip_deg, forward, g_total,
     gravity_from_specific_force, gravity_toolface_deg, horizontal_vertical_nT, inclination_deg,
     iscwsa_from_tool, magnetic_toolface_deg, QcLimits, survey_qc, true_azimuth_deg)

@@ -11,10 +11,10 @@ import json
 import math
 import os
 
-from inclino_ros.installation import correct_installation, pseudo_inclination
-from inclino_ros.model import (
+from inclino_ros.calibration.model import (
     age_seconds, CalibrationFileError, CalibrationModel, FORMAT, Installation, load_model,
     model_from_dict, save_model, SCHEMA_VERSION, utc_now_iso)
+from inclino_ros.core.installation import correct_installation, pseudo_inclination
 import numpy as np
 import pytest
 

@@ -3,7 +3,7 @@
 import json
 import math
 
-from inclino_ros.model import (
+from inclino_ros.calibration.model import (
     CalibrationFileError, CalibrationModel, Installation, load_model, save_model, Stand,
     Temperature)
 import numpy as np

@@ -16,18 +16,18 @@ both well inside the targets.  Uncorrected, 2000 nT at east/west horizontal is 4
 
 The accuracy table gives the improved method the true cross-axial (modelled as already
 corrected) and lets the classic one solve the full eps; the seed 002 pipeline test takes the
-cross-axial from each station's rotation capture (``inclino_ros.cross_axial`` ellipse fit).
+cross-axial from each station's rotation capture (``inclino_ros.core.cross_axial`` ellipse fit).
 Noise-free cases are exact to round-off (1e-6 nT, 1e-9 deg).
 """
 
 from dataclasses import replace
 
-from inclino_ros import magnetics
-from inclino_ros.cross_axial import apply_cross_axial, fit_cross_axial
-from inclino_ros.msa import (
+from inclino_ros.core import magnetics
+from inclino_ros.core.cross_axial import apply_cross_axial, fit_cross_axial
+from inclino_ros.core.msa import (
     azimuth_difference_deg, misfit_nT2, MsaLimits, MsaRefused, short_collar, solve_msa_axial,
     solve_msa_classic, solve_msa_improved, toolface_gap_deg)
-from inclino_ros.well_sim import simulate_well, WellScenario
+from inclino_ros.sim.well import simulate_well, WellScenario
 import numpy as np
 import pytest
 

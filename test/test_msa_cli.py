@@ -12,8 +12,8 @@ import io
 import json
 
 from inclino_ros.cli.main import main as inclino
-from inclino_ros.msa import azimuth_difference_deg
-from inclino_ros.well_sim import simulate_well, WellScenario, write_stations_csv
+from inclino_ros.core.msa import azimuth_difference_deg
+from inclino_ros.sim.well import simulate_well, WellScenario, write_stations_csv
 import numpy as np
 import pytest
 

@@ -5,7 +5,7 @@ import math
 import re
 
 from diagnostic_msgs.msg import DiagnosticStatus
-from inclino_ros.model import load_model
+from inclino_ros.calibration.model import load_model
 import numpy as np
 import pytest
 from ros_harness import G, Probe, tilted_reading

@@ -4,8 +4,8 @@ import json
 import math
 
 from diagnostic_msgs.msg import DiagnosticStatus
-from inclino_ros.magnetics import forward, iscwsa_from_tool
-from inclino_ros.model import load_model
+from inclino_ros.calibration.model import load_model
+from inclino_ros.core.magnetics import forward, iscwsa_from_tool
 import numpy as np
 import pytest
 from ros_harness import G
@@ -152,7 +152,7 @@ def test_unpaired_and_dead_field_give_no_azimuth(node_and_probe):
 def test_a_corrupt_stations_file_stops_the_node(start_node, tmp_path):
     """A stations file that cannot be trusted is a loud error and a non-zero exit."""
     path = tmp_path / 'stations.json'
-    path.write_text(json.dumps({'format': 'inclino_ros.stations', 'schema_version': 1,
+    path.write_text(json.dumps({'format': 'inclino_ros.calibration.stations', 'schema_version': 1,
                                 'stations': [{'specific_force_mps2': [0.0, 0.0, 'x'],
                                               'field_nT': [1.0, 2.0, 3.0], 'samples': 5,
                                               'captured_at': '2026-01-01T00:00:00+00:00'}]}))

@@ -3,7 +3,7 @@
 import math
 
 from diagnostic_msgs.msg import DiagnosticStatus
-from inclino_ros.model import (
+from inclino_ros.calibration.model import (
     CalibrationModel, load_model, save_model, Temperature, utc_now_iso)
 import numpy as np
 import pytest

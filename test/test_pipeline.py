@@ -13,11 +13,11 @@ import math
 
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from inclino_ros.installation import installation_matrix
-from inclino_ros.level_capture import LevelLimits, solve_level_capture
-from inclino_ros.model import CalibrationModel, Installation
+from inclino_ros.calibration.level_capture import LevelLimits, solve_level_capture
+from inclino_ros.calibration.model import CalibrationModel, Installation
+from inclino_ros.core.installation import installation_matrix
+from inclino_ros.core.screening import ACCEPTED, REASONS
 from inclino_ros.pipeline import run, Settings
-from inclino_ros.screening import ACCEPTED, REASONS
 import numpy as np
 import pytest
 from transforms3d.quaternions import quat2mat
@@ -203,7 +203,7 @@ def test_settings_defaults():
 
 def test_azimuth_is_not_trusted_near_vertical_or_without_a_field():
     """A vertical tool or a dead magnetometer gives a NaN azimuth, never a number."""
-    from inclino_ros.magnetics import forward, iscwsa_from_tool
+    from inclino_ros.core.magnetics import forward, iscwsa_from_tool
     from inclino_ros.pipeline import MagneticSettings
     settings = MagneticSettings(min_inclination_deg=0.5)
     rows = []

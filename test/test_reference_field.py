@@ -13,7 +13,7 @@ import datetime
 import math
 import sys
 
-from inclino_ros.reference_field import decimal_year, reference_from_model
+from inclino_ros.core.reference_field import decimal_year, reference_from_model
 import pytest
 
 # decimal year, height above the ellipsoid [km], latitude, longitude, X, Y, Z [nT], D [deg]

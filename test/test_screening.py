@@ -8,7 +8,7 @@ side of each threshold by a clear margin (or exactly on it where the rule says >
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
-from inclino_ros.screening import ACCEPTED, count_reasons, REASONS, screen, ZERO_FRACTION
+from inclino_ros.core.screening import ACCEPTED, count_reasons, REASONS, screen, ZERO_FRACTION
 import numpy as np
 import pytest
 

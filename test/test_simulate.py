@@ -1,5 +1,5 @@
 """
-The virtual bench (inclino_ros.simulate) against closed forms and the core.
+The virtual bench (inclino_ros.sim.bench) against closed forms and the core.
 
 Tolerances: noise-free readings are a few double-precision products of numbers of order
 g, so their round-off is ~1e-15 m/s^2; 1e-12 m/s^2 is a wide margin that still catches a
@@ -11,11 +11,11 @@ import math
 
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from inclino_ros.attitude import inclination, toolface_seed000
-from inclino_ros.installation import installation_matrix
-from inclino_ros.model import CalibrationModel, Installation
+from inclino_ros.calibration.model import CalibrationModel, Installation
+from inclino_ros.core.attitude import inclination, toolface_seed000
+from inclino_ros.core.installation import installation_matrix
 from inclino_ros.pipeline import run, Settings
-from inclino_ros.simulate import DEFAULT_STATIONS_DEG, Scenario, sensor_matrix, simulate
+from inclino_ros.sim.bench import DEFAULT_STATIONS_DEG, Scenario, sensor_matrix, simulate
 import numpy as np
 import pytest
 

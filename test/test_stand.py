@@ -18,8 +18,8 @@ import math
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
-from inclino_ros.attitude import inclination, toolface_seed000
-from inclino_ros.stand import (
+from inclino_ros.core.attitude import inclination, toolface_seed000
+from inclino_ros.core.stand import (
     correct_stand, fit_sphere, fit_stand, MAX_CONDITION_NUMBER, stand_specific_force,
     StandFitRefused)
 import numpy as np

@@ -27,13 +27,13 @@ import io
 import json
 import os
 
-from inclino_ros import bag
-from inclino_ros.attitude import inclination
-from inclino_ros.cli.main import main as inclino
-from inclino_ros.model import (
+from inclino_ros.calibration.model import (
     CalibrationModel, Installation, load_model, save_model, Stand, Temperature)
-from inclino_ros.simulate import SensorErrors, SensorRun, simulate_heating, simulate_stand
-from inclino_ros.stand import stand_specific_force
+from inclino_ros.cli.main import main as inclino
+from inclino_ros.core.attitude import inclination
+from inclino_ros.core.stand import stand_specific_force
+from inclino_ros.io import bag
+from inclino_ros.sim.bench import SensorErrors, SensorRun, simulate_heating, simulate_stand
 import numpy as np
 from numpy.polynomial import polynomial as poly
 import pytest

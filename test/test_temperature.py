@@ -13,9 +13,9 @@ Tolerances:
 
 import math
 
-from inclino_ros.attitude import inclination
-from inclino_ros.stand import fit_stand, stand_specific_force
-from inclino_ros.temperature import (
+from inclino_ros.core.attitude import inclination
+from inclino_ros.core.stand import fit_stand, stand_specific_force
+from inclino_ros.core.temperature import (
     compensate_temperature, fit_temperature, in_range, MIN_AXIS_FRACTION,
     TemperatureFitRefused)
 import numpy as np

@@ -1,7 +1,7 @@
 """Pairing by stamps: nearest in time, any arrival order, exact nanoseconds."""
 
-from inclino_ros.bag import BagError, TemperatureSeries
-from inclino_ros.timing import pair_nearest
+from inclino_ros.io.bag import BagError, TemperatureSeries
+from inclino_ros.io.timing import pair_nearest
 import numpy as np
 import pytest
 

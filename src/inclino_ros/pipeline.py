@@ -10,12 +10,12 @@ node passes what one executor wake-up finds queued, the command line 10 000.
 from dataclasses import dataclass
 import math
 
-from inclino_ros.attitude import (
+from inclino_ros.core.attitude import (
     complete_two_axis, inclination, orientation_quaternion, TOOLFACE_CONVENTIONS)
-from inclino_ros.magnetics import (
+from inclino_ros.core.magnetics import (
     azimuth_deg, b_total_nT, dip_deg, gravity_from_specific_force, iscwsa_from_tool, QcLimits,
     survey_qc, SurveyQc, true_azimuth_deg)
-from inclino_ros.screening import ACCEPTED, screen
+from inclino_ros.core.screening import ACCEPTED, screen
 import numpy as np
 
 #: Smallest field [nT] taken for the Earth's (which is 22000-67000 nT at the surface).

@@ -200,7 +200,7 @@ def plot(rows, path):
 
 def run(args):
     """Run the demo; exit 0 when the corrected answers beat the raw ones."""
-    from inclino_ros.bag import concatenate, read
+    from inclino_ros.io.bag import concatenate, read
     from inclino_ros.cli.main import main as inclino
 
     out = os.path.abspath(args.out)

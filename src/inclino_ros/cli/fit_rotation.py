@@ -24,12 +24,12 @@ large a radial RMSE (``cross_axial.RotationLimits``).
 
 from dataclasses import replace
 
+from inclino_ros.calibration.model import NO_MAGNETIC_CORRECTION, utc_now_iso
+from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_file_arguments, finish_figure, is_bag, load_existing, new_figure, read_csv, read_topic,
     Refused, report_paths, run_fit, save, write_text)
-from inclino_ros.cli.process import CommandError
-from inclino_ros.cross_axial import apply_cross_axial, fit_cross_axial, RotationFitRefused
-from inclino_ros.model import NO_MAGNETIC_CORRECTION, utc_now_iso
+from inclino_ros.core.cross_axial import apply_cross_axial, fit_cross_axial, RotationFitRefused
 import numpy as np
 
 MAG_TOPIC = '/imu/mag'

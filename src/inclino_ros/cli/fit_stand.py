@@ -29,14 +29,15 @@ inclination residual above ``--max-rms-deg`` (for a sphere fit: the RMS of
 
 from functools import partial
 
-from inclino_ros.attitude import angle_between, inclination
+from inclino_ros.calibration.model import CalibrationModel, Stand, utc_now_iso
+from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_common_arguments, AXIS_COLUMNS, finish_figure, has_topic, is_bag, load_existing,
     matrix_lines, new_figure, read_csv, read_topic, Refused, report_paths, run_fit,
     sample_temperatures, save, write_text)
-from inclino_ros.cli.process import CommandError, NODE_DEFAULTS
-from inclino_ros.model import CalibrationModel, Stand, utc_now_iso
-from inclino_ros.stand import fit_sphere, fit_stand, stand_specific_force, StandFitRefused
+from inclino_ros.cli.process import NODE_DEFAULTS
+from inclino_ros.core.attitude import angle_between, inclination
+from inclino_ros.core.stand import fit_sphere, fit_stand, stand_specific_force, StandFitRefused
 import numpy as np
 
 ATTITUDE_TOPIC = '/stand/attitude'

@@ -26,14 +26,14 @@ gravity at the attitude).
 
 from dataclasses import replace
 
-from inclino_ros.attitude import inclination
+from inclino_ros.calibration.model import Temperature, utc_now_iso
+from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_common_arguments, AXIS_COLUMNS, finish_figure, is_bag, load_existing, matrix_lines,
     new_figure, read_csv, read_topic, Refused, report_paths, run_fit, sample_temperatures, save,
     write_text)
-from inclino_ros.cli.process import CommandError
-from inclino_ros.model import Temperature, utc_now_iso
-from inclino_ros.temperature import (
+from inclino_ros.core.attitude import inclination
+from inclino_ros.core.temperature import (
     AXES, fit_temperature, REFERENCE_TEMPERATURE_C, TemperatureFitRefused)
 import numpy as np
 

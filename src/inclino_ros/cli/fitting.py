@@ -10,14 +10,14 @@ Exit codes: 0 written, 1 refused (the reason printed, the file untouched),
 2 an input that cannot be used (``CommandError``).
 """
 
-import csv
 import os
 import sys
 
-from inclino_ros.bag import BagError, concatenate, read, topic_info
-from inclino_ros.cli.process import CommandError
-from inclino_ros.model import CalibrationFileError, CalibrationModel, load_model, save_model
-import numpy as np
+from inclino_ros.calibration.model import (
+    CalibrationFileError, CalibrationModel, load_model, save_model)
+from inclino_ros.cli.errors import CommandError
+from inclino_ros.io import tables
+from inclino_ros.io.bag import BagError, concatenate, read, topic_info
 
 RAW_TOPIC = '/imu/data_raw'
 TEMPERATURE_TOPIC = '/imu/temperature'
@@ -53,32 +53,11 @@ def is_bag(path):
 
 
 def read_csv(path, required, optional=()):
-    """
-    Return ``{column: float array}`` of a CSV file with a header row.
-
-    ``required`` columns must be present, ``optional`` ones are returned when
-    present; other columns are ignored.  Raises CommandError otherwise.
-    """
+    """Return the columns of a CSV file (``tables.read_csv``); CommandError if unusable."""
     try:
-        with open(path, newline='') as stream:
-            rows = list(csv.reader(stream))
-    except OSError as err:
-        raise CommandError(f'cannot read {path}: {err}') from None
-    if not rows:
-        raise CommandError(f'{path} is empty')
-    header = [name.strip() for name in rows[0]]
-    missing = [name for name in required if name not in header]
-    if missing:
-        raise CommandError(f'{path} lacks the column(s) {", ".join(missing)}; '
-                           f'it has {", ".join(header)}')
-    try:
-        values = np.array(rows[1:], dtype=float).reshape(len(rows) - 1, len(header))
-    except ValueError as err:
-        raise CommandError(f'{path}: every row needs {len(header)} numbers ({err})') from None
-    if values.shape[0] == 0:
-        raise CommandError(f'{path} has no data rows')
-    return {name: values[:, header.index(name)]
-            for name in (*required, *optional) if name in header}
+        return tables.read_csv(path, required, optional)
+    except tables.TableError as err:
+        raise CommandError(str(err)) from None
 
 
 def read_topic(path, topic):

@@ -7,7 +7,7 @@ in the ISCWSA survey frame (x, y cross-axial, z toward the bit); optional
 ``md`` and ``true_azimuth_deg`` (the magnetic azimuth known otherwise, e.g.
 of a simulation: the report then plots the error).
 
-Methods (``inclino_ros.msa``): ``improved`` (default, seed 002 Eqs. 23-33:
+Methods (``inclino_ros.core.msa``): ``improved`` (default, seed 002 Eqs. 23-33:
 the cross-axial part first, then eps_z0 at the mean station, its interval
 and the bounded minimum of V); ``classic`` (Brooks: eps_x, eps_y, eps_z
 together); ``axial`` (eps_z only); ``short-collar`` (each station alone,
@@ -46,13 +46,13 @@ from dataclasses import asdict, replace
 import json
 import sys
 
-from inclino_ros import magnetics
+from inclino_ros.calibration.model import NO_MAGNETIC_CORRECTION, utc_now_iso
+from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import finish_figure, load_existing, new_figure, read_csv, save
-from inclino_ros.cli.process import CommandError
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
-from inclino_ros.cross_axial import apply_cross_axial
-from inclino_ros.model import NO_MAGNETIC_CORRECTION, utc_now_iso
-from inclino_ros.msa import (
+from inclino_ros.core import magnetics
+from inclino_ros.core.cross_axial import apply_cross_axial
+from inclino_ros.core.msa import (
     azimuth_difference_deg, MAX_INTERFERENCE_NT, misfit_nT2, MsaLimits, MsaRefused, short_collar,
     solve_msa_axial, solve_msa_classic, solve_msa_improved, toolface_gap_deg)
 import numpy as np

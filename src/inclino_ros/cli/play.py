@@ -8,7 +8,7 @@ and all), paced by their header stamps, scaled by ``--rate``.
 
 import time
 
-from inclino_ros.bag import read
+from inclino_ros.io.bag import read
 
 
 def register(subparsers):

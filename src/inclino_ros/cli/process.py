@@ -29,17 +29,18 @@ from dataclasses import dataclass
 import math
 import sys
 
-from inclino_ros.bag import (
+from inclino_ros.calibration.model import CalibrationFileError, load_model
+from inclino_ros.cli.errors import CommandError
+from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
+from inclino_ros.core.screening import count_reasons, REASONS
+from inclino_ros.io.bag import (
     BagError, BagWriter, CHUNK_SIZE, concatenate, IMU, ImuSeries, MAGNETIC_FIELD,
     not_measured_covariance, read, STORAGES, TEMPERATURE, topic_info, VECTOR3_STAMPED,
     Vector3Series)
-from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
-from inclino_ros.model import CalibrationFileError, load_model
+from inclino_ros.io.timing import pair_nearest
 from inclino_ros.node.parameters import PARAMETERS
 from inclino_ros.pipeline import (
     imu_covariances, MagneticSettings, run as run_pipeline, Settings)
-from inclino_ros.screening import count_reasons, REASONS
-from inclino_ros.timing import pair_nearest
 import numpy as np
 from tqdm import tqdm
 
@@ -49,10 +50,6 @@ NODE_DEFAULTS = {parameter.name: parameter.default for parameter in PARAMETERS}
 #: Azimuth counts of the summary (accepted samples only).
 MAGNETIC_COUNTS = ('mag_paired', 'mag_unpaired', 'azimuth_trusted', 'azimuth_untrusted',
                    'qc_failed', 'qc_failed_b_total', 'qc_failed_dip', 'qc_failed_g_total')
-
-
-class CommandError(Exception):
-    """A reason to stop before processing, reported with exit code 2."""
 
 
 @dataclass(frozen=True)

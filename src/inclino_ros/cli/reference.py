@@ -11,7 +11,7 @@ Unusable values raise ValueError (the commands report it, exit code 2).
 
 import datetime
 
-from inclino_ros.reference_field import reference_from_model
+from inclino_ros.core.reference_field import reference_from_model
 
 
 def add_reference_arguments(parser):

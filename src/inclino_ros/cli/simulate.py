@@ -32,14 +32,15 @@ import json
 import math
 import sys
 
-from inclino_ros import magnetics
-from inclino_ros.bag import (
+from inclino_ros.core import magnetics
+from inclino_ros.core.attitude import specific_force
+from inclino_ros.io.bag import (
     BagWriter, IMU, MAGNETIC_FIELD, MagneticFieldSeries, magnetometer, raw_imu, TEMPERATURE,
     TemperatureSeries, VECTOR3_STAMPED, Vector3Series)
-from inclino_ros.simulate import (
+from inclino_ros.sim.bench import (
     Scenario, sensor_matrix, SensorErrors, SensorRun, simulate, simulate_heating,
-    simulate_stand, specific_force)
-from inclino_ros.well_sim import WellScenario
+    simulate_stand)
+from inclino_ros.sim.well import WellScenario
 import numpy as np
 
 RAW_TOPIC = '/imu/data_raw'

@@ -1,5 +1,5 @@
 """
-``inclino simulate-well``: write the station CSV of a simulated well (``inclino_ros.well_sim``).
+``inclino simulate-well``: write the station CSV of a simulated well (``inclino_ros.sim.well``).
 
 The well's stations go linearly from the first to the last inclination and
 azimuth, toolfaces turning by the golden angle; the readings carry the drill
@@ -9,7 +9,7 @@ and the truth ``true_inclination_deg, true_azimuth_deg, true_toolface_deg``)
 is the input of ``inclino msa``.
 """
 
-from inclino_ros.well_sim import simulate_well, WellScenario, write_stations_csv
+from inclino_ros.sim.well import simulate_well, WellScenario, write_stations_csv
 
 
 def register(subparsers):

@@ -10,8 +10,8 @@ refuse (nothing changed).
 
 from dataclasses import dataclass
 
-from inclino_ros.level_capture import CaptureRefused
-from inclino_ros.model import save_model
+from inclino_ros.calibration.level_capture import CaptureRefused
+from inclino_ros.calibration.model import save_model
 import numpy as np
 from rclpy.task import Future
 

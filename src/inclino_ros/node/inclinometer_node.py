@@ -15,9 +15,11 @@ import sys
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Vector3Stamped
-from inclino_ros.magnetics import QcLimits
-from inclino_ros.model import (
+from inclino_ros.calibration.model import (
     age_seconds, CalibrationFileError, CalibrationModel, load_model)
+from inclino_ros.calibration.stations import load_stations, StationsFileError
+from inclino_ros.core.magnetics import QcLimits
+from inclino_ros.core.screening import ACCEPTED
 from inclino_ros.node.capture import Collector
 from inclino_ros.node.executor import run_node
 from inclino_ros.node.magnetic_services import MagneticServices
@@ -25,8 +27,6 @@ from inclino_ros.node.parameters import PARAMETERS, refusal
 from inclino_ros.node.services import CalibrationServices
 from inclino_ros.node.stats import InputStats, MagneticInput, TemperatureInput
 from inclino_ros.pipeline import imu_covariances, MagneticSettings, run, Settings
-from inclino_ros.screening import ACCEPTED
-from inclino_ros.stations import load_stations, StationsFileError
 import numpy as np
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks

@@ -15,15 +15,15 @@ The node's magnetometer services (seed 002): rotation fit, survey stations, MSA.
 
 from dataclasses import replace
 
-from inclino_ros.cross_axial import fit_cross_axial, RotationFitRefused
-from inclino_ros.level_capture import CaptureRefused
-from inclino_ros.magnetics import iscwsa_from_tool
-from inclino_ros.model import NO_MAGNETIC_CORRECTION, utc_now_iso
-from inclino_ros.msa import (
+from inclino_ros.calibration.level_capture import CaptureRefused
+from inclino_ros.calibration.model import NO_MAGNETIC_CORRECTION, utc_now_iso
+from inclino_ros.calibration.stand_capture import direction_spread_deg
+from inclino_ros.calibration.stations import msa_inputs, save_stations, Station
+from inclino_ros.core.cross_axial import fit_cross_axial, RotationFitRefused
+from inclino_ros.core.magnetics import iscwsa_from_tool
+from inclino_ros.core.msa import (
     azimuth_difference_deg, MsaRefused, solve_msa_axial, solve_msa_classic, solve_msa_improved)
 from inclino_ros.pipeline import run
-from inclino_ros.stand_capture import direction_spread_deg
-from inclino_ros.stations import msa_inputs, save_stations, Station
 import numpy as np
 from rclpy.callback_groups import ReentrantCallbackGroup
 from std_srvs.srv import Trigger

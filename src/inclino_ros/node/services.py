@@ -8,9 +8,10 @@ as they were.
 
 from dataclasses import replace
 
-from inclino_ros.level_capture import CaptureRefused, LevelLimits, solve_level_capture
-from inclino_ros.stand import StandFitRefused
-from inclino_ros.stand_capture import average_position, check_new_attitude, solve_positions
+from inclino_ros.calibration.level_capture import CaptureRefused, LevelLimits, solve_level_capture
+from inclino_ros.calibration.stand_capture import (
+    average_position, check_new_attitude, solve_positions)
+from inclino_ros.core.stand import StandFitRefused
 import numpy as np
 from rclpy.callback_groups import ReentrantCallbackGroup
 from std_srvs.srv import Trigger

@@ -5,10 +5,10 @@ import math
 
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 
-from inclino_ros.bag import NT_PER_TESLA
-from inclino_ros.screening import REASONS
-from inclino_ros.temperature import in_range
-from inclino_ros.timing import pair_nearest
+from inclino_ros.core.screening import REASONS
+from inclino_ros.core.temperature import in_range
+from inclino_ros.io.bag import NT_PER_TESLA
+from inclino_ros.io.timing import pair_nearest
 
 
 class InputStats:

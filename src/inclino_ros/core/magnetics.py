@@ -15,7 +15,7 @@ out in formulas.md, "ISCWSA forward model" and "Inverse").
 
 from dataclasses import dataclass
 
-from inclino_ros.attitude import inclination, toolface_highside
+from inclino_ros.core.attitude import inclination, toolface_highside
 import numpy as np
 
 

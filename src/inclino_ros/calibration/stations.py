@@ -14,12 +14,12 @@ import json
 import math
 import os
 
-from inclino_ros.cross_axial import apply_cross_axial
-from inclino_ros.magnetics import gravity_from_specific_force, iscwsa_from_tool
-from inclino_ros.model import write_json_atomically
+from inclino_ros.calibration.model import write_json_atomically
+from inclino_ros.core.cross_axial import apply_cross_axial
+from inclino_ros.core.magnetics import gravity_from_specific_force, iscwsa_from_tool
 import numpy as np
 
-FORMAT = 'inclino_ros.stations'
+FORMAT = 'inclino_ros.calibration.stations'
 SCHEMA_VERSION = 1
 
 

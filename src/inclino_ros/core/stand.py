@@ -11,7 +11,7 @@ Here the model carries a bias as well, ``A = K G + b``, solved by linear least
 squares; a bias-free Eq. 10 is the special case ``b = 0``.
 
 Vectors are REP 145 specific force in the z-up tool frame of seed 000 (see
-``inclino_ros.attitude``), shape ``(N, 3)``; readings and truth share one unit
+``inclino_ros.core.attitude``), shape ``(N, 3)``; readings and truth share one unit
 (m/s^2 on our topics).  Without a stand, ``fit_sphere`` finds scale, bias and
 non-orthogonality from ``|G| = g`` alone (no rotation: see its docstring).
 """
@@ -19,8 +19,7 @@ non-orthogonality from ``|G| = g`` alone (no rotation: see its docstring).
 from dataclasses import dataclass
 import math
 
-from inclino_ros.attitude import angle_between, as_vectors, inclination
-from inclino_ros.simulate import specific_force
+from inclino_ros.core.attitude import angle_between, as_vectors, inclination, specific_force
 import numpy as np
 
 #: Least stand positions: 12 unknowns (K and b), three equations per position,

@@ -20,7 +20,7 @@ readings then lie on a circle centred on (eps_x, eps_y).
 import csv
 from dataclasses import dataclass
 
-from inclino_ros import magnetics
+from inclino_ros.core import magnetics
 import numpy as np
 
 #: The golden angle [deg]: toolfaces k * 137.5 deg never repeat and spread evenly.

@@ -8,7 +8,7 @@ z-up tool frame (REP 145 specific force, seed 000 Eq. 2 generalised)::
 
 and a sensor mounted with installation angles (gamma, beta) reads
 ``raw = C f + noise`` with C of seed 000 Eq. 1.  C is built here from
-transforms3d's rotations, not from ``inclino_ros.installation``, so the bench
+transforms3d's rotations, not from ``inclino_ros.core.installation``, so the bench
 is an independent check of the core.  Pure numpy + transforms3d.
 
 Seed 001's stand and heating runs use a fuller sensor, ``SensorErrors``.  Its
@@ -28,7 +28,8 @@ reading itself is exact (no noise).
 from dataclasses import dataclass
 import math
 
-from inclino_ros.temperature import REFERENCE_TEMPERATURE_C
+from inclino_ros.core.attitude import specific_force
+from inclino_ros.core.temperature import REFERENCE_TEMPERATURE_C
 import numpy as np
 from transforms3d.axangles import axangle2mat
 
@@ -59,15 +60,6 @@ def sensor_matrix(gamma, beta):
     ``Rx(beta) @ Ry(-gamma)``, mapping ideal-frame coordinates to sensor ones.
     """
     return axangle2mat((1.0, 0.0, 0.0), beta) @ axangle2mat((0.0, 1.0, 0.0), -gamma)
-
-
-def specific_force(inclination, toolface, gravity_mps2):
-    """Return ``g (sin I cos TF, sin I sin TF, cos I)``, shape (..., 3), angles in radians."""
-    inclination = np.asarray(inclination, dtype=float)
-    toolface = np.asarray(toolface, dtype=float)
-    sin_i = np.sin(inclination)
-    return gravity_mps2 * np.stack(
-        [sin_i * np.cos(toolface), sin_i * np.sin(toolface), np.cos(inclination)], axis=-1)
 
 
 @dataclass(frozen=True)

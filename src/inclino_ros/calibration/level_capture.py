@@ -10,9 +10,9 @@ its samples cannot give a trustworthy answer.
 from dataclasses import dataclass
 import math
 
-from inclino_ros.installation import (
+from inclino_ros.calibration.model import Installation, utc_now_iso
+from inclino_ros.core.installation import (
     installation_angles, level_axis_angles, pseudo_inclination)
-from inclino_ros.model import Installation, utc_now_iso
 import numpy as np
 
 

@@ -11,7 +11,7 @@ Choices made here:
 
 * K_T is normalised to 1 at the reference temperature (25 deg C, the seed's
   standard temperature): ``compensate_temperature`` returns the readings as
-  at 25 deg C, and the stand calibration (``inclino_ros.stand``, captured at
+  at 25 deg C, and the stand calibration (``inclino_ros.core.stand``, captured at
   25 deg C) keeps the scale at 25 deg C in its K.  The reference vector of
   the fit may therefore be the true specific force or the 25 deg C reading at
   the fit attitude: both give the same normalised K_T.

@@ -11,10 +11,11 @@ it becomes the model's ``stand`` stage.
 from dataclasses import dataclass
 import math
 
-from inclino_ros.attitude import angle_between
-from inclino_ros.level_capture import CaptureRefused
-from inclino_ros.model import Stand, utc_now_iso
-from inclino_ros.stand import fit_stand, MIN_SEPARATION_DEG, stand_specific_force, StandFitRefused
+from inclino_ros.calibration.level_capture import CaptureRefused
+from inclino_ros.calibration.model import Stand, utc_now_iso
+from inclino_ros.core.attitude import angle_between
+from inclino_ros.core.stand import (
+    fit_stand, MIN_SEPARATION_DEG, stand_specific_force, StandFitRefused)
 import numpy as np
 
 

@@ -26,6 +26,15 @@ def complete_two_axis(fx, fy, g):
     return np.stack([fx, fy, fz], axis=-1)
 
 
+def specific_force(inclination, toolface, gravity_mps2):
+    """Return ``g (sin I cos TF, sin I sin TF, cos I)``, shape (..., 3), angles in radians."""
+    inclination = np.asarray(inclination, dtype=float)
+    toolface = np.asarray(toolface, dtype=float)
+    sin_i = np.sin(inclination)
+    return gravity_mps2 * np.stack(
+        [sin_i * np.cos(toolface), sin_i * np.sin(toolface), np.cos(inclination)], axis=-1)
+
+
 def as_vectors(values, name):
     """Return ``values`` as a float (N, 3) array; ValueError naming ``name`` for another shape."""
     values = np.asarray(values, dtype=float)

@@ -4,7 +4,7 @@ Multi-station analysis (MSA): the drill string's magnetisation from many surveys
 Liu, Di & Zhang, *High precision magnetic azimuth correction of horizontal
 well by multi-station analysis*, Chinese J. Geophys. 62(7), 2019 ("seed
 002"), after Brooks et al. (1998).  Frame and quantities as in
-``inclino_ros.magnetics`` (ISCWSA survey frame: x, y cross-axial, z toward the
+``inclino_ros.core.magnetics`` (ISCWSA survey frame: x, y cross-axial, z toward the
 bit; G the gravity vector, B in nT).  The drill string adds a constant vector
 ``eps`` to B in the tool frame; the corrected field of station i is
 ``B_i - eps`` and its horizontal and vertical parts ``(Bh_i, Bv_i)``
@@ -55,8 +55,8 @@ non-linearity), at least ``MsaLimits.min_interval_nT``.
 from dataclasses import dataclass, field
 import math
 
-from inclino_ros import magnetics
-from inclino_ros.attitude import as_vectors
+from inclino_ros.core import magnetics
+from inclino_ros.core.attitude import as_vectors
 import numpy as np
 
 #: Gravity of the QC tolerance in ``magnetics.QcLimits`` (m/s^2), to make it relative.

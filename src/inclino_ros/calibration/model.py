@@ -23,11 +23,11 @@ import math
 import os
 import tempfile
 
-from inclino_ros.cross_axial import apply_cross_axial
-from inclino_ros.installation import (
+from inclino_ros.core.cross_axial import apply_cross_axial
+from inclino_ros.core.installation import (
     inverse_installation_matrix, pseudo_inclination, to_tool_frame)
-from inclino_ros.stand import correct_stand, MAX_CONDITION_NUMBER
-from inclino_ros.temperature import compensate_temperature, TemperatureFit
+from inclino_ros.core.stand import correct_stand, MAX_CONDITION_NUMBER
+from inclino_ros.core.temperature import compensate_temperature, TemperatureFit
 import numpy as np
 
 FORMAT = 'inclino_ros.calibration'
