@@ -142,7 +142,7 @@ def _vector(value, name):
 
 
 def _matrix(value, name):
-    """Return ``value`` as a 3x3 tuple of tuples of floats; ValueError naming ``name`` otherwise."""
+    """Return ``value`` as 3x3 nested tuples of floats; ValueError naming ``name`` otherwise."""
     array = np.asarray(value, dtype=float)
     if array.shape != (3, 3):
         raise ValueError(f'{name} must be 3x3, not shape {array.shape}')
