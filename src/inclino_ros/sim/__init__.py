@@ -1,1 +1,5 @@
-"""Virtual bench and well: readings from a known truth, for the CLI, tests and benchmarks only."""
+"""
+Virtual bench and well: physical sensor models that produce readings from a known truth.
+
+Used by the CLI, tests and benchmarks, never by core or calibration.
+"""
