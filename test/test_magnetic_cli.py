@@ -25,6 +25,7 @@ Seeds are fixed; the margins are several sigma.
 from dataclasses import replace
 import json
 import os
+import sys
 
 from inclino_ros import pipeline
 from inclino_ros.calibration.level_capture import LevelLimits, solve_level_capture
@@ -300,6 +301,7 @@ def test_process_needs_a_reference(chain, tmp_path):
 
 def test_msa_site_reference(tmp_path):
     """--site takes F, dip and declination from the WMM (pygeomag); a bad date exits 2."""
+    pytest.importorskip('pygeomag')  # optional: no rosdep key
     from inclino_ros.core.reference_field import reference_from_model
 
     site = ('29.7', '-95.4', '0', '2026-07-01')
@@ -316,3 +318,18 @@ def test_msa_site_reference(tmp_path):
     code, _, err = quiet(['msa', stations, '-o', tmp_path / 'o.csv', '--site', '0', '0', '0',
                           '1990-01-01'])
     assert code == 2 and 'World Magnetic Model' in err
+
+
+def test_site_without_pygeomag_names_the_package(chain, tmp_path, monkeypatch):
+    """--site without pygeomag (no rosdep key, optional) exits 2 naming it: msa, process."""
+    monkeypatch.setitem(sys.modules, 'pygeomag', None)  # import fails, installed or not
+    site = ('--site', '29.7', '-95.4', '0', '2026-07-01')
+    message = '--site needs the Python package pygeomag: pip install "pygeomag>=1.1,<2"'
+    code, _, err = quiet(['msa', tmp_path / 'stations.csv', '-o', tmp_path / 'o.csv', *site])
+    assert code == 2 and message in err, err
+    calibration = tmp_path / 'cal.json'
+    save_model(calibration, CalibrationModel(accelerometer_axes=3))
+    code, _, err = quiet(['process', chain['sim'], tmp_path / 'out', '--calibration',
+                          calibration, '--mag-topic', '/imu/mag', *site])
+    assert code == 2 and message in err, err
+    assert not (tmp_path / 'out').exists()

@@ -6,12 +6,13 @@ command line (``--reference-total-nT``, ``--reference-dip-deg``,
 ``--declination-deg``) or from the World Magnetic Model at a site
 (``--site LAT LON ALT_M DATE``, ``reference_field.reference_from_model``,
 offline through pygeomag); values given explicitly win over the site's.
-Unusable values raise ValueError (the commands report it, exit code 2).
+Unusable values raise ValueError (the commands report it, exit code 2), and
+so does ``--site`` without the optional pygeomag.
 """
 
 import datetime
 
-from inclino_ros.core.reference_field import reference_from_model
+from inclino_ros.core.reference_field import reference_from_model, REQUIREMENT
 
 
 def add_reference_arguments(parser):
@@ -34,7 +35,10 @@ def site_reference(site):
         latitude_deg, longitude_deg, altitude_m = (float(v) for v in site[:3])
         date = _date(site[3])
         return reference_from_model(latitude_deg, longitude_deg, altitude_m, date)
-    except (ValueError, ImportError) as err:
+    except ImportError:  # pygeomag is optional (no rosdep key): only --site needs it
+        raise ValueError(f'--site needs the Python package pygeomag: '
+                         f'pip install "{REQUIREMENT}"') from None
+    except ValueError as err:
         raise ValueError(f'--site {" ".join(site)}: {err}') from None
 
 
