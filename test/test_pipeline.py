@@ -165,7 +165,7 @@ def test_a_magnetometer_mounted_true_gives_the_true_azimuth():
     'gamma 0.8, beta -1.2 deg leave the azimuth up to 2.9 deg off after the level capture '
     '(measured, inclination 30-90 deg, every azimuth)'))
 def test_magnetometer_gets_the_mount():
-    """Both triads on one board mounted (0.8, -1.2): after the level capture the azimuth is true."""
+    """Both triads on one board mounted (0.8, -1.2): after the level capture, the true azimuth."""
     assert np.abs(magnetic_errors_deg(tool(0.8, -1.2))).max() < EPS_DEG
 
 
