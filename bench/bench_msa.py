@@ -26,7 +26,8 @@ TARGET_S = 0.3
 HEADINGS_DEG = (0.0, 45.0, 90.0, 135.0, 180.0, 225.0, 270.0, 315.0)
 SOLVERS = {
     'improved': lambda well: solve_msa_improved(
-        well.gravity, well.field_nT, 50000.0, 60.0, cross_axial_nT=well.interference_iscwsa_nT[:2]),
+        well.gravity, well.field_nT, 50000.0, 60.0,
+        cross_axial_nT=well.interference_iscwsa_nT[:2]),
     'classic': lambda well: solve_msa_classic(well.gravity, well.field_nT, 50000.0, 60.0),
 }
 
