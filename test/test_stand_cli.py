@@ -1,8 +1,8 @@
 """
 Seed 001 end to end: simulate --stand/--heating -> fit-stand/fit-temperature -> process.
 
-The sensor is the physical model's (``sim.sensor_model``, what ``inclino simulate --stand`` and
-``--heating`` simulate by default): MEMS triads on a board mounted gamma 0.8, beta -1.2 deg,
+The sensor is the physical model's (``sim.sensor_model``, what ``inclino simulate --stand
+--sensor mems`` simulates): MEMS triads on a board mounted gamma 0.8, beta -1.2 deg,
 i.e. a 3x3 K (scale errors ~0.4 %, misalignment ~5 mrad), biases up to 18 mg, a bias drift
 ~0.5 mg/degC and a scale drift ~200 ppm/degC, here with sigma = 2e-4 g = 1.96e-3 m/s^2 of
 noise per axis and sample.  The stand holds 100 samples per position (nine positions,
@@ -57,7 +57,7 @@ from rosbags.typesys import get_typestore, Stores
 
 G = 9.80665
 NOISE_MPS2 = 2e-4 * G
-#: What ``inclino simulate --stand --noise-mps2 NOISE_MPS2`` simulates (module docstring).
+#: What ``inclino simulate --stand --sensor mems --noise-mps2 NOISE_MPS2`` simulates.
 TOOL = make_tool('mems', 0.8, -1.2, noise_mps2=NOISE_MPS2)
 TOOL_K, TOOL_BIAS_MPS2 = tool_stand_truth(TOOL)
 #: The MEMS triad without its bias and bias drift: only its sensitivity drifts.
@@ -146,11 +146,12 @@ def runs(tmp_path_factory):
     """Simulate the stand (mcap) and heating (sqlite3) runs; fit both into one file."""
     work = tmp_path_factory.mktemp('seed001')
     paths = {name: work / name for name in ('stand', 'heating', 'stand.csv', 'heating.csv')}
-    code, stdout, _ = quiet(['simulate', paths['stand'], '--stand', '--noise-mps2', NOISE_MPS2,
-                             '--csv', paths['stand.csv']])
+    code, stdout, _ = quiet(['simulate', paths['stand'], '--stand', '--sensor', 'mems',
+                             '--noise-mps2', NOISE_MPS2, '--csv', paths['stand.csv']])
     assert code == 0 and 'wrote' in stdout
-    assert quiet(['simulate', paths['heating'], '--heating', '--noise-mps2', NOISE_MPS2,
-                  '--storage', 'sqlite3', '--csv', paths['heating.csv'], '--seed', '1'])[0] == 0
+    assert quiet(['simulate', paths['heating'], '--heating', '--sensor', 'mems', '--noise-mps2',
+                  NOISE_MPS2, '--storage', 'sqlite3', '--csv', paths['heating.csv'], '--seed',
+                  '1'])[0] == 0
     return dict(paths, work=work, **fit_both(work, paths['stand'], paths['heating']))
 
 
@@ -404,7 +405,7 @@ def test_process_with_temperature_topic(runs, tmp_path):
     (elsewhere it cannot, test_fit_temperature_compensates); this checks the topic's use.
     """
     heating = tmp_path / 'heating'
-    assert quiet(['simulate', heating, '--heating', '--noise-mps2', 0])[0] == 0
+    assert quiet(['simulate', heating, '--heating', '--sensor', 'mems', '--noise-mps2', 0])[0] == 0
     errors = {}
     for name, extra in (('with', ['--temperature-topic', '/imu/temperature']), ('without', [])):
         code, _, stderr = quiet(['process', heating, tmp_path / name, '--calibration',
