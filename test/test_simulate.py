@@ -13,12 +13,15 @@ g sin(0.8 deg) = 0.14 m/s^2).  Angles through the core (C^-1, atan2) of noise-fr
 come back to ~1e-14 deg: 1e-9 deg.
 """
 
+import contextlib
+import io
 import json
 import math
 
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from inclino_ros.calibration.model import CalibrationModel, Installation
+from inclino_ros.cli.main import main as inclino
 from inclino_ros.core import magnetics
 from inclino_ros.core.attitude import inclination, toolface_seed000
 from inclino_ros.pipeline import run, Settings
@@ -280,3 +283,46 @@ def test_heating_ramp():
     drift = heating.raw_mps2[-1] - at_25
     # MEMS: bias drift ~0.5 mg/degC and scale drift ~2e-4/degC over 75 degC: tens of mg.
     assert np.abs(drift).max() > 0.02 * G
+
+
+def run_cli(argv):
+    """Run ``inclino simulate argv`` in-process quietly; return (exit code, stdout, stderr)."""
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = inclino(['simulate', *[str(a) for a in argv]])
+    return code, out.getvalue(), err.getvalue()
+
+
+def test_cli_options_reach_the_tool(tmp_path):
+    """--sensor, the mount, --magnetometer-deg and the noise make the tool of the truth file."""
+    path = tmp_path / 'sim'
+    code, out, err = run_cli([path, '--sensor', 'mems', '--gamma-deg', 0.3, '--beta-deg', -0.4,
+                              '--roll-deg', 5, '--magnetometer-deg', 0.1, -0.2, 0.3,
+                              '--noise-mps2', 0.01, '--magnetic', '--interference-nT', 10, 20,
+                              30, '--seed', 9, '--level-s', 0.5, '--station-s', 0.1])
+    assert code == 0, err
+    assert 'mems sensor' in out and 'roll 5 deg' in out
+    truth = json.loads((tmp_path / 'sim.truth.json').read_text())
+    tool = make_tool('mems', 0.3, -0.4, 5.0, (0.1, -0.2, 0.3), noise_mps2=0.01)
+    assert truth['tool'] == json.loads(json.dumps(sm.truth_dict(tool)))
+    assert truth['interference_tool_nT'] == [10.0, -20.0, -30.0]
+    assert truth['magnetic']['topic'] == '/imu/mag'
+    expected = simulate(Scenario(tool=tool, interference_tool_nT=(10.0, -20.0, -30.0), seed=9,
+                                 level_s=0.5, station_s=0.1))
+    assert [s['samples'] for s in truth['segments']] == \
+        [s['samples'] for s in expected.truth['segments']]
+
+
+@pytest.mark.parametrize('argv, message', [
+    (['--stand', '--magnetic'], '--magnetic goes with the bench scenario'),
+    (['--heating', '--axes', '2'], 'three-axis sensor'),
+    (['--stand', '--samples', '0'], '--samples must be at least 1'),
+    (['--noise-mps2', '-1'], 'must not be negative'),
+    (['--rate-hz', '0'], 'at least one sample'),
+    (['--magnetic', '--reference-total-nT', '0'], '--reference-total-nT must be positive'),
+])
+def test_cli_refuses_impossible_settings(tmp_path, argv, message):
+    """Impossible combinations exit 2 with the reason and write nothing."""
+    code, _, err = run_cli([tmp_path / 'sim', *argv])
+    assert code == 2 and message in err, err
+    assert not (tmp_path / 'sim').exists()
