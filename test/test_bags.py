@@ -1,8 +1,10 @@
 """
 Bags end to end: simulate -> bag -> calibrate -> ``inclino process`` -> bag -> truth.
 
-Tolerances of the noisy end-to-end checks (default scenario: noise sigma_n = 0.002 m/s^2
-per axis, g = 9.80665 m/s^2, N_L = 600 level samples, 400 samples per station):
+Tolerances of the noisy end-to-end checks (default scenario of ``inclino simulate``: the
+physical sensor model's ideal triads on a board mounted gamma 0.8, beta -1.2 deg, noise
+sigma_n = 0.002 m/s^2 per axis, g = 9.80665 m/s^2, N_L = 600 level samples, 400 samples per
+station; the mount and the noise are its only errors):
 
 - One sample's inclination error is the noise component along the tilt direction over g,
   sigma_I = sigma_n / g = 2.04e-4 rad = 0.0117 deg (at I = 0 it is the 2-D norm of the
@@ -230,8 +232,11 @@ def test_simulated_bag_reads_back_exactly(tmp_path, storage):
 
     with open(f'{path}.truth.json') as stream:
         sidecar = json.load(stream)
-    assert (sidecar['gamma_deg'], sidecar['beta_deg'], sidecar['seed'], sidecar['axes'],
-            sidecar['rate_hz'], sidecar['noise_std_mps2']) == (0.8, -1.2, 4, 3, 200.0, 0.002)
+    tool = sidecar['tool']
+    assert (tool['mount']['gamma_deg'], tool['mount']['beta_deg'], sidecar['seed'],
+            tool['accelerometer']['axes'], sidecar['rate_hz'],
+            tool['accelerometer']['noise_std']) == (0.8, -1.2, 4, 3, 200.0, 0.002)
+    assert sidecar['sensor'] == 'ideal' and tool == json.loads(json.dumps(sim.truth['tool']))
     assert sidecar['segments'] == sim.truth['segments']
 
 

@@ -1,9 +1,15 @@
 """
 Magnetic azimuth (seed 002) end to end: simulate --magnetic -> fit-rotation -> msa -> process.
 
-Scenario: the bench (gamma 0.8, beta -1.2 deg; 12 stations at inclination 0.5 .. 60 deg,
-azimuth 85 -> 95 deg: east, the hard case), reference F = 50000 nT, dip 60 deg, interference
-2000 nT axial and (80, -80) nT cross-axial, and a 10 s rotation (two turns at 60 deg, 90 deg).
+Scenario: the bench of the physical sensor model (ideal triads; 12 stations at inclination
+0.5 .. 60 deg, azimuth 85 -> 95 deg: east, the hard case), reference F = 50000 nT, dip 60 deg,
+interference 2000 nT axial and (80, -80) nT cross-axial (ISCWSA axes), and a 10 s rotation
+(two turns at 60 deg, 90 deg).  The accelerometer's board is mounted gamma 0.8, beta -1.2 deg.
+Two magnetometers: ``aligned``, turned back to the tool axes on the board
+(``--magnetometer-deg -1.2 -0.8 0``: Mount.magnetometer_deg (beta, -gamma, 0) undoes
+Ry(gamma) Rx(-beta)), the configuration the chain assumes; and ``board``, on the board with
+the accelerometer (``inclino simulate``'s default), which the chain cannot correct yet: the
+magnetometer does not get the mount (issue 8), an expected failure.
 Each station holds N = 16 samples whose noise, sigma_a = 1e-4 g sqrt(N) = 4e-4 g and
 sigma_m = 5 nT sqrt(N) = 20 nT per axis, averages to the issue's 1e-4 g and 5 nT per station.
 
@@ -19,7 +25,7 @@ Targets, on the station mean of the per-sample azimuth error written by ``inclin
   worst), both well inside.
 - Uncorrected (raw magnetometer, calibrated accelerometer) the 2000 nT cost > 3 deg at 60 deg
   (sin I sin A 2000 / Bh = 3.97 deg).
-Seeds are fixed; the margins are several sigma.
+Seeds are fixed; the margins are several sigma.  The chain's checks run on ``aligned``.
 """
 
 from dataclasses import replace
@@ -54,11 +60,15 @@ def summary_values(stdout):
     return dict(line.split(': ', 1) for line in stdout.splitlines() if ': ' in line)
 
 
-def simulate_bench(path, storage='mcap'):
+#: The magnetometer's mounting options of the two boards (module docstring).
+MAGNETOMETER_ARGS = {'aligned': ['--magnetometer-deg', -1.2, -0.8, 0.0], 'board': []}
+
+
+def simulate_bench(path, storage='mcap', board='aligned'):
     """Simulate the test bench into ``path``; return its truth record."""
     code, _, err = quiet(['simulate', path, '--magnetic', '--rotation-s', 10, '--storage', storage,
                           '--station-s', SAMPLES / 200.0, '--noise-mps2', NOISE_MPS2,
-                          '--mag-noise-nT', NOISE_NT])
+                          '--mag-noise-nT', NOISE_NT, *MAGNETOMETER_ARGS[board]])
     assert code == 0, err
     with open(f'{path}.truth.json') as stream:
         return json.load(stream)
@@ -110,12 +120,10 @@ def write_stations(path, truth, calibration, out_csv):
         stream.writelines(','.join(repr(float(v)) for v in row) + '\n' for row in rows)
 
 
-@pytest.fixture(scope='module')
-def chain(tmp_path_factory):
-    """Run the whole chain once (mcap); return paths, truth and the outputs."""
-    work = tmp_path_factory.mktemp('magnetic')
+def run_chain(work, board):
+    """Run the whole chain once (mcap) on ``board``; return paths, truth and the outputs."""
     sim, calibration, report = (str(work / n) for n in ('sim', 'cal.json', 'report'))
-    truth = simulate_bench(sim)
+    truth = simulate_bench(sim, board=board)
     level_calibration(sim, truth, calibration)
     start_s, end_s = rotation_window_s(truth)
     rotation = quiet(['fit-rotation', sim, '--calibration', calibration, '--start-s', start_s,
@@ -131,6 +139,18 @@ def chain(tmp_path_factory):
             'truth': truth, 'rotation': rotation, 'msa': msa, 'process': process, 'out': out}
 
 
+@pytest.fixture(scope='module')
+def chain(tmp_path_factory):
+    """Run the whole chain on the ``aligned`` magnetometer."""
+    return run_chain(tmp_path_factory.mktemp('magnetic'), 'aligned')
+
+
+@pytest.fixture(scope='module')
+def board_chain(tmp_path_factory):
+    """Run the whole chain on the ``board`` magnetometer (the default of inclino simulate)."""
+    return run_chain(tmp_path_factory.mktemp('board'), 'board')
+
+
 def test_simulated_magnetometer_bag(chain):
     """/imu/mag: tesla, the accelerometer's stamps, the tool-frame field of the truth."""
     sim, truth = chain['sim'], chain['truth']
@@ -140,7 +160,10 @@ def test_simulated_magnetometer_bag(chain):
     np.testing.assert_array_equal(mag.stamps_ns, imu.stamps_ns)
     assert np.all(np.abs(mag.magnetic_field_T) < 1e-4)   # tesla, not nT
     np.testing.assert_allclose(mag.covariance_T2[:, 0], (NOISE_NT * 1e-9) ** 2)
-    assert truth['magnetic']['interference_tool_nT'] == [80.0, 80.0, -2000.0]
+    assert truth['interference_tool_nT'] == [80.0, 80.0, -2000.0]
+    assert truth['tool']['mount']['magnetometer_deg'] == [-1.2, -0.8, 0.0]
+    np.testing.assert_allclose(truth['tool']['mount']['magnetometer_from_tool'], np.eye(3),
+                               rtol=0, atol=1e-15)
     survey = bag.concatenate(bag.read(sim, '/truth/survey'))
     for record, mask in station_masks(truth, survey.stamps_ns):
         assert np.all(survey.vector[mask, 2] == record['azimuth_deg'])
@@ -176,6 +199,24 @@ def test_msa_stores_the_interference_in_the_tool_frame(chain):
 
 def test_process_azimuth_within_target_of_truth(chain):
     """Corrected station azimuths: <= 0.1 deg (I >= 12 deg), <= floor + 0.02; raw > 3 deg."""
+    assert_azimuths_on_target(chain)
+
+
+@pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
+    'issue 8: the magnetometer does not get the mount rotation: on the board mounted gamma '
+    '0.8, beta -1.2 deg with the accelerometer (inclino simulate --magnetic by default) the '
+    'rotation fit finds a hard iron of (411, -415) nT for the true (80, 80) nT, msa refuses '
+    '(QC fails at 9 of 12 stations), so process has no reference; given one, every azimuth '
+    'fails its QC and is NaN (measured)'))
+def test_process_azimuth_on_a_common_board(board_chain):
+    """Both triads on the mounted board: the same targets as with the aligned magnetometer."""
+    assert_azimuths_on_target(board_chain)
+
+
+def assert_azimuths_on_target(chain):
+    """Assert the targets of the module docstring on the station means of ``chain``."""
+    for step in ('rotation', 'msa'):
+        assert chain[step][0] == 0, chain[step]
     code, out, err = chain['process']
     assert code == 0, err
     values = summary_values(out)

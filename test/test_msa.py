@@ -1,12 +1,14 @@
 """
 Multi-station analysis (seed 002): the issue's accuracy targets, closed forms and refusals.
 
-Wells (``well_sim``): 24 stations, inclination 30 -> 90 deg, azimuth within +-5 deg of each of
-0, 45, ..., 315 deg (east/west 90 and 270 included), toolfaces spread (golden angle); reference
-F = 50000 nT, dip 60 deg; interference 2000 nT axial, (80, -80) nT cross-axial; station noise
-1e-4 g and 5 nT per axis.  Targets (asserted per well): corrected azimuth error <= 0.1 deg at
-every station, and its RMS within 0.02 deg of the floor's RMS, the floor being the error of the
-same noisy readings with the TRUE interference removed (what noise alone leaves).
+Wells (``sim.well``, read by the physical sensor model; by default ideal triads mounted true,
+so the drill string's interference and the noise are the only errors): 24 stations,
+inclination 30 -> 90 deg, azimuth within +-5 deg of each of 0, 45, ..., 315 deg (east/west 90
+and 270 included), toolfaces spread (golden angle); reference F = 50000 nT, dip 60 deg;
+interference 2000 nT axial, (80, -80) nT cross-axial (ISCWSA axes); station noise 1e-4 g and
+5 nT per axis.  Targets (asserted per well): corrected azimuth error <= 0.1 deg at every
+station, and its RMS within 0.02 deg of the floor's RMS, the floor being the error an
+error-free tool gives with the same noise and no interference (what noise alone leaves).
 
 Why the bounds hold: the floor is 5 nT over Bh = 25000 nT (0.011 deg) plus 1e-4 rad of
 gravity (0.006 deg): ~0.015 deg RMS, max ~0.045 over 24 stations.  MSA fits eps from 48
@@ -18,16 +20,24 @@ The accuracy table gives the improved method the true cross-axial (modelled as a
 corrected) and lets the classic one solve the full eps; the seed 002 pipeline test takes the
 cross-axial from each station's rotation capture (``inclino_ros.core.cross_axial`` ellipse fit).
 Noise-free cases are exact to round-off (1e-6 nT, 1e-9 deg).
+
+A real tool adds errors MSA does not model: both triads on a board mounted gamma, beta (the
+accelerometer calibrated by its level capture, the magnetometer not), or a magnetometer
+triad's own 3x3 K and bias.  Those tests state what should hold and are expected failures
+naming the issue that fixes them, with the measured error.
 """
 
 from dataclasses import replace
 
 from inclino_ros.core import magnetics
 from inclino_ros.core.cross_axial import apply_cross_axial, fit_cross_axial
+from inclino_ros.core.installation import correct_installation
 from inclino_ros.core.msa import (
     azimuth_difference_deg, misfit_nT2, MsaLimits, MsaRefused, short_collar, solve_msa_axial,
     solve_msa_classic, solve_msa_improved, toolface_gap_deg)
-from inclino_ros.sim.well import simulate_well, WellScenario
+from inclino_ros.core.stand import correct_stand
+from inclino_ros.sim.bench import make_tool, tool_stand_truth
+from inclino_ros.sim.well import simulate_well, WELL_TOOL, WellScenario
 import numpy as np
 import pytest
 
@@ -38,6 +48,9 @@ MAX_ERROR_DEG = 0.1
 RMS_OVER_FLOOR_DEG = 0.02
 EXACT_NT = 1e-6
 EXACT_DEG = 1e-9
+G = 9.80665
+#: An ideal tool without noise: readings are the ISCWSA forward model plus the interference.
+NOISE_FREE = make_tool('ideal')
 
 
 def well_scenario(heading_deg, **changes):
@@ -61,7 +74,7 @@ def solve(method, well):
     """Return the MsaResult of ``method`` on ``well`` (improved: true cross-axial given)."""
     if method == 'improved':
         return solve_msa_improved(well.gravity, well.field_nT, *REFERENCE,
-                                  cross_axial_nT=well.interference_nT[:2])
+                                  cross_axial_nT=well.interference_iscwsa_nT[:2])
     return solve_msa_classic(well.gravity, well.field_nT, *REFERENCE)
 
 
@@ -115,7 +128,7 @@ def test_classic_and_improved_compared(wells):
     """
     lines = []
     for azimuth, (well, results) in wells.items():
-        truth = well.interference_nT
+        truth = well.interference_iscwsa_nT
         errors = {m: r.eps_nT - truth for m, r in results.items()}
         rms_deg = {m: rms(azimuth_difference_deg(r.azimuth_deg, well.azimuth_deg))
                    for m, r in results.items()}
@@ -134,7 +147,7 @@ def test_improved_interval_holds_the_minimum(wells):
     for well, results in wells.values():
         result = results['improved']
         low, high = result.interval_nT
-        assert low < well.interference_nT[2] < high
+        assert low < well.interference_iscwsa_nT[2] < high
         assert not result.diagnostics.at_interval_bound
         assert result.v_after_nT2 < 1e-3 * result.v_before_nT2
 
@@ -142,8 +155,8 @@ def test_improved_interval_holds_the_minimum(wells):
 @pytest.mark.parametrize('azimuth_deg', WELL_AZIMUTHS_DEG)
 def test_noise_free_is_exact(azimuth_deg):
     """Without noise classic, axial, improved (eps_z0 too) recover eps to round-off."""
-    well = simulate_well(well_scenario(azimuth_deg, gravity_noise=0.0, field_noise_nT=0.0))
-    truth = well.interference_nT
+    well = simulate_well(well_scenario(azimuth_deg, tool=NOISE_FREE))
+    truth = well.interference_iscwsa_nT
     classic = solve_msa_classic(well.gravity, well.field_nT, *REFERENCE)
     np.testing.assert_allclose(classic.eps_nT, truth, atol=EXACT_NT)
     np.testing.assert_allclose(azimuth_difference_deg(classic.azimuth_deg, well.azimuth_deg), 0.0,
@@ -163,10 +176,10 @@ def test_axial_and_improved_need_no_toolface_spread():
     with pytest.raises(MsaRefused, match='toolfaces not spread'):
         solve_msa_classic(well.gravity, well.field_nT, *REFERENCE)
     floor = rms(azimuth_difference_deg(well.floor_azimuth_deg, well.azimuth_deg))
-    cross_free = well.field_nT - (*well.interference_nT[:2], 0.0)
+    cross_free = well.field_nT - (*well.interference_iscwsa_nT[:2], 0.0)
     for result in (solve_msa_axial(well.gravity, cross_free, *REFERENCE),
                    solve_msa_improved(well.gravity, well.field_nT, *REFERENCE,
-                                      cross_axial_nT=well.interference_nT[:2])):
+                                      cross_axial_nT=well.interference_iscwsa_nT[:2])):
         error = azimuth_difference_deg(result.azimuth_deg, well.azimuth_deg)
         assert np.max(np.abs(error)) <= MAX_ERROR_DEG
         assert rms(error) - floor <= RMS_OVER_FLOOR_DEG
@@ -174,8 +187,8 @@ def test_axial_and_improved_need_no_toolface_spread():
 
 def test_short_collar_north_exact_east_west_flagged():
     """Short collar is exact for an axial-only error off east/west and flags east/west."""
-    north = simulate_well(well_scenario(0.0, gravity_noise=0.0, field_noise_nT=0.0,
-                                        interference_nT=(0.0, 0.0, 2000.0)))
+    north = simulate_well(well_scenario(0.0, tool=NOISE_FREE,
+                                        interference_tool_nT=(0.0, 0.0, -2000.0)))
     result = short_collar(north.gravity, north.field_nT, *REFERENCE)
     np.testing.assert_allclose(result.eps_z_nT, 2000.0, atol=EXACT_NT)
     np.testing.assert_allclose(azimuth_difference_deg(result.azimuth_deg, north.azimuth_deg), 0.0,
@@ -204,7 +217,8 @@ def test_refuses_near_vertical():
 def test_refuses_singular_geometry(solver):
     """All stations horizontal and east/west: eps_z is not observable."""
     well = simulate_well(well_scenario(90.0, inclination_deg=(90.0, 90.0),
-                                       azimuth_deg=(90.0, 90.0), interference_nT=(0, 0, 300)))
+                                       azimuth_deg=(90.0, 90.0),
+                                       interference_tool_nT=(0.0, 0.0, -300.0)))
     with pytest.raises(MsaRefused, match='singular geometry'):
         solver(well.gravity, well.field_nT, *REFERENCE)
 
@@ -250,24 +264,94 @@ def test_wrong_reference_does_not_pass_qc():
 
 def test_misfit_is_eq_10():
     """V(eps) is the sum of squared Bh, Bv residuals; zero on noise-free corrected readings."""
-    well = simulate_well(well_scenario(225.0, gravity_noise=0.0, field_noise_nT=0.0))
+    well = simulate_well(well_scenario(225.0, tool=NOISE_FREE))
     bh, bv = magnetics.horizontal_vertical_nT(well.gravity, well.field_nT)
     dip = np.radians(DIP_DEG)
     expected = np.sum((bh - F_NT * np.cos(dip)) ** 2 + (bv - F_NT * np.sin(dip)) ** 2)
     assert misfit_nT2(well.gravity, well.field_nT, *REFERENCE) == pytest.approx(expected)
-    assert misfit_nT2(well.gravity, well.field_nT, *REFERENCE, well.interference_nT) < 1e-12
+    assert misfit_nT2(well.gravity, well.field_nT, *REFERENCE,
+                      well.interference_iscwsa_nT) < 1e-12
+
+
+def assert_seed_002_targets(well, gravity):
+    """Assert the targets on rotation fits then improved MSA of ``well`` with ``gravity``."""
+    error, floor = seed_002_chain(well, gravity)
+    assert np.max(np.abs(error)) <= MAX_ERROR_DEG
+    assert rms(error) - rms(floor) <= RMS_OVER_FLOOR_DEG
+
+
+def seed_002_chain(well, gravity):
+    """Return the azimuth errors [deg] of rotation fits then improved MSA; print them."""
+    fits = [fit_cross_axial(samples) for samples in well.rotation_field_nT]
+    corrected = np.stack([apply_cross_axial(b, fit) for b, fit in zip(well.field_nT, fits)])
+    result = solve_msa_improved(gravity, corrected, *REFERENCE)
+    error = azimuth_difference_deg(result.azimuth_deg, well.azimuth_deg)
+    floor = azimuth_difference_deg(well.floor_azimuth_deg, well.azimuth_deg)
+    print(f'rotation fits + improved: max {np.max(np.abs(error)):.4f}, rms {rms(error):.4f} deg '
+          f'(floor {rms(floor):.4f}); eps_z {result.eps_nT[2]:.1f} nT')
+    return error, floor
 
 
 @pytest.mark.parametrize('heading_deg', (90.0, 270.0))
 def test_seed_002_pipeline_with_rotation_fits(heading_deg):
     """Cross-axial from each station's rotation (``cross_axial``), then improved: targets met."""
     well = simulate_well(well_scenario(heading_deg, rotation_samples=36))
-    fits = [fit_cross_axial(samples) for samples in well.rotation_field_nT]
-    corrected = np.stack([apply_cross_axial(b, fit) for b, fit in zip(well.field_nT, fits)])
-    result = solve_msa_improved(well.gravity, corrected, *REFERENCE)
-    error = azimuth_difference_deg(result.azimuth_deg, well.azimuth_deg)
-    floor = azimuth_difference_deg(well.floor_azimuth_deg, well.azimuth_deg)
-    print(f'rotation fits + improved at {heading_deg:g}: max {np.max(np.abs(error)):.4f}, rms '
-          f'{rms(error):.4f} deg (floor {rms(floor):.4f}); eps_z {result.eps_nT[2]:.1f} nT')
-    assert np.max(np.abs(error)) <= MAX_ERROR_DEG
-    assert rms(error) - rms(floor) <= RMS_OVER_FLOOR_DEG
+    assert_seed_002_targets(well, well.gravity)
+
+
+def level_calibrated_gravity(well):
+    """
+    Return the stations' G after the accelerometer's calibration with the tool's true values.
+
+    The stand stage of the tool (K = K_triad C, b: ``sim.bench.tool_stand_truth``; for ideal
+    triads that is the mount alone, seed 000's level capture) applied as the chain does it:
+    what a perfect calibration of the accelerometer gives.
+    """
+    k, bias = tool_stand_truth(well.scenario.tool)
+    f = magnetics.specific_force_from_gravity(well.gravity) * G
+    return magnetics.gravity_from_specific_force(correct_stand(f, k, bias)) / G
+
+
+def test_true_calibration_of_the_accelerometer_is_its_installation():
+    """For ideal triads on a mount, the true stand stage is seed 000's installation correction."""
+    tool = make_tool('ideal', 0.8, -1.2)
+    well = simulate_well(well_scenario(90.0, tool=tool))
+    f = magnetics.specific_force_from_gravity(well.gravity)
+    np.testing.assert_allclose(
+        level_calibrated_gravity(well),
+        magnetics.gravity_from_specific_force(correct_installation(f, np.radians(0.8),
+                                                                   np.radians(-1.2))),
+        rtol=0, atol=1e-15)
+
+
+#: Real tools: what MSA should correct as well once issue 8 is done (measured errors in reasons).
+REAL_TOOLS = {
+    'mounted board': (make_tool('ideal', 0.8, -1.2, noise_mps2=WELL_TOOL.accelerometer.noise_std,
+                                mag_noise_nT=WELL_TOOL.magnetometer.noise_std), (
+        'issue 8: the magnetometer does not get the mount rotation: both triads on a board '
+        'mounted gamma 0.8, beta -1.2 deg, the accelerometer level-calibrated: MSA refuses (QC '
+        'fails at 9-22 of 24 stations at every heading), and with the TRUE interference removed '
+        'the azimuth is still 1.5-3.0 deg off (measured, headings 0-315 deg)')),
+    'quartz': (make_tool('quartz'), (
+        "issue 8: the magnetometer triad's own 3x3 K (scale 0.1-0.2 %, misalignment ~0.1 deg), "
+        'its axial bias and the soft iron beyond the cross-axial 2x2 are not calibrated: a '
+        'quartz/fluxgate tool (mounted true, accelerometer calibrated) keeps 0.29-0.49 deg '
+        'after rotation fits and improved MSA (measured at 90 and 270 deg; target 0.1 deg)')),
+}
+
+
+@pytest.mark.parametrize('heading_deg', (90.0, 270.0))
+@pytest.mark.parametrize('name', [
+    pytest.param(name, marks=pytest.mark.xfail(strict=True, raises=(AssertionError, MsaRefused),
+                                               reason=reason))
+    for name, (_, reason) in REAL_TOOLS.items()])
+def test_msa_on_a_real_tool(name, heading_deg):
+    """Ideal triads on a mounted board, or the quartz/fluxgate preset: targets met."""
+    well = simulate_well(well_scenario(heading_deg, tool=REAL_TOOLS[name][0],
+                                       rotation_samples=36))
+    removed = azimuth_difference_deg(magnetics.azimuth_deg(
+        level_calibrated_gravity(well), well.field_nT - well.interference_iscwsa_nT),
+        well.azimuth_deg)
+    print(f'{name} at {heading_deg:g}: true interference removed, max '
+          f'{np.max(np.abs(removed)):.2f} deg')
+    assert_seed_002_targets(well, level_calibrated_gravity(well))

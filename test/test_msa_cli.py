@@ -2,8 +2,9 @@
 ``inclino simulate-well`` and ``inclino msa``: the CLI contract, end to end.
 
 The default simulated well (30 stations, inclination 30 -> 90 deg, azimuth 85 -> 95 deg: east,
-the hard case; 2000 nT axial, (80, -80) nT cross-axial; 1e-4 g and 5 nT of noise) is
-corrected within 0.1 deg (test_msa.py gives the reasoning); uncorrected it is ~4.6 deg off.
+the hard case; 2000 nT axial, (80, -80) nT cross-axial; 1e-4 g and 5 nT of noise; ideal triads
+mounted true in the physical model) is corrected within 0.1 deg (test_msa.py gives the
+reasoning); uncorrected it is ~4.6 deg off.
 """
 
 import contextlib
@@ -13,6 +14,8 @@ import json
 
 from inclino_ros.cli.main import main as inclino
 from inclino_ros.core.msa import azimuth_difference_deg
+from inclino_ros.sim import sensor_model as sm
+from inclino_ros.sim.bench import make_tool
 from inclino_ros.sim.well import simulate_well, WellScenario, write_stations_csv
 import numpy as np
 import pytest
@@ -42,6 +45,32 @@ def stations(tmp_path_factory):
     code, out, _ = quiet(['simulate-well', path])
     assert code == 0 and 'inclino msa' in out
     return path
+
+
+def test_simulate_well_truth_and_options(stations, tmp_path):
+    """OUT.csv.truth.json holds every error source; --sensor and the mount reach the model."""
+    truth = json.loads((stations.parent / 'stations.csv.truth.json').read_text())
+    assert truth['sensor'] == 'ideal' and truth['tool']['mount']['gamma_deg'] == 0.0
+    assert truth['interference_iscwsa_nT'] == [80.0, -80.0, 2000.0]
+    assert truth['interference_tool_nT'] == [80.0, 80.0, -2000.0]
+    assert truth['tool']['accelerometer']['noise_std'] == pytest.approx(1e-4 * 9.80665)
+    path = tmp_path / 'quartz.csv'
+    code, out, err = quiet(['simulate-well', path, '--sensor', 'quartz', '--gamma-deg', '0.8',
+                            '--beta-deg', '-1.2', '--roll-deg', '3', '--samples-per-station',
+                            '4', '--interference-nT', '0', '0', '500', '--stations', '6'])
+    assert code == 0, err
+    truth = json.loads((tmp_path / 'quartz.csv.truth.json').read_text())
+    tool = make_tool('quartz', 0.8, -1.2, 3.0)
+    assert truth['tool'] == json.loads(json.dumps(sm.truth_dict(tool)))
+    assert (truth['samples_per_station'], truth['interference_tool_nT']) == \
+        (4, [0.0, 0.0, -500.0])
+    well = simulate_well(WellScenario(stations=6, tool=tool, samples_per_station=4,
+                                      interference_tool_nT=(0.0, 0.0, -500.0)))
+    table = read_table(path)
+    np.testing.assert_array_equal(np.column_stack([table[c] for c in ('bx', 'by', 'bz')]),
+                                  well.field_nT)
+    assert quiet(['simulate-well', path, '--stations', '0'])[0] == 2
+    assert quiet(['simulate-well', path, '--field-noise-nT', '-1'])[0] == 2
 
 
 def test_default_improved_corrects_within_target(stations, tmp_path):
@@ -86,8 +115,8 @@ def test_other_methods_run(stations, tmp_path, method):
 def test_unspread_toolfaces(tmp_path):
     """One toolface: classic exits 1 with the reason, improved says cross-axial taken as zero."""
     path = tmp_path / 'stations.csv'
-    write_stations_csv(path, simulate_well(WellScenario(toolface_step_deg=0.0,
-                                                        interference_nT=(0.0, 0.0, 2000.0))))
+    write_stations_csv(path, simulate_well(WellScenario(
+        toolface_step_deg=0.0, interference_tool_nT=(0.0, 0.0, -2000.0))))
     code, _, err = quiet(['msa', path, '-o', tmp_path / 'c.csv', *REFERENCE_ARGS,
                           '--method', 'classic'])
     assert code == 1 and 'toolfaces not spread' in err

@@ -1,48 +1,71 @@
 """
 Seed 001 end to end: simulate --stand/--heating -> fit-stand/fit-temperature -> process.
 
-Noise: every simulated sample has sigma = 2e-4 g = 1.96e-3 m/s^2 per axis; the stand holds
-100 samples per position (nine positions, 25 deg C), the heating run 1601 samples from 20 to
-100 deg C at inclination 55 deg, toolface 45 deg.  Tolerances:
+The sensor is the physical model's (``sim.sensor_model``, what ``inclino simulate --stand
+--sensor mems`` simulates): MEMS triads on a board mounted gamma 0.8, beta -1.2 deg,
+i.e. a 3x3 K (scale errors ~0.4 %, misalignment ~5 mrad), biases up to 18 mg, a bias drift
+~0.5 mg/degC and a scale drift ~200 ppm/degC, here with sigma = 2e-4 g = 1.96e-3 m/s^2 of
+noise per axis and sample.  The stand holds 100 samples per position (nine positions,
+25 deg C), the heating run 1601 samples from 20 to 100 deg C at inclination 55 deg, toolface
+45 deg.  Tolerances:
 
-- Stand K and b: each position mean has 2e-5 g of noise; the least-squares covariance of the
-  nine-position design gives a K element 1.25e-5 and a bias 6.7e-6 g at 1 sigma
-  (test_stand.py), so 1e-4 and 5e-5 g are >= 7 sigma.
+- Stand K and b: at 25 deg C the triad reads K f + b with K = K_triad C(gamma, beta)
+  (``sim.bench.tool_stand_truth``), seed 001's model exactly.  Each position mean has 2e-5 g
+  of noise; the least-squares covariance of the nine-position design gives a K element
+  1.25e-5 and a bias 6.7e-6 g at 1 sigma (test_stand.py), so 1e-4 and 5e-5 g are >= 7 sigma.
 - Processed stand: the corrected specific force (/imu/data) averaged over a position's 100
   samples has 2e-5 g of noise, 1.15e-3 deg of inclination, and the fitted K and b add
   ~1.6e-3 deg: its inclination stays within 0.01 deg (> 4 sigma).  (Not the mean of the
   per-sample angles: at 0 and 180 deg an angle is a magnitude and its mean is biased by the
   Rayleigh mean 1.25 sigma / g = 0.014 deg.)
-- Temperature: 1601 readings of ~0.58 g per axis fix K_T to ~1e-5 (order 2); with the stand's
-  own error the compensated inclination of noise-free readings at random attitudes and
-  temperatures stays within 0.01 deg, while the drift alone moves it by more than 1 deg.
-- Uncorrected: the simulated sensor (K = M C(0.8, -1.2 deg), b ~ 0.02 g) reads the stand
-  positions up to 3.4 deg off; its K_T drifts 5 % at 100 deg C (2 deg of inclination).
+- Temperature: 1601 readings of ~0.58 g per axis fix K_T to ~1e-5 (order 2).  Seed 001's
+  stage divides each axis by K_T(T), one scale per axis fitted at one attitude: it is exact
+  for a triad whose sensitivity alone drifts (the MEMS triad without its bias and bias
+  drift): its compensated inclination at random attitudes and temperatures stays within
+  0.01 deg, while the drift alone moves it by ~0.5 deg.  A real triad's bias drifts on its
+  own and is not scaled by its sensitivity: the stage cannot represent either (issue 9), and
+  those tests are expected failures stating the measured error.
+- Sphere fit (60 single readings): K K^T and b to the 1e-3 and 5e-4 g the noise allows; the
+  rotation of the sensor about the tool axis is unobserved (issue 8, expected failure).
+- Uncorrected: the simulated sensor reads the stand positions up to ~3 deg off.
 Seeds are fixed; the bounds hold for any seed.  Exact round trips compare with equality.
 """
 
 import contextlib
 import csv
+from dataclasses import replace
 import io
 import json
 import os
 
+from inclino_ros.calibration.level_capture import LevelLimits, solve_level_capture
 from inclino_ros.calibration.model import (
     CalibrationModel, Installation, load_model, save_model, Stand, Temperature)
 from inclino_ros.cli.main import main as inclino
+from inclino_ros.cli.simulate import write_bag
 from inclino_ros.core.attitude import inclination
-from inclino_ros.core.stand import stand_specific_force
+from inclino_ros.core.msa import azimuth_difference_deg
 from inclino_ros.io import bag
-from inclino_ros.sim.bench import SensorErrors, SensorRun, simulate_heating, simulate_stand
+from inclino_ros.pipeline import run, Settings
+from inclino_ros.sim import sensor_model as sm
+from inclino_ros.sim.bench import (
+    make_tool, simulate_heating, simulate_stand, StandRun, tool_stand_truth)
 import numpy as np
 from numpy.polynomial import polynomial as poly
 import pytest
 from rosbags.typesys import get_typestore, Stores
-from scipy.spatial.transform import Rotation
 
 G = 9.80665
 NOISE_MPS2 = 2e-4 * G
-ERRORS = SensorErrors()
+#: What ``inclino simulate --stand --sensor mems --noise-mps2 NOISE_MPS2`` simulates.
+TOOL = make_tool('mems', 0.8, -1.2, noise_mps2=NOISE_MPS2)
+TOOL_K, TOOL_BIAS_MPS2 = tool_stand_truth(TOOL)
+#: The MEMS triad without its bias and bias drift: only its sensitivity drifts.
+SCALE_DRIFT_ONLY = replace(TOOL, accelerometer=replace(
+    TOOL.accelerometer, bias=(0.0, 0.0, 0.0), bias_drift=((), (), ())))
+#: The MEMS triad without its bias drift: the bias is constant, the sensitivity drifts.
+NO_BIAS_DRIFT = replace(TOOL, accelerometer=replace(TOOL.accelerometer,
+                                                    bias_drift=((), (), ())))
 TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
 NOW = '2026-01-01T00:00:00+00:00'
 
@@ -55,25 +78,34 @@ def quiet(argv):
     return code, out.getvalue(), err.getvalue()
 
 
-def true_temperature_stage():
-    """Return the simulated sensor's own K_T(T) as a model.Temperature stage."""
-    # K_T = 1 + c1 (T - 25) + c2 (T - 25)^2 in powers of T.
+def noise_free(tool):
+    """Return ``tool`` without accelerometer noise."""
+    return replace(tool, accelerometer=replace(tool.accelerometer, noise_std=0.0))
+
+
+def scale_drift_stage(tool=SCALE_DRIFT_ONLY):
+    """
+    Return the triad's own sensitivity 1 + s_i(T) as a model.Temperature stage.
+
+    For a triad without bias and bias drift, that is seed 001's K_T(T) exactly.
+    """
+    # 1 + c1 (T - 25) + c2 (T - 25)^2 in powers of T.
     coefficients = [poly.polyadd([1.0 - 25.0 * c1 + 625.0 * c2, c1 - 50.0 * c2], [0.0, 0.0, c2])
-                    for c1, c2 in zip(ERRORS.temperature_c1_per_c, ERRORS.temperature_c2_per_c2)]
+                    for c1, c2 in tool.accelerometer.scale_drift]
     return Temperature(tuple(map(tuple, np.array(coefficients).tolist())), 20.0, 100.0, 25.0,
                        (0.0, 0.0, 0.0), 1, NOW)
 
 
 def true_stand_stage():
-    """Return the simulated sensor's own K and b as a model.Stand stage."""
-    return Stand(tuple(map(tuple, ERRORS.scale_matrix.tolist())), ERRORS.bias_mps2, 'stand',
+    """Return the K and b the simulated sensor obeys at 25 deg C as a model.Stand stage."""
+    return Stand(tuple(map(tuple, TOOL_K.tolist())), tuple(TOOL_BIAS_MPS2.tolist()), 'stand',
                  1.0, 0.0, 9, NOW)
 
 
 def random_attitudes(count, seed):
-    """Return (true specific force (N, 3), its inclination [deg]) at random attitudes."""
-    f = G * Rotation.random(count, random_state=seed).apply([0.0, 0.0, 1.0])
-    return f, np.degrees(inclination(f))
+    """Return (inclination, toolface) [deg] of ``count`` attitudes uniform over the sphere."""
+    rng = np.random.default_rng(seed)
+    return np.degrees(np.arccos(rng.uniform(-1.0, 1.0, count))), rng.uniform(0.0, 360.0, count)
 
 
 def write_csv(path, columns):
@@ -97,61 +129,77 @@ def file_state(path):
         return stream.read(), os.stat(path).st_mtime_ns
 
 
+def fit_both(work, stand_path, heating_path):
+    """Fit the stand, then the temperature into ``work/cal.json``; return the fits' results."""
+    calibration = work / 'cal.json'
+    fit_stand = quiet(['fit-stand', stand_path, '--calibration', calibration])
+    assert fit_stand[0] == 0, fit_stand
+    stand_model = load_model(calibration)
+    fit_temperature = quiet(['fit-temperature', heating_path, '--calibration', calibration])
+    assert fit_temperature[0] == 0, fit_temperature
+    return {'cal.json': calibration, 'fit_stand': fit_stand, 'fit_temperature': fit_temperature,
+            'stand_model': stand_model, 'model': load_model(calibration)}
+
+
 @pytest.fixture(scope='module')
 def runs(tmp_path_factory):
     """Simulate the stand (mcap) and heating (sqlite3) runs; fit both into one file."""
     work = tmp_path_factory.mktemp('seed001')
-    paths = {name: work / name for name in ('stand', 'heating', 'cal.json', 'stand.csv',
-                                            'heating.csv')}
-    code, stdout, _ = quiet(['simulate', paths['stand'], '--stand', '--noise-mps2', NOISE_MPS2,
-                             '--csv', paths['stand.csv']])
+    paths = {name: work / name for name in ('stand', 'heating', 'stand.csv', 'heating.csv')}
+    code, stdout, _ = quiet(['simulate', paths['stand'], '--stand', '--sensor', 'mems',
+                             '--noise-mps2', NOISE_MPS2, '--csv', paths['stand.csv']])
     assert code == 0 and 'wrote' in stdout
-    assert quiet(['simulate', paths['heating'], '--heating', '--noise-mps2', NOISE_MPS2,
-                  '--storage', 'sqlite3', '--csv', paths['heating.csv'], '--seed', '1'])[0] == 0
-    fit_stand = quiet(['fit-stand', paths['stand'], '--calibration', paths['cal.json']])
-    assert fit_stand[0] == 0, fit_stand
-    stand_model = load_model(paths['cal.json'])
-    fit_temperature = quiet(['fit-temperature', paths['heating'],
-                             '--calibration', paths['cal.json']])
-    assert fit_temperature[0] == 0, fit_temperature
-    return dict(paths, work=work, fit_stand=fit_stand, fit_temperature=fit_temperature,
-                stand_model=stand_model, model=load_model(paths['cal.json']))
+    assert quiet(['simulate', paths['heating'], '--heating', '--sensor', 'mems', '--noise-mps2',
+                  NOISE_MPS2, '--storage', 'sqlite3', '--csv', paths['heating.csv'], '--seed',
+                  '1'])[0] == 0
+    return dict(paths, work=work, **fit_both(work, paths['stand'], paths['heating']))
+
+
+@pytest.fixture(scope='module')
+def drift_runs(tmp_path_factory, runs):
+    """Return {name: fits} of the stand and heating runs of each triad the stage is tried on."""
+    out = {'mems': runs}
+    for name, tool in (('no bias drift', NO_BIAS_DRIFT), ('scale drift only', SCALE_DRIFT_ONLY)):
+        work = tmp_path_factory.mktemp('drift')
+        write_bag(work / 'stand', 'mcap', simulate_stand(StandRun(tool)), NOISE_MPS2, 'stand')
+        write_bag(work / 'heating', 'mcap', simulate_heating(StandRun(tool, seed=1)),
+                  NOISE_MPS2, 'heating')
+        out[name] = fit_both(work, work / 'stand', work / 'heating')
+    return out
 
 
 # --- the simulated sensor -----------------------------------------------------------------
 
-def test_model_inverts_the_simulated_sensor_exactly():
-    """The model's order (A / K_T(T), then K^-1 (A - b)) undoes K_T(T) (K f + b) to round-off."""
-    f, incl_deg = random_attitudes(50, 3)
-    temperature_c = np.linspace(20.0, 100.0, 50)
-    model = CalibrationModel(3, stand=true_stand_stage(), temperature=true_temperature_stage())
-    corrected = model.apply(ERRORS.read(f, temperature_c), temperature_c)
-    np.testing.assert_allclose(corrected, f, rtol=0, atol=1e-12)
-    np.testing.assert_allclose(ERRORS.temperature_scale([25.0]), [[1.0, 1.0, 1.0]], atol=0)
+def test_true_stand_stage_inverts_the_sensor_at_25_c():
+    """At 25 deg C the model with the tool's own K and b gives back f to round-off."""
+    incl_deg, tf_deg = random_attitudes(50, 3)
+    readings = sm.read(noise_free(TOOL), incl_deg, tf_deg, temperature_c=25.0)
+    model = CalibrationModel(3, stand=true_stand_stage())
+    np.testing.assert_allclose(model.apply(readings.accel_mps2),
+                               readings.specific_force_tool_mps2, rtol=0, atol=1e-12)
 
 
 def test_simulated_runs_and_truth_file(runs):
     """Nine positions of 100 samples at 25 deg C; a 20 -> 100 deg C ramp; the truth file."""
-    stand = simulate_stand(SensorRun(noise_std_mps2=NOISE_MPS2))
+    stand = simulate_stand(StandRun(TOOL))
     assert stand.raw_mps2.shape == (900, 3) and np.all(stand.temperature_c == 25.0)
     assert np.bincount(stand.segment).tolist() == [0] + [100] * 9
-    heating = simulate_heating(SensorRun(noise_std_mps2=NOISE_MPS2, seed=1))
+    heating = simulate_heating(StandRun(TOOL, seed=1))
     assert (heating.temperature_c[0], heating.temperature_c[-1]) == (20.0, 100.0)
     assert np.all(heating.inclination_deg == 55.0) and np.all(heating.toolface_deg == 45.0)
     with open(f'{runs["stand"]}.truth.json') as stream:
         truth = json.load(stream)
-    np.testing.assert_array_equal(truth['sensor']['scale_matrix'], ERRORS.scale_matrix)
-    assert truth['sensor']['bias_mps2'] == list(ERRORS.bias_mps2)
-    assert truth['sensor']['temperature_c1_per_c'] == list(ERRORS.temperature_c1_per_c)
+    assert truth['tool'] == json.loads(json.dumps(sm.truth_dict(TOOL)))
+    assert truth['sensor'] == 'mems'
     assert truth['topics']['stand_attitude'] == '/stand/attitude'
     assert [s['inclination_deg'] for s in truth['segments']][:3] == [0.0, 180.0, 90.0]
     # Both storages read back bit for bit, the temperature too.
-    for name, run in (('stand', stand), ('heating', heating)):
+    for name, simulated in (('stand', stand), ('heating', heating)):
         raw = bag.concatenate(bag.read(runs[name], '/imu/data_raw'))
-        np.testing.assert_array_equal(raw.linear_acceleration_mps2, run.raw_mps2)
+        np.testing.assert_array_equal(raw.linear_acceleration_mps2, simulated.raw_mps2)
         temperature = bag.concatenate(bag.read(runs[name], '/imu/temperature'))
-        np.testing.assert_array_equal(temperature.temperature_c, run.temperature_c)
-        np.testing.assert_array_equal(temperature.stamps_ns, run.stamps_ns)
+        np.testing.assert_array_equal(temperature.temperature_c, simulated.temperature_c)
+        np.testing.assert_array_equal(temperature.stamps_ns, simulated.stamps_ns)
 
 
 @pytest.mark.parametrize('frame_id', ['', 'a', 'imu', 'thermometer', 'caf\u00e9'])
@@ -185,8 +233,8 @@ def test_fit_stand_recovers_k_and_bias(runs):
     """K within 1e-4 per element, b within 5e-5 g; the report and the printout."""
     stand = runs['model'].stand
     assert stand.method == 'stand' and stand.positions == 9
-    assert np.abs(np.array(stand.scale_matrix) - ERRORS.scale_matrix).max() < 1e-4
-    assert np.abs(np.array(stand.bias_mps2) - ERRORS.bias_mps2).max() < 5e-5 * G
+    assert np.abs(np.array(stand.scale_matrix) - TOOL_K).max() < 1e-4
+    assert np.abs(np.array(stand.bias_mps2) - TOOL_BIAS_MPS2).max() < 5e-5 * G
     assert stand.rms_inclination_deg < 0.01
     stdout = runs['fit_stand'][1]
     for text in ('K (A = K G + b)', 'bias_mps2', 'axis scales', 'non-orthogonality_deg',
@@ -215,6 +263,8 @@ def test_process_applies_the_stand_stage(runs):
         for errors, series in ((errors_deg, corrected), (raw_errors_deg, raw)):
             mean = series.linear_acceleration_mps2[at].mean(axis=0)
             errors.append(np.degrees(inclination(mean)) - incl_deg)
+    print(f'stand positions: corrected max {np.abs(errors_deg).max():.5f} deg, raw '
+          f'{np.abs(raw_errors_deg).max():.2f} deg')
     assert len(errors_deg) == 9
     assert np.abs(errors_deg).max() <= 0.01
     assert np.abs(raw_errors_deg).max() >= 1.0
@@ -225,20 +275,20 @@ def test_fit_stand_from_csv_equals_bag_and_keeps_temperature(runs, tmp_path):
     calibration = tmp_path / 'cal.json'
     installation = Installation(0.8, -1.2, NOW, 100, 0.01, G)
     save_model(calibration, CalibrationModel(3, installation=installation,
-                                             temperature=true_temperature_stage()))
+                                             temperature=scale_drift_stage()))
     code, stdout, stderr = quiet(['fit-stand', runs['stand.csv'], '--calibration', calibration,
                                   '--report-dir', tmp_path / 'report'])
     assert code == 0, stderr
     assert 'installation stage dropped' in stdout and 'mounting misalignment' in stdout
     assert 'temperature stage of the file applied' in stdout
     model = load_model(calibration)
-    assert model.installation is None and model.temperature == true_temperature_stage()
+    assert model.installation is None and model.temperature == scale_drift_stage()
     # At 25 deg C K_T = 1: the same fit as from the bag, to round-off.
     np.testing.assert_allclose(model.stand.scale_matrix, runs['stand_model'].stand.scale_matrix,
                                rtol=0, atol=1e-12)
     assert (tmp_path / 'report' / 'fit_stand.png').exists()
 
-    stand = simulate_stand(SensorRun(noise_std_mps2=NOISE_MPS2))
+    stand = simulate_stand(StandRun(TOOL))
     means = stand.raw_mps2.reshape(9, 100, 3).mean(axis=1)
     stand_csv(tmp_path / 'means.csv',
               [(s['inclination_deg'], s['toolface_deg']) for s in stand.truth['segments']], means)
@@ -249,49 +299,113 @@ def test_fit_stand_from_csv_equals_bag_and_keeps_temperature(runs, tmp_path):
                                runs['stand_model'].stand.scale_matrix, rtol=0, atol=1e-12)
 
 
-def test_fit_stand_sphere(tmp_path):
-    """Sphere fit of 60 random still readings: K K^T and b of the sensor; level bench next."""
-    f, _ = random_attitudes(60, 5)
-    rng = np.random.default_rng(5)
-    readings = ERRORS.read(f, 25.0) + rng.normal(0.0, NOISE_MPS2, f.shape)
+def sphere_fit(tmp_path, tool):
+    """Write 60 single readings of ``tool`` at random attitudes; fit-stand --method sphere."""
+    incl_deg, tf_deg = random_attitudes(60, 5)
+    readings = sm.read(tool, incl_deg, tf_deg, rng=5).accel_mps2
     write_csv(tmp_path / 'sphere.csv', dict(zip(('ax', 'ay', 'az'), readings.T)))
     code, stdout, stderr = quiet(['fit-stand', tmp_path / 'sphere.csv', '--method', 'sphere',
                                   '--calibration', tmp_path / 'cal.json'])
     assert code == 0, stderr
+    return stdout, load_model(tmp_path / 'cal.json')
+
+
+def test_fit_stand_sphere(tmp_path):
+    """Sphere fit of 60 random still readings: K K^T and b of the sensor; level bench next."""
+    stdout, model = sphere_fit(tmp_path, TOOL)
     assert 'calibrate the level bench' in stdout
-    stand = load_model(tmp_path / 'cal.json').stand
-    k = np.array(stand.scale_matrix)
-    assert stand.method == 'sphere' and stand.rms_inclination_deg is None
+    k = np.array(model.stand.scale_matrix)
+    assert model.stand.method == 'sphere' and model.stand.rms_inclination_deg is None
     assert np.allclose(np.tril(k, -1), 0.0)
-    true_k = ERRORS.scale_matrix
-    assert np.abs(k @ k.T - true_k @ true_k.T).max() < 1e-3
-    assert np.abs(np.array(stand.bias_mps2) - ERRORS.bias_mps2).max() < 5e-4 * G
+    assert np.abs(k @ k.T - TOOL_K @ TOOL_K.T).max() < 1e-3
+    assert np.abs(np.array(model.stand.bias_mps2) - TOOL_BIAS_MPS2).max() < 5e-4 * G
+
+
+@pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
+    'issue 8: a rotation of the sensor about the tool axis is not calibrated (tool-axis '
+    'alignment): after a sphere fit and a level capture the toolface is 2.2-2.3 deg off for a '
+    '2 deg roll of the board (measured; ~0.24 deg of it is the MEMS K turning about z, which '
+    'the sphere fit cannot see either); inclination within 0.015 deg'))
+def test_sphere_fit_and_level_capture_give_the_toolface(tmp_path):
+    """
+    A MEMS board rolled 2 deg: sphere fit, then a level capture: I and toolface are true.
+
+    Budget: the sphere fit's K to ~5e-4 (K K^T within 1e-3 above) and the 100-sample level
+    capture to 2e-5 rad leave ~0.03 deg; 0.05 deg is the bound for both angles (I >= 10 deg).
+    """
+    rolled = make_tool('mems', 0.8, -1.2, 2.0, noise_mps2=NOISE_MPS2)
+    _, model = sphere_fit(tmp_path, rolled)
+    level = sm.read(rolled, np.zeros(100), 0.0, rng=6).accel_mps2
+    installation = solve_level_capture(model.apply(level), 3, LevelLimits(
+        max_std_deg=0.1, max_tilt_deg=5.0, gravity_mps2=G, g_total_tolerance_mps2=0.05))
+    model = replace(model, installation=installation)
+    incl_deg, tf_deg = random_attitudes(400, 7)
+    tilted = incl_deg >= 10.0
+    survey = run(sm.read(noise_free(rolled), incl_deg, tf_deg).accel_mps2, model, Settings())
+    assert np.abs(survey.inclination_deg - incl_deg).max() <= 0.05
+    tf_error = azimuth_difference_deg(survey.toolface_deg[tilted], tf_deg[tilted])
+    print(f'sphere + level, roll 2 deg: toolface error {tf_error.min():.3f} .. '
+          f'{tf_error.max():.3f} deg, inclination '
+          f'{np.abs(survey.inclination_deg - incl_deg).max():.4f} deg')
+    assert np.abs(tf_error).max() <= 0.05
 
 
 # --- fit-temperature ----------------------------------------------------------------------
 
-def test_fit_temperature_compensates(runs):
-    """Random attitudes at 20..100 deg C: <= 0.01 deg with K_T(T), >= 1 deg without."""
-    model = runs['model']
-    stage = model.temperature
+#: Why the temperature stage fails each triad (measured by the test below, -s prints them).
+BIAS_DRIFT_REASON = (
+    'issue 9: the temperature stage has no bias drift: with the MEMS bias drift '
+    '(0.4-0.6 mg/degC) the K_T(T) fitted at one attitude leaves up to 4.3 deg at random '
+    'attitudes over 20-100 degC (measured; 3.7 deg with the stand stage alone)')
+SCALED_BIAS_REASON = (
+    'issue 9: the temperature stage divides the bias by K_T(T), a real bias is not '
+    'scaled by the sensitivity: the MEMS triad without bias drift keeps 0.020 deg '
+    '(measured, target 0.01 deg)')
+
+
+@pytest.mark.parametrize('sensor', [
+    pytest.param('mems', marks=pytest.mark.xfail(strict=True, raises=AssertionError,
+                                                 reason=BIAS_DRIFT_REASON)),
+    pytest.param('no bias drift', marks=pytest.mark.xfail(strict=True, raises=AssertionError,
+                                                          reason=SCALED_BIAS_REASON)),
+    'scale drift only'])
+def test_fit_temperature_compensates(drift_runs, sensor):
+    """Random attitudes at 20..100 deg C: <= 0.01 deg with K_T(T); the drift alone >= 0.25 deg."""
+    fits = drift_runs[sensor]
+    tool = {'mems': TOOL, 'no bias drift': NO_BIAS_DRIFT,
+            'scale drift only': SCALE_DRIFT_ONLY}[sensor]
+    stage = fits['model'].temperature
     assert (stage.t_min_c, stage.t_max_c, stage.samples) == (20.0, 100.0, 1601)
-    grid_c = np.linspace(20.0, 100.0, 81)
-    assert np.abs(stage.fit.scale_factor(grid_c) - ERRORS.temperature_scale(grid_c)).max() \
-        < 1e-4
-    f, incl_deg = random_attitudes(400, 11)
+    incl_deg, tf_deg = random_attitudes(400, 11)
     temperature_c = np.random.default_rng(11).uniform(20.0, 100.0, 400)
-    readings = ERRORS.read(f, temperature_c)
-    compensated = np.degrees(inclination(model.apply(readings, temperature_c))) - incl_deg
-    drifting = np.degrees(inclination(runs['stand_model'].apply(readings))) - incl_deg
+    readings = sm.read(noise_free(tool), incl_deg, tf_deg, temperature_c=temperature_c)
+    compensated = np.degrees(inclination(fits['model'].apply(readings.accel_mps2,
+                                                             temperature_c))) - incl_deg
+    drifting = np.degrees(inclination(fits['stand_model'].apply(readings.accel_mps2))) - incl_deg
+    print(f'{sensor}: compensated max {np.abs(compensated).max():.4f} deg, stand stage alone '
+          f'{np.abs(drifting).max():.3f} deg')
+    assert 'stand stage kept' in fits['fit_temperature'][1]
+    assert np.abs(drifting).max() >= 0.25
     assert np.abs(compensated).max() <= 0.01
-    assert np.abs(drifting).max() >= 1.0
-    assert 'stand stage kept' in runs['fit_temperature'][1]
+
+
+def test_fit_temperature_finds_the_scale_drift(drift_runs):
+    """A triad whose sensitivity alone drifts: the fitted K_T(T) is its 1 + s(T) within 1e-4."""
+    stage = drift_runs['scale drift only']['model'].temperature
+    grid_c = np.linspace(20.0, 100.0, 81)
+    assert np.abs(stage.fit.scale_factor(grid_c) - scale_drift_stage().fit.scale_factor(grid_c)
+                  ).max() < 1e-4
 
 
 def test_process_with_temperature_topic(runs, tmp_path):
-    """A noise-free heating bag: every sample within 0.01 deg with the topic, >= 1 deg without."""
+    """
+    A noise-free heating bag: every sample within 0.01 deg with the topic, >= 1 deg without.
+
+    At the heating attitude itself, where K_T was fitted: there it absorbs the bias drift too
+    (elsewhere it cannot, test_fit_temperature_compensates); this checks the topic's use.
+    """
     heating = tmp_path / 'heating'
-    assert quiet(['simulate', heating, '--heating', '--noise-mps2', 0])[0] == 0
+    assert quiet(['simulate', heating, '--heating', '--sensor', 'mems', '--noise-mps2', 0])[0] == 0
     errors = {}
     for name, extra in (('with', ['--temperature-topic', '/imu/temperature']), ('without', [])):
         code, _, stderr = quiet(['process', heating, tmp_path / name, '--calibration',
@@ -311,10 +425,12 @@ def test_fit_temperature_csv(runs, tmp_path):
     np.testing.assert_allclose(load_model(tmp_path / 'cal.json').temperature.coefficients,
                                runs['model'].temperature.coefficients, rtol=0, atol=1e-12)
 
+    # A triad whose sensitivity alone drifts: A(T) / A(25) is its 1 + s(T) exactly.
     temperature_c = np.repeat(np.arange(20.0, 101.0, 10.0), 2)
-    f = stand_specific_force(np.tile([55.0, 120.0], 9), np.tile([45.0, 200.0], 9), G)
-    reference = ERRORS.read(f, 25.0)
-    readings = ERRORS.read(f, temperature_c)
+    incl_deg, tf_deg = np.tile([55.0, 120.0], 9), np.tile([45.0, 200.0], 9)
+    tool = noise_free(SCALE_DRIFT_ONLY)
+    reference = sm.read(tool, incl_deg, tf_deg, temperature_c=25.0).accel_mps2
+    readings = sm.read(tool, incl_deg, tf_deg, temperature_c=temperature_c).accel_mps2
     write_csv(tmp_path / 'ref.csv', {
         'temperature_c': temperature_c, 'ax': readings[:, 0], 'ay': readings[:, 1],
         'az': readings[:, 2], 'ref_ax': reference[:, 0], 'ref_ay': reference[:, 1],
@@ -323,28 +439,27 @@ def test_fit_temperature_csv(runs, tmp_path):
                              tmp_path / 'ref.json'])
     assert code == 0, stderr
     np.testing.assert_allclose(load_model(tmp_path / 'ref.json').temperature.coefficients,
-                               true_temperature_stage().coefficients, rtol=0, atol=1e-12)
+                               scale_drift_stage().coefficients, rtol=0, atol=1e-12)
 
 
 # --- refusals -----------------------------------------------------------------------------
 
 def stand_rows(case):
     """Return (attitudes_deg, readings) of a stand CSV that ``case`` makes unusable."""
-    stand = simulate_stand(SensorRun(noise_std_mps2=NOISE_MPS2))
+    stand = simulate_stand(StandRun(TOOL))
     attitudes = np.column_stack([stand.inclination_deg, stand.toolface_deg])
     readings = stand.raw_mps2.copy()
     if case == 'too few positions':
         keep = stand.segment <= 5
         return attitudes[keep], readings[keep]
     if case == 'repeated attitude':
-        extra = simulate_stand(SensorRun(noise_std_mps2=NOISE_MPS2), ((90.0, 0.5),))
+        extra = simulate_stand(StandRun(TOOL), ((90.0, 0.5),))
         return (np.vstack([attitudes, [(90.0, 0.5)] * 100]),
                 np.vstack([readings, extra.raw_mps2]))
     if case == 'moving':
-        sweep = np.radians(np.linspace(-1.0, 1.0, 100))
         moving = stand.segment == 7
-        readings[moving] = ERRORS.read(stand_specific_force(
-            45.0 + np.degrees(sweep), 45.0, G), 25.0)
+        readings[moving] = sm.read(noise_free(TOOL), 45.0 + np.linspace(-1.0, 1.0, 100),
+                                   45.0).accel_mps2
         return attitudes, readings
     wrong = attitudes[:, 0] == 45.0   # 'wrong attitude': the stand read 0.3 deg off
     attitudes[wrong, 0] = 45.3
@@ -355,7 +470,7 @@ def refused_fit(case, tmp_path):
     """Return the command (without --calibration) of a fit that ``case`` makes refuse."""
     path = tmp_path / 'input.csv'
     if case in ('no 25 C', 'few temperatures'):
-        heating = simulate_heating(SensorRun(noise_std_mps2=NOISE_MPS2))
+        heating = simulate_heating(StandRun(TOOL))
         keep = (heating.temperature_c >= 40.0 if case == 'no 25 C' else
                 np.isin(heating.temperature_c, [20.0, 25.0, 30.0]))
         write_csv(path, {'temperature_c': heating.temperature_c[keep],

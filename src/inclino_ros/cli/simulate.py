@@ -1,45 +1,55 @@
 """
-``inclino simulate``: record the virtual bench into a bag, with its truth.
+``inclino simulate``: a physical inclinometer on the virtual bench, into a bag with its truth.
 
-The bag holds the raw sensor on ``/imu/data_raw`` and, at the same stamps, the
-true attitude on ``/truth/survey``; ``OUT.truth.json`` holds the scenario and
-its segments.  ``--stand`` records seed 001's nine stand positions instead
-(plus ``/stand/attitude`` and ``/imu/temperature`` at 25 deg C), ``--heating``
-a heating run from 20 to 100 deg C at one attitude (plus ``/imu/temperature``);
-both use ``simulate.SensorErrors`` (K, bias, K_T(T)), whose truth goes to
-the JSON file.  ``--csv`` writes the samples as CSV too.
+Every reading comes from the physical sensor model (``inclino_ros.sim.sensor_model``):
+the tool's attitude, a board mounted in the tool with seed 000's gamma, beta
+(and a roll about the tool axis) carrying both triads, each triad's 3x3
+matrix, bias, temperature drift and noise, hard and soft iron, and the drill
+string's field.  ``--sensor`` picks the triads: ``ideal`` (no sensor error),
+``mems`` or ``quartz`` (quartz-flex accelerometer, fluxgate magnetometer).
 
-``--magnetic`` (bench scenario) adds a magnetometer on ``/imu/mag``
-(sensor_msgs/MagneticField, tesla, REP 145 z-up tool frame, the ideal tool
-axes: the magnetometer is taken as mounted true, the accelerometer with its
-gamma, beta).  Each station gets a magnetic azimuth (``--azimuth-deg FIRST
-LAST``, linear over the stations; the truth on ``/truth/survey`` z, NaN on the
-level segment where the tool is vertical); the field is the ISCWSA forward
-model (``magnetics.forward``, gravity toolface = seed000 + 90 deg) of the
-reference field, plus the drill string's interference (``--interference-nT``
-in the ISCWSA axes of ``inclino simulate-well`` and ``inclino msa``: x, y
-cross-axial, z toward the bit) and independent noise per sample, turned into
-the tool frame with ``magnetics.iscwsa_from_tool``.  ``--rotation-s`` appends
-a rotation segment: the tool turning about its axis (``--rotation-turns``) at
-one inclination and azimuth, for ``inclino fit-rotation``.  Every magnetometer
-message has the stamp of the accelerometer sample it goes with (one each, the
-same stamps): ``inclino process --mag-topic`` pairs them exactly.
+The bag holds the raw accelerometer on ``/imu/data_raw`` and, at the same
+stamps, the true attitude on ``/truth/survey``; ``OUT.truth.json`` holds the
+scenario, its segments and every error source of the tool
+(``sensor_model.truth_dict``).  Scenarios and what they simulate by default:
+
+- bench (default): a level segment then 12 tilted stations; ideal triads on
+  a board mounted gamma 0.8 deg, beta -1.2 deg, noise 0.002 m/s^2 per sample:
+  the mount and the noise are the only errors (seed 000's demo).
+- ``--stand``: seed 001's nine stand positions at 25 deg C (plus
+  ``/stand/attitude`` and ``/imu/temperature``); ``--heating``: 20 -> 100 deg C
+  at one attitude (plus ``/imu/temperature``).  Both with the quartz-flex
+  triads on the same mount by default: K, bias, bias and scale drift, 1e-4 g
+  noise (``--sensor mems``: ~10x larger errors and 2 mg noise, which the
+  fits' still checks take for motion at their default limits).
+
+``--magnetic`` (bench scenario) adds the magnetometer on ``/imu/mag``
+(sensor_msgs/MagneticField, tesla, its own axes: on the board, so turned by
+the mount like the accelerometer, and by ``--magnetometer-deg`` further).
+Each station gets a magnetic azimuth (``--azimuth-deg FIRST LAST``, linear
+over the stations; the truth on ``/truth/survey`` z, NaN on the level segment
+where the tool is vertical) in the reference field, plus the drill string's
+interference (``--interference-nT`` in the ISCWSA axes of ``inclino
+simulate-well`` and ``inclino msa``: x, y cross-axial, z toward the bit; the
+model holds it in the tool frame, (x, -y, -z)).  ``--rotation-s`` appends a
+rotation segment: the tool turning about its axis (``--rotation-turns``) at
+one inclination and azimuth, for ``inclino fit-rotation``.  Every
+magnetometer message has the stamp of the accelerometer sample it goes with
+(one each, the same stamps): ``inclino process --mag-topic`` pairs them
+exactly.  ``--csv`` writes the accelerometer samples as CSV too.
 """
 
 import csv
-from dataclasses import dataclass, replace
 import json
-import math
 import sys
 
-from inclino_ros.core import magnetics
-from inclino_ros.core.attitude import specific_force
 from inclino_ros.io.bag import (
     BagWriter, IMU, MAGNETIC_FIELD, MagneticFieldSeries, magnetometer, raw_imu, TEMPERATURE,
     TemperatureSeries, VECTOR3_STAMPED, Vector3Series)
+from inclino_ros.sim import sensor_model
 from inclino_ros.sim.bench import (
-    Scenario, sensor_matrix, SensorErrors, SensorRun, simulate, simulate_heating,
-    simulate_stand)
+    DEMO_BETA_DEG, DEMO_GAMMA_DEG, DEMO_MAG_NOISE_NT, DEMO_NOISE_MPS2, make_tool, PRESETS,
+    Scenario, simulate, simulate_heating, simulate_stand, StandRun, tool_from_iscwsa)
 from inclino_ros.sim.well import WellScenario
 import numpy as np
 
@@ -50,23 +60,56 @@ TEMPERATURE_TOPIC = '/imu/temperature'
 MAG_TOPIC = '/imu/mag'
 #: Default samples: per stand position (--stand), over the whole ramp (--heating).
 DEFAULT_SAMPLES = {'stand': 100, 'heating': 1601}
+#: Default preset per scenario (None: the bench).
+DEFAULT_SENSOR = {None: 'ideal', 'stand': 'quartz', 'heating': 'quartz'}
 FRAME_ID = 'inclinometer'
+
+
+def add_sensor_arguments(parser, gamma_deg, beta_deg, default_sensor):
+    """Add ``--sensor``, the mount (``--gamma-deg`` ...) and ``--magnetometer-deg``."""
+    group = parser.add_argument_group('sensor (the physical model, sim.sensor_model)')
+    group.add_argument('--sensor', choices=sorted(PRESETS), default=None,
+                       help='triads of the tool: ideal (no sensor error), mems (K, bias, bias '
+                            'and scale drift, hard/soft iron; 2 mg, 100 nT noise), quartz '
+                            '(quartz-flex and fluxgate, ~10x smaller; 1e-4 g, 5 nT) '
+                            f'(default: {default_sensor})')
+    for flag, default, meaning in (
+            ('--gamma-deg', gamma_deg, 'mount: seed 000 gamma, the board turned about y'),
+            ('--beta-deg', beta_deg, "mount: seed 000 beta, then about the new x'"),
+            ('--roll-deg', 0.0, 'mount: the board turned about the tool axis first')):
+        group.add_argument(flag, type=float, default=default,
+                           help=f'{meaning} [deg]; both triads sit on the board '
+                                '(default: %(default)s)')
+    group.add_argument('--magnetometer-deg', type=float, nargs=3, default=(0.0, 0.0, 0.0),
+                       metavar=('X', 'Y', 'Z'),
+                       help='the magnetometer triad turned further relative to the board, '
+                            'about x, then the new y, then the new z [deg] '
+                            '(default: %(default)s)')
+    return group
 
 
 def register(subparsers):
     """Add the ``simulate`` subcommand."""
     defaults = Scenario()
     parser = subparsers.add_parser(
-        'simulate', help='write a bag of a misaligned inclinometer on a virtual bench',
-        description='Simulate a level segment then tilted stations (seed 000 Eqs. 1-2) and '
-                    f'write the raw sensor ({RAW_TOPIC}) and the truth ({TRUTH_TOPIC}: '
-                    'x inclination_deg, y toolface_deg seed000, z magnetic azimuth_deg with '
-                    '--magnetic, else NaN) to the bag OUT, plus OUT.truth.json.')
+        'simulate', help='write a bag of a physical inclinometer on a virtual bench',
+        description='Simulate a level segment then tilted stations read by a physical '
+                    'sensor model (mount, triads, drift, noise) and write the raw sensor '
+                    f'({RAW_TOPIC}) and the truth ({TRUTH_TOPIC}: x inclination_deg, '
+                    'y toolface_deg seed000, z magnetic azimuth_deg with --magnetic, else NaN) '
+                    'to the bag OUT, plus OUT.truth.json with every error source.  Default '
+                    'bench: ideal triads mounted gamma 0.8, beta -1.2 deg, noise 0.002 m/s^2.')
     parser.add_argument('out', metavar='OUT', help='bag directory to create')
+    group = add_sensor_arguments(parser, DEMO_GAMMA_DEG, DEMO_BETA_DEG,
+                                 'ideal for the bench, quartz for --stand and --heating')
+    group.add_argument('--noise-mps2', dest='noise_std_mps2', type=float, metavar='NOISE_MPS2',
+                       help='accelerometer noise per sample and axis, 1 sigma [m/s^2] '
+                            f'(default: {DEMO_NOISE_MPS2} with --sensor ideal, else the '
+                            "preset's own)")
+    group.add_argument('--axes', type=int, choices=(2, 3), default=3,
+                       help='accelerometer axes; a 2-axis sensor reads z = 0.0 '
+                            '(default: %(default)s)')
     for flag, name, meaning in (
-            ('--gamma-deg', 'gamma_deg', 'installation angle gamma [deg]'),
-            ('--beta-deg', 'beta_deg', 'installation angle beta [deg]'),
-            ('--noise-mps2', 'noise_std_mps2', 'noise per axis, 1 sigma [m/s^2]'),
             ('--rate-hz', 'rate_hz', 'sample rate [Hz]'),
             ('--level-s', 'level_s', 'duration of the level segment [s]'),
             ('--station-s', 'station_s', 'duration of each tilted station [s]')):
@@ -75,9 +118,6 @@ def register(subparsers):
                             help=f'{meaning} (default: %(default)s)')
     parser.add_argument('--seed', type=int, default=defaults.seed,
                         help='seed of the noise generator (default: %(default)s)')
-    parser.add_argument('--axes', type=int, choices=(2, 3), default=defaults.axes,
-                        help='accelerometer axes; a 2-axis sensor reads z = 0.0 '
-                             '(default: %(default)s)')
     parser.add_argument('--storage', choices=('mcap', 'sqlite3'), default='mcap',
                         help='bag storage format (default: %(default)s)')
     mode = parser.add_mutually_exclusive_group()
@@ -98,20 +138,6 @@ def register(subparsers):
     parser.set_defaults(func=run, mode=None)
 
 
-@dataclass(frozen=True)
-class MagneticBench:
-    """The magnetometer of ``--magnetic``: field, azimuths, interference, noise, rotation."""
-
-    reference_total_nT: float
-    reference_dip_deg: float
-    azimuth_deg: tuple            # first and last station
-    interference_nT: tuple        # ISCWSA axes (x, y cross-axial, z toward the bit)
-    noise_nT: float               # per sample and axis, 1 sigma
-    rotation_s: float             # 0: no rotation segment
-    rotation_turns: float
-    rotation_attitude_deg: tuple  # (inclination, azimuth) of the rotation
-
-
 def add_magnetic_arguments(parser):
     """Add ``--magnetic`` and its options (defaults: those of ``inclino simulate-well``)."""
     well = WellScenario()
@@ -126,14 +152,16 @@ def add_magnetic_arguments(parser):
                        metavar=('FIRST', 'LAST'),
                        help='magnetic azimuth of the first and last station, linear between '
                             '(default: %(default)s)')
-    group.add_argument('--interference-nT', type=float, nargs=3, default=well.interference_nT,
+    group.add_argument('--interference-nT', type=float, nargs=3,
+                       default=tuple(well.interference_iscwsa_nT.tolist()),
                        metavar=('EX', 'EY', 'EZ'),
                        help='drill-string interference in ISCWSA axes [nT]: cross-axial x, y '
-                            'and axial z toward the bit (default: %(default)s)')
-    group.add_argument('--mag-noise-nT', type=float, default=well.field_noise_nT,
-                       metavar='NOISE_NT',
+                            'and axial z toward the bit, as inclino msa reports eps '
+                            '(default: %(default)s, i.e. tool frame 80, 80, -2000)')
+    group.add_argument('--mag-noise-nT', type=float, metavar='NOISE_NT',
                        help='magnetometer noise per sample and axis, 1 sigma [nT] '
-                            '(default: %(default)s)')
+                            f'(default: {DEMO_MAG_NOISE_NT:g} with --sensor ideal, else the '
+                            "preset's own)")
     group.add_argument('--rotation-s', type=float, default=0.0, metavar='S',
                        help='append a rotation segment of S seconds (default: none)')
     group.add_argument('--rotation-turns', type=float, default=2.0,
@@ -144,159 +172,100 @@ def add_magnetic_arguments(parser):
                        help='attitude held while turning (default: %(default)s)')
 
 
-def magnetic_bench(args):
-    """Return the MagneticBench of the command line; ValueError for impossible values."""
-    bench = MagneticBench(
-        reference_total_nT=args.reference_total_nT, reference_dip_deg=args.reference_dip_deg,
-        azimuth_deg=tuple(args.azimuth_deg), interference_nT=tuple(args.interference_nT),
-        noise_nT=args.mag_noise_nT, rotation_s=args.rotation_s,
+def tool_of(args, sensor):
+    """
+    Return the ``sensor_model.Tool`` of the command line for the preset ``sensor``.
+
+    With ``ideal`` the noise defaults to the demo's (0.002 m/s^2, 5 nT); a
+    real preset keeps its own unless ``--noise-mps2``/``--mag-noise-nT`` say.
+    """
+    noise = args.noise_std_mps2
+    mag_noise = getattr(args, 'mag_noise_nT', None)
+    if sensor == 'ideal':
+        noise = DEMO_NOISE_MPS2 if noise is None else noise
+        mag_noise = DEMO_MAG_NOISE_NT if mag_noise is None else mag_noise
+    if (noise is not None and noise < 0.0) or (mag_noise is not None and mag_noise < 0.0):
+        raise ValueError('--noise-mps2 and --mag-noise-nT must not be negative')
+    return make_tool(sensor, args.gamma_deg, args.beta_deg, args.roll_deg,
+                     tuple(args.magnetometer_deg), noise, mag_noise, args.axes)
+
+
+def describe(sensor, tool):
+    """Return one line naming the preset, the mount and the noise of ``tool``."""
+    mount = tool.mount
+    noise = np.max(tool.accelerometer.noise_std)
+    return (f'{sensor} sensor ({tool.accelerometer_axes}-axis accelerometer), mount '
+            f'gamma {mount.gamma_deg:g} beta {mount.beta_deg:g} roll {mount.roll_deg:g} deg, '
+            f'noise {noise:g} m/s^2')
+
+
+def bench_scenario(args, tool):
+    """Return the bench Scenario of the command line; ValueError for impossible values."""
+    if not args.reference_total_nT > 0.0 or args.rotation_s < 0.0:
+        raise ValueError('--reference-total-nT must be positive, --rotation-s not negative')
+    return Scenario(
+        tool=tool, azimuth_deg=tuple(args.azimuth_deg),
+        field=sensor_model.Field(args.reference_total_nT, args.reference_dip_deg),
+        interference_tool_nT=tool_from_iscwsa(args.interference_nT),
+        rotation_s=args.rotation_s if args.magnetic else 0.0,
         rotation_turns=args.rotation_turns,
-        rotation_attitude_deg=tuple(args.rotation_attitude_deg))
-    if not bench.reference_total_nT > 0.0 or bench.noise_nT < 0.0 or bench.rotation_s < 0.0:
-        raise ValueError('--reference-total-nT must be positive, --mag-noise-nT and '
-                         '--rotation-s not negative')
-    return bench
+        rotation_attitude_deg=tuple(args.rotation_attitude_deg), rate_hz=args.rate_hz,
+        level_s=args.level_s, station_s=args.station_s, seed=args.seed)
 
 
-def add_rotation(sim, scenario, bench):
-    """
-    Return ``sim`` with a rotation segment appended: the tool turning about its axis.
-
-    Inclination and azimuth are held (``bench.rotation_attitude_deg``) while
-    the seed000 toolface goes through ``bench.rotation_turns`` turns; the
-    accelerometer reads as on the stations (``C(gamma, beta) f + noise``).
-    """
-    n = round(bench.rotation_s * scenario.rate_hz)
-    if n < 1:
-        return sim
-    period_ns = 1e9 / scenario.rate_hz
-    stamps_ns = sim.stamps_ns[-1] + np.round(np.arange(1, n + 1) * period_ns).astype(np.int64)
-    inclination_deg = np.full(n, bench.rotation_attitude_deg[0])
-    toolface_deg = np.mod(np.arange(n) * 360.0 * bench.rotation_turns / n, 360.0)
-    f = specific_force(np.radians(inclination_deg), np.radians(toolface_deg),
-                       scenario.gravity_mps2)
-    c = sensor_matrix(math.radians(scenario.gamma_deg), math.radians(scenario.beta_deg))
-    rng = np.random.default_rng(scenario.seed + 1)
-    raw = f @ c.T + rng.normal(0.0, scenario.noise_std_mps2, size=f.shape)
-    index = int(sim.segment.max()) + 1
-    record = {'index': index, 'kind': 'rotation', 'start_ns': int(stamps_ns[0]),
-              'end_ns': int(stamps_ns[-1]), 'samples': n,
-              'inclination_deg': bench.rotation_attitude_deg[0], 'toolface_deg': None,
-              'turns': bench.rotation_turns}
-    return replace(
-        sim, stamps_ns=np.concatenate([sim.stamps_ns, stamps_ns]),
-        raw_mps2=np.concatenate([sim.raw_mps2, raw]),
-        inclination_deg=np.concatenate([sim.inclination_deg, inclination_deg]),
-        toolface_deg=np.concatenate([sim.toolface_deg, toolface_deg]),
-        segment=np.concatenate([sim.segment, np.full(n, index)]),
-        truth=dict(sim.truth, segments=sim.truth['segments'] + [record]))
-
-
-def station_azimuths_deg(sim, bench):
-    """
-    Return the true magnetic azimuth of every sample and add it to the truth's segments.
-
-    Stations: linear from the first to the last of ``bench.azimuth_deg``;
-    the rotation: its own; the level segment: NaN (vertical, no azimuth).
-    """
-    stations = [r for r in sim.truth['segments'] if r['kind'] == 'station']
-    station_deg = np.mod(np.linspace(*bench.azimuth_deg, len(stations)), 360.0)
-    by_index = {r['index']: float(a) for r, a in zip(stations, station_deg)}
-    for record in sim.truth['segments']:
-        record['azimuth_deg'] = (bench.rotation_attitude_deg[1] if record['kind'] == 'rotation'
-                                 else by_index.get(record['index']))
-    per_segment = np.array([math.nan if r['azimuth_deg'] is None else r['azimuth_deg']
-                            for r in sim.truth['segments']])
-    return per_segment[sim.segment]
-
-
-def magnetic_readings_nT(sim, azimuth_deg, bench, seed):
-    """
-    Return the magnetometer readings (N, 3) [nT, z-up tool frame] of the samples of ``sim``.
-
-    ISCWSA forward model of the true attitude (seed000 toolface + 90 deg is
-    the ISCWSA gravity toolface; a NaN toolface or azimuth is taken as 0),
-    plus the interference and the noise, in ISCWSA axes, then turned into
-    the tool frame.
-    """
-    _, field = magnetics.forward(
-        sim.inclination_deg, np.nan_to_num(azimuth_deg), np.nan_to_num(sim.toolface_deg) + 90.0,
-        1.0, bench.reference_total_nT, bench.reference_dip_deg)
-    rng = np.random.default_rng(seed + 2)
-    field = field + np.asarray(bench.interference_nT) + rng.normal(0.0, bench.noise_nT,
-                                                                   field.shape)
-    return magnetics.iscwsa_from_tool(field)
-
-
-def add_magnetics(sim, scenario, bench):
-    """Return (sim with the rotation and magnetic truth, azimuth_deg (N,), field_nT (N, 3))."""
-    sim = add_rotation(sim, scenario, bench)
-    azimuth_deg = station_azimuths_deg(sim, bench)
-    field_nT = magnetic_readings_nT(sim, azimuth_deg, bench, scenario.seed)
-    interference = np.asarray(bench.interference_nT, dtype=float)
-    truth = dict(sim.truth, magnetic={
-        'reference_total_nT': bench.reference_total_nT,
-        'reference_dip_deg': bench.reference_dip_deg,
-        'interference_iscwsa_nT': interference.tolist(),
-        'interference_tool_nT': magnetics.iscwsa_from_tool(interference).tolist(),
-        'noise_nT': bench.noise_nT, 'topic': MAG_TOPIC,
-        'frame': 'REP 145 z-up tool frame (ideal tool axes), tesla on the topic',
-        'pairing': 'one message per accelerometer sample, same stamp'})
-    return replace(sim, truth=truth), azimuth_deg, field_nT
+def error(message):
+    """Print ``message`` as the command's error; return the usage exit code 2."""
+    print(f'inclino simulate: error: {message}', file=sys.stderr)
+    return 2
 
 
 def run(args):
     """Simulate and write the bag and its truth file; return the exit code."""
+    sensor = args.sensor or DEFAULT_SENSOR[args.mode]
+    if args.mode is not None and args.magnetic:
+        return error('--magnetic goes with the bench scenario, not --stand or --heating')
+    if args.mode is not None and args.axes != 3:
+        return error('--stand and --heating simulate a three-axis sensor')
+    samples = DEFAULT_SAMPLES.get(args.mode) if args.samples is None else args.samples
+    if args.mode is not None and samples < 1:
+        return error('--samples must be at least 1')
+    try:
+        tool = tool_of(args, sensor)
+        if args.mode is None:
+            sim = simulate(bench_scenario(args, tool))
+        else:
+            stand_run = StandRun(tool=tool, rate_hz=args.rate_hz, seed=args.seed)
+            sim = (simulate_stand(stand_run, samples=samples) if args.mode == 'stand' else
+                   simulate_heating(stand_run, samples=samples))
+    except ValueError as err:
+        return error(err)
+    what = describe(sensor, tool)
+    if args.mode is not None:
+        what = f'{args.mode} run of a {what}'
     magnetic = None
-    if args.mode is None:
-        scenario = Scenario(
-            gamma_deg=args.gamma_deg, beta_deg=args.beta_deg,
-            noise_std_mps2=args.noise_std_mps2, rate_hz=args.rate_hz, level_s=args.level_s,
-            station_s=args.station_s, seed=args.seed, axes=args.axes)
-        sim = simulate(scenario)
-        what = (f'{scenario.axes}-axis sensor, gamma_deg={scenario.gamma_deg} '
-                f'beta_deg={scenario.beta_deg}')
-        if args.magnetic:
-            try:
-                bench = magnetic_bench(args)
-            except ValueError as err:
-                print(f'inclino simulate: error: {err}', file=sys.stderr)
-                return 2
-            sim, azimuth_deg, field_nT = add_magnetics(sim, scenario, bench)
-            magnetic = (azimuth_deg, magnetometer(sim.stamps_ns, FRAME_ID, field_nT,
-                                                  bench.noise_nT))
-            what += (f'; magnetometer on {MAG_TOPIC}, interference '
-                     f'{", ".join(f"{v:g}" for v in bench.interference_nT)} nT (ISCWSA x, y, z)')
-    else:
-        if args.magnetic:
-            print('inclino simulate: error: --magnetic goes with the bench scenario, not '
-                  '--stand or --heating', file=sys.stderr)
-            return 2
-        if args.axes != 3:
-            print('inclino simulate: error: --stand and --heating simulate a three-axis sensor',
-                  file=sys.stderr)
-            return 2
-        errors = SensorErrors(gamma_deg=args.gamma_deg, beta_deg=args.beta_deg)
-        sensor_run = SensorRun(errors=errors, noise_std_mps2=args.noise_std_mps2,
-                               rate_hz=args.rate_hz, seed=args.seed)
-        samples = DEFAULT_SAMPLES[args.mode] if args.samples is None else args.samples
-        if samples < 1:
-            print('inclino simulate: error: --samples must be at least 1', file=sys.stderr)
-            return 2
-        sim = (simulate_stand(sensor_run, samples=samples) if args.mode == 'stand' else
-               simulate_heating(sensor_run, samples=samples))
-        what = f'{args.mode} run of a three-axis sensor (K, bias, K_T(T) in the truth file)'
-    topics = write_bag(args.out, args.storage, sim, args.noise_std_mps2, args.mode, magnetic)
+    if args.magnetic:
+        magnetic = magnetometer(sim.stamps_ns, FRAME_ID, sim.mag_nT,
+                                np.max(tool.magnetometer.noise_std))
+        what += (f'; magnetometer on {MAG_TOPIC}, interference '
+                 f'{", ".join(f"{v:g}" for v in args.interference_nT)} nT (ISCWSA x, y, z)')
+    topics = write_bag(args.out, args.storage, sim, np.asarray(tool.accelerometer.noise_std),
+                       args.mode, magnetic)
     truth_path = f'{args.out}.truth.json'
+    extra = {'sensor': sensor, 'bag': args.out, 'storage': args.storage, 'topics': topics,
+             'frame_id': FRAME_ID}
+    if args.magnetic:
+        extra['magnetic'] = {
+            'topic': MAG_TOPIC, 'frame': 'the magnetometer triad (tool frame turned by the '
+                                         'mount), tesla on the topic',
+            'pairing': 'one message per accelerometer sample, same stamp'}
     with open(truth_path, 'w') as stream:
-        json.dump(dict(sim.truth, bag=args.out, storage=args.storage, topics=topics,
-                       frame_id=FRAME_ID), stream, indent=2)
+        json.dump(dict(sim.truth, **extra), stream, indent=2)
         stream.write('\n')
     print(f'wrote {args.out} ({args.storage}): {sim.stamps_ns.size} messages on each of '
-          f'{", ".join(topics.values())}; {what}, noise {args.noise_std_mps2} m/s^2')
-    print(f'wrote {truth_path}: {len(sim.truth["segments"])} segments')
+          f'{", ".join(topics.values())}; {what}')
+    print(f'wrote {truth_path}: {len(sim.truth["segments"])} segments, every error source')
     if args.csv:
-        write_csv(args.csv, sim)
+        write_csv(args.csv, sim, args.mode is not None)
         print(f'wrote {args.csv}: {sim.stamps_ns.size} rows')
     return 0
 
@@ -305,24 +274,25 @@ def write_bag(path, storage, sim, noise_std_mps2, mode, magnetic=None):
     """
     Write the samples of ``sim`` to a new bag; return ``{role: topic}``.
 
-    ``magnetic``: None, or (true azimuth_deg (N,), MagneticFieldSeries) at the
-    same stamps: the azimuth goes to the truth's z, the series to MAG_TOPIC.
+    ``magnetic``: None, or the MagneticFieldSeries at the same stamps (the
+    true azimuth then goes to the truth's z); ``mode`` 'stand' or 'heating'
+    adds the temperature topic, 'stand' the stand attitude.
     """
     n = sim.stamps_ns.size
     frame_ids = np.full(n, FRAME_ID)
-    azimuth_deg = np.full(n, np.nan) if magnetic is None else magnetic[0]
+    azimuth_deg = np.full(n, np.nan) if magnetic is None else sim.azimuth_deg
     series = {
         RAW_TOPIC: raw_imu(sim.stamps_ns, FRAME_ID, sim.raw_mps2, noise_std_mps2),
         TRUTH_TOPIC: Vector3Series(sim.stamps_ns, frame_ids, np.stack(
             [sim.inclination_deg, sim.toolface_deg, azimuth_deg], axis=1))}
     topics = {'raw': RAW_TOPIC, 'truth': TRUTH_TOPIC}
     if magnetic is not None:
-        series[MAG_TOPIC] = magnetic[1]
+        series[MAG_TOPIC] = magnetic
         topics['magnetometer'] = MAG_TOPIC
     if mode == 'stand':
         series[STAND_TOPIC] = series[TRUTH_TOPIC]
         topics['stand_attitude'] = STAND_TOPIC
-    if sim.temperature_c is not None:
+    if mode is not None:
         series[TEMPERATURE_TOPIC] = TemperatureSeries(sim.stamps_ns, frame_ids,
                                                       sim.temperature_c, np.zeros(n))
         topics['temperature'] = TEMPERATURE_TOPIC
@@ -335,11 +305,11 @@ def write_bag(path, storage, sim, noise_std_mps2, mode, magnetic=None):
     return topics
 
 
-def write_csv(path, sim):
+def write_csv(path, sim, temperature):
     """Write one row per sample: stamp, true attitude, [temperature,] raw reading."""
     columns = {'stamp_ns': sim.stamps_ns, 'inclination_deg': sim.inclination_deg,
                'toolface_deg': sim.toolface_deg}
-    if sim.temperature_c is not None:
+    if temperature:
         columns['temperature_c'] = sim.temperature_c
     columns.update(zip(('ax', 'ay', 'az'), sim.raw_mps2.T))
     with open(path, 'w', newline='') as stream:

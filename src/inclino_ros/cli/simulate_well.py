@@ -2,14 +2,27 @@
 ``inclino simulate-well``: write the station CSV of a simulated well (``inclino_ros.sim.well``).
 
 The well's stations go linearly from the first to the last inclination and
-azimuth, toolfaces turning by the golden angle; the readings carry the drill
-string's interference (axial and cross-axial, constant in the tool frame) and
-noise.  The CSV (``md, gx, gy, gz`` in g, ``bx, by, bz`` in nT, ISCWSA frame,
-and the truth ``true_inclination_deg, true_azimuth_deg, true_toolface_deg``)
-is the input of ``inclino msa``.
+azimuth, toolfaces turning by the golden angle.  Each station is read by the
+physical sensor model (``sim.sensor_model``): the reference field plus the
+drill string's interference (a constant vector in the tool frame, axial and
+cross-axial), through the tool's mount and triads, averaged over
+``--samples-per-station`` readings.  By default the triads are ideal, the
+mount true and the noise 1e-4 g and 5 nT per station: the interference is the
+only error, what ``inclino msa`` corrects.  ``--sensor``, ``--gamma-deg`` ...
+add sensor and mount errors.  The CSV (``md, gx, gy, gz`` in g, ``bx, by, bz``
+in nT, ISCWSA frame, and the truth ``true_inclination_deg, true_azimuth_deg,
+true_toolface_deg`` (high side)) is the input of ``inclino msa``;
+``OUT.csv.truth.json`` holds every error source of the tool.
 """
 
-from inclino_ros.sim.well import simulate_well, WellScenario, write_stations_csv
+from dataclasses import replace
+import json
+
+from inclino_ros.cli.simulate import add_sensor_arguments
+from inclino_ros.sim.bench import make_tool, tool_from_iscwsa
+from inclino_ros.sim.well import (
+    simulate_well, WELL_FIELD_NOISE_NT, WELL_GRAVITY_NOISE_G, well_truth, WellScenario,
+    write_stations_csv)
 
 
 def register(subparsers):
@@ -28,34 +41,75 @@ def register(subparsers):
         parser.add_argument(flag, dest=name, type=float, nargs=2, default=getattr(defaults, name),
                             metavar=('FIRST', 'LAST'), help=f'{meaning} (default: %(default)s)')
     parser.add_argument('--interference-nT', dest='interference_nT', type=float, nargs=3,
-                        default=defaults.interference_nT, metavar=('EX', 'EY', 'EZ'),
-                        help='drill-string interference in the tool frame [nT] (default: '
-                             '%(default)s)')
+                        default=tuple(defaults.interference_iscwsa_nT.tolist()),
+                        metavar=('EX', 'EY', 'EZ'),
+                        help='drill-string interference in ISCWSA axes [nT]: cross-axial x, y '
+                             'and axial z toward the bit, as inclino msa reports eps '
+                             '(default: %(default)s, i.e. tool frame 80, 80, -2000)')
     for flag, name, meaning in (
             ('--reference-total-nT', 'reference_total_nT', 'total field [nT]'),
-            ('--reference-dip-deg', 'reference_dip_deg', 'dip [deg]'),
-            ('--gravity-noise-g', 'gravity_noise', 'gravity noise per axis, 1 sigma [g]'),
-            ('--field-noise-nT', 'field_noise_nT', 'field noise per axis, 1 sigma [nT]')):
+            ('--reference-dip-deg', 'reference_dip_deg', 'dip [deg]')):
         parser.add_argument(flag, dest=name, type=float, default=getattr(defaults, name),
                             help=f'{meaning} (default: %(default)s)')
+    group = add_sensor_arguments(parser, 0.0, 0.0, 'ideal')
+    group.add_argument('--gravity-noise-g', dest='gravity_noise', type=float,
+                       help='accelerometer noise per reading and axis, 1 sigma [g] (default: '
+                            f"{WELL_GRAVITY_NOISE_G:g} with --sensor ideal, else the preset's "
+                            'own)')
+    group.add_argument('--field-noise-nT', dest='field_noise_nT', type=float,
+                       help='magnetometer noise per reading and axis, 1 sigma [nT] (default: '
+                            f"{WELL_FIELD_NOISE_NT:g} with --sensor ideal, else the preset's "
+                            'own)')
+    group.add_argument('--samples-per-station', type=int, default=defaults.samples_per_station,
+                       help='readings averaged into each station (default: %(default)s)')
     parser.add_argument('--seed', type=int, default=defaults.seed,
                         help='seed of the noise generator (default: %(default)s)')
     parser.set_defaults(func=run)
 
 
+def tool_of(args):
+    """Return the ``sensor_model.Tool`` of the command line (see ``--sensor``)."""
+    sensor = args.sensor or 'ideal'
+    gravity_noise, field_noise = args.gravity_noise, args.field_noise_nT
+    if sensor == 'ideal':
+        gravity_noise = WELL_GRAVITY_NOISE_G if gravity_noise is None else gravity_noise
+        field_noise = WELL_FIELD_NOISE_NT if field_noise is None else field_noise
+    if (gravity_noise is not None and gravity_noise < 0.0) or \
+            (field_noise is not None and field_noise < 0.0):
+        raise ValueError('--gravity-noise-g and --field-noise-nT must not be negative')
+    tool = make_tool(sensor, args.gamma_deg, args.beta_deg, args.roll_deg,
+                     tuple(args.magnetometer_deg), mag_noise_nT=field_noise)
+    if gravity_noise is not None:
+        tool = replace(tool, accelerometer=replace(
+            tool.accelerometer, noise_std=gravity_noise * tool.gravity_mps2))
+    return sensor, tool
+
+
 def run(args):
-    """Simulate the well and write its CSV; return the exit code."""
-    if args.stations < 1:
-        print('inclino simulate-well: error: --stations must be at least 1')
+    """Simulate the well and write its CSV and truth; return the exit code."""
+    try:
+        sensor, tool = tool_of(args)
+        scenario = WellScenario(
+            stations=args.stations, inclination_deg=tuple(args.inclination_deg),
+            azimuth_deg=tuple(args.azimuth_deg),
+            interference_tool_nT=tool_from_iscwsa(args.interference_nT),
+            reference_total_nT=args.reference_total_nT,
+            reference_dip_deg=args.reference_dip_deg, tool=tool,
+            samples_per_station=args.samples_per_station, seed=args.seed)
+    except ValueError as err:
+        print(f'inclino simulate-well: error: {err}')
         return 2
-    scenario = WellScenario(
-        stations=args.stations, inclination_deg=tuple(args.inclination_deg),
-        azimuth_deg=tuple(args.azimuth_deg), interference_nT=tuple(args.interference_nT),
-        reference_total_nT=args.reference_total_nT, reference_dip_deg=args.reference_dip_deg,
-        gravity_noise=args.gravity_noise, field_noise_nT=args.field_noise_nT, seed=args.seed)
-    write_stations_csv(args.out, simulate_well(scenario))
+    well = simulate_well(scenario)
+    write_stations_csv(args.out, well)
+    truth_path = f'{args.out}.truth.json'
+    with open(truth_path, 'w') as stream:
+        json.dump(dict(well_truth(well), sensor=sensor, csv=str(args.out)), stream, indent=2)
+        stream.write('\n')
+    mount = tool.mount
     print(f'wrote {args.out}: {scenario.stations} stations, interference '
-          f'{", ".join(f"{v:g}" for v in scenario.interference_nT)} nT (x, y, z); correct with\n'
+          f'{", ".join(f"{v:g}" for v in args.interference_nT)} nT (ISCWSA x, y, z), '
+          f'{sensor} sensor, mount gamma {mount.gamma_deg:g} beta {mount.beta_deg:g} roll '
+          f'{mount.roll_deg:g} deg; {truth_path}: every error source; correct with\n'
           f'  inclino msa {args.out} -o corrected.csv --reference-total-nT '
           f'{scenario.reference_total_nT:g} --reference-dip-deg {scenario.reference_dip_deg:g}')
     return 0

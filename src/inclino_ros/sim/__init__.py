@@ -1,5 +1,7 @@
 """
-Virtual bench and well: physical sensor models that produce readings from a known truth.
+The physical sensor model and, on it, the virtual bench and well: readings from a known truth.
 
-Used by the CLI, tests and benchmarks, never by core or calibration.
+``sensor_model`` reads a tool (mount, triads, drift, hard/soft iron, drill string, noise) at
+given attitudes; ``bench`` and ``well`` hold the scenarios.  Used by the CLI, tests and
+benchmarks, never by core or calibration.
 """

@@ -1,37 +1,49 @@
 """
-The virtual bench: a misaligned inclinometer read at known attitudes.
+The virtual bench: a physical inclinometer (``sim.sensor_model``) read at known attitudes.
 
-A tool at inclination I and seed-000 gravity toolface TF feels, in its ideal
-z-up tool frame (REP 145 specific force, seed 000 Eq. 2 generalised)::
+Every reading comes from ``sensor_model.read`` of a ``sensor_model.Tool``:
+the tool's attitude turns gravity and the Earth's field into the tool frame,
+the drill string adds its field, the board's mount (gamma, beta, roll) turns
+both vectors into the sensor frames, the magnetometer sees hard and soft
+iron, each triad applies its 3x3 matrix, bias, temperature drift and noise.
+Nothing here is built from the correction chain or inverts it: a test that
+corrects these readings finds the chain's model errors.
 
-    f = g (sin I cos TF, sin I sin TF, cos I)
+Scenarios, each holding attitudes still one after the other:
 
-and a sensor mounted with installation angles (gamma, beta) reads
-``raw = C f + noise`` with C of seed 000 Eq. 1.  C is built here from
-transforms3d's rotations, not from ``inclino_ros.core.installation``, so the bench
-is an independent check of the core.  Pure numpy + transforms3d.
+- ``simulate(Scenario)``: the level segment (seed 000's bench, inclination
+  0), then tilted stations with a magnetic azimuth each, and optionally a
+  rotation segment (the tool turning about its axis at one attitude, for
+  seed 002's ellipse fit).  Accelerometer and magnetometer are read together.
+- ``simulate_stand(StandRun)``: seed 001's nine stand positions at one
+  temperature.
+- ``simulate_heating(StandRun)``: one attitude while the temperature ramps.
 
-Seed 001's stand and heating runs use a fuller sensor, ``SensorErrors``.  Its
-forward model, per axis i, at temperature T [deg C]::
+Default tools (``make_tool``; what each scenario simulates unless told
+otherwise):
 
-    raw_i = K_T,i(T) * (K f + b)_i + noise_i,   K = M C(gamma, beta),
-    K_T,i(T) = 1 + c1_i (T - 25) + c2_i (T - 25)^2
+- ``DEMO_TOOL`` (bench): ideal triads on a board mounted gamma 0.8 deg,
+  beta -1.2 deg (both triads on the board: the magnetometer turns with it),
+  noise 0.002 m/s^2 and 5 nT per sample, 25 deg C.  The error sources are
+  the mount and the noise: what seed 000's level calibration is for.
+- ``STAND_TOOL`` (stand and heating): the quartz-flex preset (3x3 K with
+  scale errors ~5e-4 and misalignment ~0.1 deg, biases ~0.4 mg, bias drift
+  ~0.05 mg/degC, scale drift ~20 ppm/degC, its own noise 1e-4 g per sample)
+  on the same mount.  At 25 deg C (the stand) drift does not act; on the
+  heating ramp it does.  ``make_tool('mems', ...)`` is ~10x worse.
 
-M holds the scale factors and cross-coupling of the sensing axes, C the
-mounting (so K carries the installation error), b the bias [m/s^2].  The
-calibration model undoes it stage by stage in its own order: temperature
-(``A / K_T(T)`` gives ``K f + b`` exactly), then stand (``K^-1 (A - b)``
-gives f exactly), so a perfect fit inverts it to round-off.  The temperature
-reading itself is exact (no noise).
+Pure numpy; truth records are JSON-ready and hold ``sensor_model.truth_dict``
+of the tool (every error source).
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 import math
 
-from inclino_ros.core.attitude import specific_force
-from inclino_ros.core.temperature import REFERENCE_TEMPERATURE_C
+from inclino_ros.sim import sensor_model as sm
 import numpy as np
-from transforms3d.axangles import axangle2mat
+
+#: The physical presets by their command-line name.
+PRESETS = {'ideal': sm.IDEAL, 'mems': sm.MEMS, 'quartz': sm.QUARTZ_FLUXGATE}
 
 #: (inclination_deg, toolface_deg) of the default tilted stations: inclinations
 #: 0.5..60 deg, toolfaces k * 150 deg mod 360 (every multiple of 30 deg once).
@@ -50,43 +62,101 @@ STAND_POSITIONS_DEG = (
 #: Attitude of the heating run: every axis sees gravity, (0.58, 0.58, 0.57) g.
 HEATING_ATTITUDE_DEG = (55.0, 45.0)
 
+#: The demo's mount: seed 000's installation angles [deg].
+DEMO_GAMMA_DEG = 0.8
+DEMO_BETA_DEG = -1.2
+#: The demo's per-sample noise with the ideal preset: accelerometer [m/s^2], magnetometer [nT].
+DEMO_NOISE_MPS2 = 0.002
+DEMO_MAG_NOISE_NT = 5.0
 
-def sensor_matrix(gamma, beta):
-    """
-    Return seed 000's C (Eq. 1) as ``Rx(beta) @ Ry(-gamma)``, angles in radians.
+#: Drill-string interference of seed 002 §3, in the TOOL frame [nT]: 80 nT on each
+#: cross-axial axis, 2000 nT axial toward the bit (tool z points away from it).  In
+#: ISCWSA axes (x, -y, -z) this is (80, -80, 2000), the eps ``inclino msa`` reports.
+DEFAULT_INTERFERENCE_TOOL_NT = (80.0, 80.0, -2000.0)
 
-    The seed turns the ideal frame "clockwise" by gamma about Y, then by beta
-    about X'; written with standard right-hand rotation matrices that is
-    ``Rx(beta) @ Ry(-gamma)``, mapping ideal-frame coordinates to sensor ones.
+
+def tool_from_iscwsa(vector):
     """
-    return axangle2mat((1.0, 0.0, 0.0), beta) @ axangle2mat((0.0, 1.0, 0.0), -gamma)
+    Return a vector given in ISCWSA axes in the z-up tool frame: ``(x, -y, -z)``.
+
+    The ISCWSA frame is the tool frame turned 180 deg about x
+    (``sensor_model`` docstring), so the map is its own inverse.
+    """
+    x, y, z = (float(v) for v in vector)
+    return (x, -y, -z)
+
+
+#: The map back from the tool frame to ISCWSA axes: the same 180 deg turn.
+iscwsa_from_tool = tool_from_iscwsa
+
+
+def make_tool(sensor='ideal', gamma_deg=0.0, beta_deg=0.0, roll_deg=0.0,
+              magnetometer_deg=(0.0, 0.0, 0.0), noise_mps2=None, mag_noise_nT=None, axes=3,
+              gravity_mps2=sm.STANDARD_GRAVITY_MPS2):
+    """
+    Return the preset ``sensor`` (``PRESETS``) on a mount, with its noise optionally replaced.
+
+    ``gamma_deg``, ``beta_deg``, ``roll_deg``, ``magnetometer_deg``: the
+    ``sensor_model.Mount`` (both triads on the board; the magnetometer turned
+    further by ``magnetometer_deg``).  ``noise_mps2`` and ``mag_noise_nT``
+    (one sigma per sample and axis): None keeps the preset's own.
+    """
+    if sensor not in PRESETS:
+        raise ValueError(f'sensor must be one of {sorted(PRESETS)}, not {sensor!r}')
+    preset = PRESETS[sensor]
+    accelerometer, magnetometer = preset.accelerometer, preset.magnetometer
+    if noise_mps2 is not None:
+        accelerometer = replace(accelerometer, noise_std=noise_mps2)
+    if mag_noise_nT is not None:
+        magnetometer = replace(magnetometer, noise_std=mag_noise_nT)
+    return replace(preset, mount=sm.Mount(gamma_deg, beta_deg, roll_deg, magnetometer_deg),
+                   accelerometer=accelerometer, magnetometer=magnetometer,
+                   accelerometer_axes=axes, gravity_mps2=gravity_mps2)
+
+
+#: The bench's default tool (module docstring).
+DEMO_TOOL = make_tool('ideal', DEMO_GAMMA_DEG, DEMO_BETA_DEG, noise_mps2=DEMO_NOISE_MPS2,
+                      mag_noise_nT=DEMO_MAG_NOISE_NT)
+#: The stand and heating runs' default tool (module docstring).
+STAND_TOOL = make_tool('quartz', DEMO_GAMMA_DEG, DEMO_BETA_DEG)
 
 
 @dataclass(frozen=True)
 class Scenario:
-    """What the bench does: a level segment, then tilted stations, all held still."""
+    """
+    What the bench does: a level segment, tilted stations, optionally a rotation.
 
-    gamma_deg: float = 0.8
-    beta_deg: float = -1.2
+    ``azimuth_deg``: magnetic azimuth of the first and last station, linear
+    between; ``interference_tool_nT``: the drill string's field in the z-up
+    tool frame; ``rotation_s`` > 0 appends a rotation segment of that length:
+    ``rotation_turns`` turns of the toolface at ``rotation_attitude_deg``
+    (inclination, azimuth).  The tool is at ``temperature_c`` throughout.
+    """
+
+    tool: sm.Tool = DEMO_TOOL
     stations_deg: tuple = DEFAULT_STATIONS_DEG
+    azimuth_deg: tuple = (85.0, 95.0)
+    field: sm.Field = sm.Field(50000.0, 60.0)
+    interference_tool_nT: tuple = DEFAULT_INTERFERENCE_TOOL_NT
+    rotation_s: float = 0.0
+    rotation_turns: float = 2.0
+    rotation_attitude_deg: tuple = (60.0, 90.0)
+    temperature_c: float = 25.0
     rate_hz: float = 200.0
     level_s: float = 3.0
     station_s: float = 2.0
-    noise_std_mps2: float = 0.002
-    gravity_mps2: float = 9.80665
-    axes: int = 3
     seed: int = 0
     start_ns: int = SIM_EPOCH_NS
 
     def __post_init__(self):
         """Refuse a scenario that cannot be sampled."""
-        if self.axes not in (2, 3):
-            raise ValueError(f'axes must be 2 or 3, not {self.axes}')
-        if self.rate_hz <= 0 or min(self.level_s, self.station_s) * self.rate_hz < 1.0:
+        if not self.rate_hz > 0 or min(self.level_s, self.station_s) * self.rate_hz < 1.0:
             raise ValueError('rate_hz, level_s and station_s must give every segment '
                              'at least one sample')
-        if self.noise_std_mps2 < 0:
-            raise ValueError('noise_std_mps2 must be >= 0')
+        if not self.rotation_s >= 0.0:
+            raise ValueError('rotation_s must be >= 0')
+        if not self.field.total_nT > 0.0:
+            raise ValueError('the reference field must be positive')
 
 
 @dataclass(frozen=True)
@@ -94,164 +164,160 @@ class SimulatedRun:
     """Samples of a scenario with the truth behind every one of them."""
 
     stamps_ns: np.ndarray        # (N,) int64
-    raw_mps2: np.ndarray         # (N, 3) sensor readings; z is 0.0 for a 2-axis sensor
-    inclination_deg: np.ndarray  # (N,) true inclination of the ideal tool frame
+    raw_mps2: np.ndarray         # (N, 3) accelerometer readings; z is 0.0 for a 2-axis sensor
+    mag_nT: np.ndarray           # (N, 3) magnetometer readings [nT, sensor axes]
+    inclination_deg: np.ndarray  # (N,) true inclination of the tool
     toolface_deg: np.ndarray     # (N,) true seed-000 toolface; NaN on the level segment
+    azimuth_deg: np.ndarray      # (N,) true magnetic azimuth; NaN where not defined
+    temperature_c: np.ndarray    # (N,) sensor temperature [deg C]
     segment: np.ndarray          # (N,) 0 = level, k = station (or stand position) k
-    truth: dict                  # scenario parameters and per-segment truth (JSON-ready)
-    temperature_c: np.ndarray = None  # (N,) sensor temperature; None: not simulated
+    truth: dict                  # scenario, tool and per-segment truth (JSON-ready)
 
 
-def _held_attitudes(attitudes_deg, counts, kinds, rate_hz, start_ns, first_index):
+def _stamps(start_ns, count, rate_hz):
+    """Return ``count`` stamps [ns] from ``start_ns`` at ``rate_hz``, int64."""
+    return start_ns + np.round(np.arange(count) * (1e9 / rate_hz)).astype(np.int64)
+
+
+def _segments(attitudes, counts, kinds, first_index):
     """
-    Return the samples of attitudes held one after the other.
+    Return per-sample (segment, inclination, toolface, azimuth) of segments held in turn.
 
-    ``attitudes_deg`` are (inclination_deg, toolface_deg) pairs, ``counts``
-    the samples and ``kinds`` the kind of each; segments are numbered from
-    ``first_index``.  Returns (stamps_ns, segment, inclination_deg,
-    toolface_deg, the segments' records for the truth file).
+    ``attitudes`` are (inclination_deg, toolface_deg, azimuth_deg) triples
+    (NaN where undefined), ``counts`` their samples; segments are numbered
+    from ``first_index``.  Also returns the segment records (stamps added by
+    ``_add_stamps``).
     """
-    index = np.repeat(np.arange(len(attitudes_deg)), counts)
-    inclination_deg = np.array([a[0] for a in attitudes_deg])[index]
-    toolface_deg = np.array([a[1] for a in attitudes_deg])[index]
-    stamps_ns = start_ns + np.round(np.arange(index.size) * (1e9 / rate_hz)).astype(np.int64)
-    ends = np.cumsum(counts)
+    index = np.repeat(np.arange(len(attitudes)), counts)
+    values = np.array(attitudes, dtype=float).reshape(-1, 3)[index]
     records = [
-        {'index': k + first_index, 'kind': kind, 'start_ns': int(stamps_ns[end - n]),
-         'end_ns': int(stamps_ns[end - 1]), 'samples': int(n), 'inclination_deg': incl_deg,
-         'toolface_deg': None if math.isnan(tf_deg) else tf_deg}
-        for k, ((incl_deg, tf_deg), n, end, kind) in enumerate(
-            zip(attitudes_deg, counts, ends, kinds))]
-    return stamps_ns, index + first_index, inclination_deg, toolface_deg, records
+        {'index': k + first_index, 'kind': kind, 'samples': int(n),
+         'inclination_deg': float(incl), 'toolface_deg': None if math.isnan(tf) else float(tf),
+         'azimuth_deg': None if math.isnan(az) else float(az)}
+        for k, ((incl, tf, az), n, kind) in enumerate(zip(attitudes, counts, kinds))]
+    return index + first_index, values[:, 0], values[:, 1], values[:, 2], records
 
 
-def _true_force(inclination_deg, toolface_deg, gravity_mps2):
-    """Return the true specific force of attitudes in degrees (NaN toolface: 0)."""
-    return specific_force(np.radians(inclination_deg), np.radians(np.nan_to_num(toolface_deg)),
-                          gravity_mps2)
+def _add_stamps(records, stamps_ns):
+    """Write each record's first and last stamp, in sample order."""
+    end = 0
+    for record in records:
+        start, end = end, end + record['samples']
+        record['start_ns'], record['end_ns'] = int(stamps_ns[start]), int(stamps_ns[end - 1])
+
+
+def _read(tool, inclination_deg, toolface_deg, azimuth_deg, temperature_c, field,
+          interference_tool_nT, seed):
+    """
+    Return the ``sensor_model.Readings`` of the held attitudes.
+
+    An undefined (NaN) toolface or azimuth is read as 0: on the level segment
+    the tool is vertical, and any toolface and azimuth is as good as another.
+    """
+    return sm.read(tool, inclination_deg, np.nan_to_num(toolface_deg),
+                   np.nan_to_num(azimuth_deg), temperature_c, field=field,
+                   interference_nT=interference_tool_nT, rng=seed)
+
+
+def _truth(tool, field, interference_tool_nT, seed, rate_hz, **entries):
+    """Return the truth record shared by every scenario (the tool's ``truth_dict`` in it)."""
+    interference = [float(v) for v in interference_tool_nT]
+    return {'tool': sm.truth_dict(tool), 'seed': seed, 'rate_hz': rate_hz,
+            'field': {'total_nT': field.total_nT, 'dip_deg': field.dip_deg},
+            'interference_tool_nT': interference,
+            'interference_iscwsa_nT': list(iscwsa_from_tool(interference)),
+            **entries}
 
 
 def simulate(scenario=Scenario()):
-    """Return the samples of ``scenario``: ``raw = C(gamma, beta) f + noise`` (Eqs. 1, 2)."""
-    segments_deg = ((0.0, math.nan),) + tuple(scenario.stations_deg)
-    counts = [round(scenario.level_s * scenario.rate_hz)] + \
-        [round(scenario.station_s * scenario.rate_hz)] * len(scenario.stations_deg)
-    kinds = ['level'] + ['station'] * len(scenario.stations_deg)
-    stamps_ns, segment, inclination_deg, toolface_deg, records = _held_attitudes(
-        segments_deg, counts, kinds, scenario.rate_hz, scenario.start_ns, first_index=0)
+    """Return the samples of ``scenario`` (level, stations, rotation) read by its tool."""
+    s = scenario
+    station_azimuth = np.mod(np.linspace(*s.azimuth_deg, len(s.stations_deg)), 360.0)
+    attitudes = [(0.0, math.nan, math.nan)] + [
+        (incl, tf, az) for (incl, tf), az in zip(s.stations_deg, station_azimuth)]
+    counts = [round(s.level_s * s.rate_hz)] + [round(s.station_s * s.rate_hz)] * \
+        len(s.stations_deg)
+    kinds = ['level'] + ['station'] * len(s.stations_deg)
+    segment, inclination, toolface, azimuth, records = _segments(attitudes, counts, kinds, 0)
 
-    f = _true_force(inclination_deg, toolface_deg, scenario.gravity_mps2)
-    c = sensor_matrix(math.radians(scenario.gamma_deg), math.radians(scenario.beta_deg))
-    rng = np.random.default_rng(scenario.seed)
-    raw = f @ c.T + rng.normal(0.0, scenario.noise_std_mps2, size=f.shape)
-    if scenario.axes == 2:
-        raw[:, 2] = 0.0
+    rotation_n = round(s.rotation_s * s.rate_hz)
+    if rotation_n >= 1:
+        index = len(attitudes)
+        turn_deg = np.mod(np.arange(rotation_n) * 360.0 * s.rotation_turns / rotation_n, 360.0)
+        segment = np.concatenate([segment, np.full(rotation_n, index)])
+        inclination = np.concatenate(
+            [inclination, np.full(rotation_n, s.rotation_attitude_deg[0])])
+        toolface = np.concatenate([toolface, turn_deg])
+        azimuth = np.concatenate([azimuth, np.full(rotation_n, s.rotation_attitude_deg[1])])
+        records.append({'index': index, 'kind': 'rotation', 'samples': rotation_n,
+                        'inclination_deg': float(s.rotation_attitude_deg[0]),
+                        'toolface_deg': None, 'azimuth_deg': float(s.rotation_attitude_deg[1]),
+                        'turns': s.rotation_turns})
 
-    truth = {
-        'gamma_deg': scenario.gamma_deg, 'beta_deg': scenario.beta_deg,
-        'noise_std_mps2': scenario.noise_std_mps2, 'rate_hz': scenario.rate_hz,
-        'gravity_mps2': scenario.gravity_mps2, 'seed': scenario.seed, 'axes': scenario.axes,
-        'segments': records,
-    }
-    return SimulatedRun(stamps_ns=stamps_ns, raw_mps2=raw, inclination_deg=inclination_deg,
-                        toolface_deg=toolface_deg, segment=segment, truth=truth)
-
-
-@dataclass(frozen=True)
-class SensorErrors:
-    """
-    The errors of a three-axis accelerometer: seed 001's K, a bias and K_T(T).
-
-    ``raw = K_T(T) * (K f + b)`` per axis with ``K = M C(gamma, beta)`` and
-    ``K_T,i(T) = 1 + c1_i (T - 25) + c2_i (T - 25)^2`` (module docstring).
-    """
-
-    gamma_deg: float = 0.8          # mounting, seed 000 Eq. 1
-    beta_deg: float = -1.2
-    #: M: scale factors (diagonal) and cross-coupling of the sensing axes.
-    axis_matrix: tuple = ((1.012, 0.004, -0.006), (-0.003, 0.991, 0.005),
-                          (0.002, -0.004, 1.006))
-    bias_mps2: tuple = (0.15, -0.22, 0.09)
-    #: Temperature slope c1 [1/deg C] and curvature c2 [1/deg C^2] of each axis.
-    temperature_c1_per_c: tuple = (5e-4, 4e-4, -3e-4)
-    temperature_c2_per_c2: tuple = (2e-6, 1e-6, -2e-6)
-    reference_temperature_c: float = REFERENCE_TEMPERATURE_C
-
-    @property
-    def scale_matrix(self):
-        """Return the true K = M C(gamma, beta) of seed 001 Eq. 10."""
-        return np.array(self.axis_matrix, dtype=float) @ sensor_matrix(
-            math.radians(self.gamma_deg), math.radians(self.beta_deg))
-
-    def temperature_scale(self, temperature_c):
-        """Return K_T(T) per axis, shape (N, 3)."""
-        dt = np.asarray(temperature_c, dtype=float).reshape(-1, 1) - self.reference_temperature_c
-        return 1.0 + np.array(self.temperature_c1_per_c) * dt + \
-            np.array(self.temperature_c2_per_c2) * dt * dt
-
-    def read(self, f, temperature_c):
-        """Return the noise-free readings ``K_T(T) * (K f + b)`` of specific force f (N, 3)."""
-        linear = np.asarray(f, dtype=float) @ self.scale_matrix.T + np.array(self.bias_mps2)
-        return self.temperature_scale(temperature_c) * linear
-
-    def truth(self):
-        """Return the true errors as a JSON-ready dict (K, b, K_T coefficients)."""
-        return {'gamma_deg': self.gamma_deg, 'beta_deg': self.beta_deg,
-                'axis_matrix': [list(row) for row in self.axis_matrix],
-                'scale_matrix': self.scale_matrix.tolist(), 'bias_mps2': list(self.bias_mps2),
-                'temperature_c1_per_c': list(self.temperature_c1_per_c),
-                'temperature_c2_per_c2': list(self.temperature_c2_per_c2),
-                'reference_temperature_c': self.reference_temperature_c}
+    stamps_ns = _stamps(s.start_ns, segment.size, s.rate_hz)
+    _add_stamps(records, stamps_ns)
+    readings = _read(s.tool, inclination, toolface, azimuth, s.temperature_c, s.field,
+                     s.interference_tool_nT, s.seed)
+    truth = _truth(s.tool, s.field, s.interference_tool_nT, s.seed, s.rate_hz,
+                   scenario='bench', temperature_c=s.temperature_c, segments=records)
+    return SimulatedRun(stamps_ns=stamps_ns, raw_mps2=readings.accel_mps2,
+                        mag_nT=readings.mag_nT, inclination_deg=inclination,
+                        toolface_deg=toolface, azimuth_deg=azimuth,
+                        temperature_c=readings.temperature_c, segment=segment, truth=truth)
 
 
 @dataclass(frozen=True)
-class SensorRun:
-    """What a stand or heating run does with a ``SensorErrors`` sensor."""
+class StandRun:
+    """
+    How a stand or heating run is recorded: the tool, rate, seed and first stamp.
 
-    errors: SensorErrors = SensorErrors()
-    noise_std_mps2: float = 0.002
-    gravity_mps2: float = 9.80665
+    The stand holds attitudes only (no azimuth, no drill string): the
+    magnetometer is read at azimuth 0 in the Earth's field alone.
+    """
+
+    tool: sm.Tool = STAND_TOOL
     rate_hz: float = 200.0
     seed: int = 0
     start_ns: int = SIM_EPOCH_NS
 
-    def sample(self, attitudes_deg, counts, sensor_temperature_c, kind, **truth):
+    def sample(self, attitudes_deg, counts, sensor_temperature_c, kind, **entries):
         """
         Return the SimulatedRun of attitudes held in turn, numbered from 1.
 
-        ``sensor_temperature_c`` is one temperature or one per sample; ``truth``
-        adds entries to the run's truth record.
+        ``sensor_temperature_c`` is one temperature or one per sample; ``entries``
+        add to the run's truth record.
         """
-        stamps_ns, segment, inclination_deg, toolface_deg, records = _held_attitudes(
-            attitudes_deg, counts, [kind] * len(counts), self.rate_hz, self.start_ns,
-            first_index=1)
-        temperature_c = np.broadcast_to(np.asarray(sensor_temperature_c, dtype=float),
-                                        segment.shape)
-        f = _true_force(inclination_deg, toolface_deg, self.gravity_mps2)
-        rng = np.random.default_rng(self.seed)
-        raw = self.errors.read(f, temperature_c) + rng.normal(
-            0.0, self.noise_std_mps2, size=f.shape)
-        truth = {'sensor': self.errors.truth(), 'noise_std_mps2': self.noise_std_mps2,
-                 'rate_hz': self.rate_hz, 'gravity_mps2': self.gravity_mps2,
-                 'seed': self.seed, 'axes': 3, **truth, 'segments': records}
-        return SimulatedRun(stamps_ns=stamps_ns, raw_mps2=raw, inclination_deg=inclination_deg,
-                            toolface_deg=toolface_deg, segment=segment, truth=truth,
-                            temperature_c=np.array(temperature_c))
+        attitudes = [(incl, tf, math.nan) for incl, tf in attitudes_deg]
+        segment, inclination, toolface, azimuth, records = _segments(
+            attitudes, counts, [kind] * len(counts), first_index=1)
+        stamps_ns = _stamps(self.start_ns, segment.size, self.rate_hz)
+        _add_stamps(records, stamps_ns)
+        temperature = np.broadcast_to(np.asarray(sensor_temperature_c, dtype=float),
+                                      segment.shape)
+        field, interference = sm.Field(), (0.0, 0.0, 0.0)
+        readings = _read(self.tool, inclination, toolface, azimuth, temperature, field,
+                         interference, self.seed)
+        truth = _truth(self.tool, field, interference, self.seed, self.rate_hz,
+                       scenario=kind, **entries, segments=records)
+        return SimulatedRun(stamps_ns=stamps_ns, raw_mps2=readings.accel_mps2,
+                            mag_nT=readings.mag_nT, inclination_deg=inclination,
+                            toolface_deg=toolface, azimuth_deg=azimuth,
+                            temperature_c=readings.temperature_c, segment=segment, truth=truth)
 
 
-def simulate_stand(run=SensorRun(), positions_deg=STAND_POSITIONS_DEG, samples=100,
-                   temperature_c=REFERENCE_TEMPERATURE_C):
+def simulate_stand(run=StandRun(), positions_deg=STAND_POSITIONS_DEG, samples=100,
+                   temperature_c=25.0):
     """
     Return a multi-position stand run: ``samples`` still readings per position.
 
     Positions are numbered 1..N in ``segment`` and in the truth's segments;
-    the sensor is at ``temperature_c`` throughout (25 deg C: K_T = 1).
+    the sensor is at ``temperature_c`` throughout.
     """
     return run.sample(tuple(positions_deg), [samples] * len(positions_deg), temperature_c,
                       'position', temperature_c=temperature_c)
 
 
-def simulate_heating(run=SensorRun(), attitude_deg=HEATING_ATTITUDE_DEG, t_start_c=20.0,
+def simulate_heating(run=StandRun(), attitude_deg=HEATING_ATTITUDE_DEG, t_start_c=20.0,
                      t_end_c=100.0, samples=1601):
     """
     Return a heating run: one still attitude, temperature ramping linearly.
@@ -262,3 +328,16 @@ def simulate_heating(run=SensorRun(), attitude_deg=HEATING_ATTITUDE_DEG, t_start
     temperature_c = np.linspace(t_start_c, t_end_c, samples)
     return run.sample((tuple(attitude_deg),), [samples], temperature_c, 'heating',
                       t_start_c=t_start_c, t_end_c=t_end_c)
+
+
+def tool_stand_truth(tool):
+    """
+    Return (K, b) of seed 001's stand model that ``tool``'s accelerometer obeys at T_ref.
+
+    At its reference temperature the triad reads ``K_triad C f + b`` with C
+    the mount's map of tool-frame vectors to the accelerometer axes
+    (``Mount.accelerometer_from_tool``): a stand fit finds ``K = K_triad C``
+    (the mount included) and b.  Physics of the model, not the chain.
+    """
+    k = np.array(tool.accelerometer.matrix) @ tool.mount.accelerometer_from_tool()
+    return k, np.array(tool.accelerometer.bias)
