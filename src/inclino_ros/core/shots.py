@@ -218,7 +218,7 @@ def _group_axis(accel, field, labels, group_count, g, field_nT):
     return axis if axis[2] > 0 else -axis
 
 
-def _tilt_angles(axis):
+def tilt_angles(axis):
     """Return seed 000's (gamma, beta) [rad] of a unit tool axis u = C e_z (Eqs. 11-14)."""
     return installation_angles(*level_axis_angles(axis, 1.0))
 
@@ -358,7 +358,7 @@ def fit_shots(accel_mps2, field_nT, roll_group=None, g=9.80665, reference_total_
     if group_count:
         aligned_m = corrected_m @ rotation.T
         axis = _group_axis(corrected_a, aligned_m, labels, group_count, g, field_total)
-        tilt = np.array(_tilt_angles(axis))
+        tilt = np.array(tilt_angles(axis))
         c_a = np.array([np.mean(corrected_a[labels == k] @ axis) for k in range(group_count)])
         c_m = np.array([np.mean(aligned_m[labels == k] @ axis) for k in range(group_count)])
     x0 = model.pack(t_a, b_a, t_m, sphere_m.bias_mps2, rotation, sin_dip, tilt, c_a, c_m)
