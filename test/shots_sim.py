@@ -27,7 +27,7 @@ def tool(preset):
 
 
 def read(the_tool, inclination_deg, toolface_deg, azimuth_deg, rng, samples=1):
-    """Return (accel, field) of the tool at the attitudes, each the mean of ``samples`` readings."""
+    """Return (accel, field) of the tool at the attitudes, each a mean of ``samples`` readings."""
     n = np.size(inclination_deg)
     readings = sensor_model.read(
         the_tool, np.repeat(inclination_deg, samples), np.repeat(toolface_deg, samples),

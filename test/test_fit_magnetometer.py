@@ -183,12 +183,12 @@ def outlier(accel, field, group):
 
 
 BAD = {
-    'NaN rows': (dict(edit=nan_rows), 'row(s) [4, 10]'),
-    'no rotation': (dict(edit=no_rotation), 'never change'),
-    'one plane': (dict(count_free=0, per_group=16, edit=one_plane), 'one plane'),
-    'microtesla': (dict(scale_field=1e-3), 'uT'),
-    'too few rows': (dict(count_free=3, per_group=4), 'only 11 shot(s)'),
-    'outlier': (dict(edit=outlier), 'outlier shot(s) 6'),
+    'NaN rows': ({'edit': nan_rows}, 'row(s) [4, 10]'),
+    'no rotation': ({'edit': no_rotation}, 'never change'),
+    'one plane': ({'count_free': 0, 'per_group': 16, 'edit': one_plane}, 'one plane'),
+    'microtesla': ({'scale_field': 1e-3}, 'uT'),
+    'too few rows': ({'count_free': 3, 'per_group': 4}, 'only 11 shot(s)'),
+    'outlier': ({'edit': outlier}, 'outlier shot(s) 6'),
 }
 
 

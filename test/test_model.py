@@ -60,7 +60,8 @@ def test_save_load_round_trip(tmp_path, model):
     save_model(str(path), model)
     assert load_model(str(path)) == model
     doc = json.loads(path.read_text())
-    assert doc['format'] == 'inclino_ros.calibration' and doc['schema_version'] == SCHEMA_VERSION == 3
+    assert doc['format'] == 'inclino_ros.calibration'
+    assert doc['schema_version'] == SCHEMA_VERSION == 3
     assert os.listdir(path.parent) == ['calibration.json']
 
 

@@ -64,7 +64,7 @@ class AzimuthSurvey:
     dip_deg: np.ndarray           # (M,)
     qc: SurveyQc                  # None without a reference field
     trusted: np.ndarray           # (M,) paired, finite and passing QC
-    defined_azimuth_deg: np.ndarray = None  # (M,) wherever defined, QC or not (NaN elsewhere)
+    defined_azimuth_deg: np.ndarray = None  # (M,) wherever defined, QC or not
 
 
 @dataclass(frozen=True)
@@ -99,8 +99,9 @@ def resolve_azimuth(corrected_mps2, field_nT, model, settings, magnetic_settings
 
     Both in the z-up tool frame, (M, 3); a NaN field row (no paired reading)
     gives a NaN azimuth.  The field is corrected by the model's magnetometer
-    stages (its own, the shared mount, seed 002's) and turned into the ISCWSA frame with the gravity vector
-    (``magnetics.gravity_from_specific_force``) for the azimuth of seed 001
+    stages (its own, the shared mount, seed 002's) and turned into the ISCWSA
+    frame with the gravity vector (``magnetics.gravity_from_specific_force``)
+    for the azimuth of seed 001
     Eq. 4; a sample failing QC against the reference, or below the minimum
     inclination (where the azimuth is undefined), is not trusted.
     """

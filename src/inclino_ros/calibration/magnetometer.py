@@ -169,12 +169,12 @@ def calibrate_from_shots(existing, accel_mps2, field_nT, roll_group=None, temper
                      'method sphere')
         if installation is not None:
             installation = None
-            notes.append('installation stage dropped: it was measured in the accelerometer\'s '
+            notes.append("installation stage dropped: it was measured in the accelerometer's "
                          'previous frame' + ('' if fit.tool_axis is not None else
                                              '; calibrate the level bench again or give '
                                              'roll groups'))
     else:
-        notes.append('accelerometer stand stage of the file kept (its frame is the tool\'s)')
+        notes.append("accelerometer stand stage of the file kept (its frame is the tool's)")
     k_m, rotation = split_correction(fit.alignment @ np.linalg.inv(fit.mag_matrix),
                                      accelerometer_rotation(stand))
     magnetometer = Magnetometer(
@@ -196,7 +196,7 @@ def calibrate_from_shots(existing, accel_mps2, field_nT, roll_group=None, temper
                              fitted_at=now)
     elif fit_accel and tool_axis is not None:
         tool_axis = None
-        notes.append('tool_axis stage dropped: it was measured in the accelerometer\'s '
+        notes.append("tool_axis stage dropped: it was measured in the accelerometer's "
                      'previous frame')
     if existing.magnetic is not None:
         notes.append('magnetic (seed 002) stage kept: it was fitted on the previous '
