@@ -112,8 +112,10 @@ def merge_repeated_attitudes(readings, attitudes_deg, min_separation_deg):
 
     Stand positions that differ only in azimuth read the same specific force:
     new attitudes for the magnetometer, repeats for the accelerometer.
-    ``attitudes_deg`` (P, 2+): inclination and toolface first; positions
-    whose gravity directions lie within ``min_separation_deg`` are one.
+    ``attitudes_deg`` (P, 3): inclination, toolface, azimuth; positions whose
+    gravity directions lie within ``min_separation_deg`` and whose azimuths
+    differ are one.  A repeat of the whole attitude stays, for ``fit_stand``
+    to refuse.
     """
     readings = np.asarray(readings, dtype=float).reshape(-1, 3)
     attitudes_deg = np.asarray(attitudes_deg, dtype=float)
@@ -121,7 +123,10 @@ def merge_repeated_attitudes(readings, attitudes_deg, min_separation_deg):
     unit = np.stack([np.sin(i) * np.cos(t), np.sin(i) * np.sin(t), np.cos(i)], axis=1)
     owner = np.arange(len(unit))
     for k in range(len(unit)):
-        near = np.flatnonzero(np.degrees(angle_between(unit[:k], unit[k])) < min_separation_deg)
+        near = np.flatnonzero(
+            (np.degrees(angle_between(unit[:k], unit[k])) < min_separation_deg)
+            & (np.abs((attitudes_deg[:k, 2] - attitudes_deg[k, 2] + 180.0) % 360.0 - 180.0)
+               >= min_separation_deg))
         if near.size:
             owner[k] = owner[near[0]]
     kept = np.unique(owner)
