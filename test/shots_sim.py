@@ -26,12 +26,13 @@ def tool(preset):
     return replace(preset, mount=MOUNT)
 
 
-def read(the_tool, inclination_deg, toolface_deg, azimuth_deg, rng, samples=1):
+def read(the_tool, inclination_deg, toolface_deg, azimuth_deg, rng, samples=1,
+         interference_nT=INTERFERENCE_NT):
     """Return (accel, field) of the tool at the attitudes, each a mean of ``samples`` readings."""
     n = np.size(inclination_deg)
     readings = sensor_model.read(
         the_tool, np.repeat(inclination_deg, samples), np.repeat(toolface_deg, samples),
-        np.repeat(azimuth_deg, samples), field=FIELD, interference_nT=INTERFERENCE_NT, rng=rng)
+        np.repeat(azimuth_deg, samples), field=FIELD, interference_nT=interference_nT, rng=rng)
     return (readings.accel_mps2.reshape(n, samples, 3).mean(axis=1),
             readings.mag_nT.reshape(n, samples, 3).mean(axis=1))
 
