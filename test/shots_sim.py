@@ -63,12 +63,12 @@ def random_attitudes(rng, count, min_inclination_deg=10.0):
 
 
 def write_shots(path, accel, field, group=None, scale_field=1.0):
-    """Write a shots CSV (ax..bz, roll_group named A, B, ... or empty)."""
+    """Write a shots CSV (ax..bz, roll_group named A, B, C, ... or empty)."""
     with open(path, 'w', newline='') as stream:
         writer = csv.writer(stream)
         writer.writerow(['ax', 'ay', 'az', 'bx', 'by', 'bz', 'roll_group'])
         for i in range(len(accel)):
-            name = '' if group is None or group[i] < 0 else 'AB'[group[i]]
+            name = '' if group is None or group[i] < 0 else 'ABCDEFGH'[group[i]]
             writer.writerow([repr(float(v)) for v in accel[i]]
                             + [repr(float(v) * scale_field) for v in field[i]] + [name])
 
