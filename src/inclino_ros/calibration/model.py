@@ -543,6 +543,13 @@ def _angles(section, name):
                              '(|angle| must be < 45 deg)')
 
 
+def _plausible_matrix(k, name, hint=''):
+    """Raise ValueError unless K is invertible with every axis scale within 0.5 of 1."""
+    if np.linalg.cond(k) > MAX_CONDITION_NUMBER or np.any(np.abs(np.diag(k) - 1.0) > 0.5):
+        raise ValueError(f'{name}.scale_matrix {k.tolist()} is not a plausible sensor '
+                         f'(singular, or an axis scale far from 1{hint})')
+
+
 def tool_axis_from_dict(section):
     """Return a validated ToolAxis from its file section."""
     _check_fields(section, ToolAxis, 'tool_axis')
@@ -562,9 +569,7 @@ def magnetometer_from_dict(section):
     _finite(section, 'magnetometer', 'condition_number', 'rms_residual_nT', 'field_nT')
     if section['method'] not in ('stand', 'ellipsoid'):
         raise ValueError(f'magnetometer.method = {section["method"]!r} is not stand or ellipsoid')
-    if np.linalg.cond(k) > MAX_CONDITION_NUMBER or np.any(np.abs(np.diag(k) - 1.0) > 0.5):
-        raise ValueError(f'magnetometer.scale_matrix {k.tolist()} is not a plausible sensor '
-                         '(singular, or an axis scale far from 1: readings not in nT?)')
+    _plausible_matrix(k, 'magnetometer', ': readings not in nT?')
     if np.max(np.abs(bias)) > 1e5 or not section['field_nT'] > 0:
         raise ValueError('magnetometer.bias_nT exceeds 100000 nT or field_nT is not positive')
     _count(section, 'magnetometer', 'positions')
@@ -600,9 +605,7 @@ def stand_from_dict(section):
         raise ValueError(f'stand.method = {section["method"]!r} is not stand or sphere')
     if section['rms_inclination_deg'] is not None:
         _finite(section, 'stand', 'rms_inclination_deg')
-    if np.linalg.cond(k) > MAX_CONDITION_NUMBER or np.any(np.abs(np.diag(k) - 1.0) > 0.5):
-        raise ValueError(f'stand.scale_matrix {k.tolist()} is not a plausible sensor '
-                         '(singular, or an axis scale far from 1)')
+    _plausible_matrix(k, 'stand')
     _count(section, 'stand', 'positions')
     _time(section, 'stand', 'fitted_at')
     return Stand(**dict(section, scale_matrix=tuple(map(tuple, k.tolist())),
