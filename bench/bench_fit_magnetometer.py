@@ -19,7 +19,6 @@ whole process (interpreter start, imports, fit, report, atomic write), median of
 Run: ``.venv/bin/python bench/bench_fit_magnetometer.py``.
 """
 
-from dataclasses import replace
 import os
 import pathlib
 import statistics

@@ -1,4 +1,4 @@
-"""The calibration model's stages (seed 001, the magnetometer's, the mount): order, file, validation."""
+"""The calibration model's stages (seed 001, magnetometer, mount): order, file, validation."""
 
 from dataclasses import replace
 import json

@@ -144,8 +144,10 @@ def load_stations(args):
 
 def calibrated_field(args, table, lines):
     """
-    Return the model of ``args.calibration``; its magnetometer stages up to seed 002's
-    cross-axial correction applied to ``table['B']`` (raw readings).
+    Return the model of ``args.calibration``, its corrections applied to ``table['B']``.
+
+    The magnetometer stages up to seed 002's cross-axial correction correct
+    the raw readings of ``table['B']``.
 
     ISCWSA and tool axes differ by a turn about x (``magnetics.iscwsa_from_tool``,
     its own inverse): B is turned into the tool frame, corrected and turned back.
