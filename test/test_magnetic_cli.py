@@ -36,7 +36,7 @@ import sys
 from inclino_ros import pipeline
 from inclino_ros.calibration.level_capture import LevelLimits, solve_level_capture
 from inclino_ros.calibration.model import (
-    CalibrationModel, load_model, NO_MAGNETIC_CORRECTION, save_model)
+    CalibrationModel, load_model, MagnetometerAlignment, NO_MAGNETIC_CORRECTION, save_model)
 from inclino_ros.core import magnetics
 from inclino_ros.core.msa import azimuth_difference_deg
 from inclino_ros.io import bag
@@ -75,7 +75,14 @@ def simulate_bench(path, storage='mcap', board='aligned'):
 
 
 def level_calibration(path, truth, calibration):
-    """Write the installation stage of the level segment (seed 000) to ``calibration``."""
+    """
+    Write the installation stage of the level segment (seed 000) to ``calibration``.
+
+    This bench simulator mounts the magnetometer true in the tool while only the
+    accelerometer is turned by gamma, beta; the installation is shared by both triads
+    (issue 8), so the magnetometer gets an alignment of its own, the installation
+    matrix C itself (method ``given``): C^-1 C leaves its readings as they are.
+    """
     level = truth['segments'][0]
     imu = bag.concatenate(bag.read(path, '/imu/data_raw'))
     selected = (imu.stamps_ns >= level['start_ns']) & (imu.stamps_ns <= level['end_ns'])
@@ -83,7 +90,11 @@ def level_calibration(path, truth, calibration):
         imu.linear_acceleration_mps2[selected], 3,
         LevelLimits(max_std_deg=0.1, max_tilt_deg=5.0, gravity_mps2=G,
                     g_total_tolerance_mps2=0.05))
-    save_model(calibration, CalibrationModel(accelerometer_axes=3, installation=installation))
+    alignment = MagnetometerAlignment(
+        rotation=tuple(map(tuple, installation.inverse_matrix.T.tolist())), method='given',
+        dip_deg=None, dip_rms_deg=None, shots=1, fitted_at=installation.captured_at)
+    save_model(calibration, CalibrationModel(accelerometer_axes=3, installation=installation,
+                                             magnetometer_alignment=alignment))
 
 
 def rotation_window_s(truth):

@@ -1,13 +1,15 @@
-"""The calibration model's seed-001 stages: order, file round trip, validation."""
+"""The calibration model's stages (seed 001, magnetometer, mount): order, file, validation."""
 
+from dataclasses import replace
 import json
 import math
 
 from inclino_ros.calibration.model import (
-    CalibrationFileError, CalibrationModel, Installation, load_model, save_model, Stand,
-    Temperature)
+    CalibrationFileError, CalibrationModel, Installation, load_model, Magnetometer,
+    MagnetometerAlignment, save_model, Stand, Temperature, ToolAxis)
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 G = 9.80665
 K = ((1.003, 0.002, -0.004), (-0.001, 0.997, 0.003), (0.005, -0.002, 1.002))
@@ -62,11 +64,11 @@ def test_temperature_is_clamped_and_defaults_to_the_reference():
 
 
 def test_round_trip_with_every_stage(tmp_path):
-    """A model with all stages saves and loads back equal; the file is version 2."""
+    """A model with all stages saves and loads back equal; the file is version 3."""
     path = tmp_path / 'calibration.json'
     save_model(path, MODEL)
     assert load_model(path) == MODEL
-    assert json.loads(path.read_text())['schema_version'] == 2
+    assert json.loads(path.read_text())['schema_version'] == 3
 
 
 def test_version_1_file_still_loads(tmp_path):
@@ -111,3 +113,73 @@ def test_invalid_stage_is_a_loud_error(tmp_path, name):
     with pytest.raises(CalibrationFileError) as caught:
         load_model(path)
     assert str(path) in str(caught.value) and reason in caught.value.reason
+
+
+MAGNETOMETER = Magnetometer(
+    scale_matrix=((1.01, 0.002, 0.0), (0.002, 0.99, 0.001), (0.0, 0.001, 1.0)),
+    bias_nT=(120.0, -80.0, 300.0), method='ellipsoid', condition_number=3.0,
+    rms_residual_nT=4.0, field_nT=50000.0, positions=24, fitted_at='2026-03-03T08:00:00+00:00')
+ALIGNMENT = MagnetometerAlignment(
+    rotation=tuple(map(tuple, np.round(Rotation.from_rotvec([0.01, -0.02, 0.005]).as_matrix(),
+                                       15).tolist())),
+    method='dip', dip_deg=60.0, dip_rms_deg=0.01, shots=24,
+    fitted_at='2026-03-03T08:00:00+00:00')
+TOOL_AXIS = ToolAxis(gamma_deg=0.8, beta_deg=-1.2, roll_groups=2, shots=16, axial_rms_deg=0.005,
+                     fitted_at='2026-03-03T08:00:00+00:00')
+FULL = replace(MODEL, magnetometer=MAGNETOMETER, magnetometer_alignment=ALIGNMENT,
+               tool_axis=TOOL_AXIS)
+
+
+def test_magnetometer_stages_round_trip_and_order(tmp_path):
+    """Version 3 stages save and load back equal; the chain is own stages, mount, seed 002."""
+    path = tmp_path / 'calibration.json'
+    save_model(path, FULL)
+    assert load_model(path) == FULL
+    assert FULL.magnetometer_stages == ('magnetometer', 'magnetometer_alignment', 'installation',
+                                        'tool_axis')
+    b = np.array([[20000.0, -5000.0, 43000.0]])
+    expected = MAGNETOMETER.apply(b) @ (STAND.rotation @ ALIGNMENT.matrix).T
+    expected = TOOL_AXIS.apply(INSTALLATION.apply(expected))
+    np.testing.assert_allclose(FULL.apply_magnetic(b), expected, rtol=1e-12)
+    # The accelerometer's specific force goes through the same mount.
+    f = np.array([[1.0, 2.0, 9.0]])
+    np.testing.assert_allclose(
+        FULL.apply(f), TOOL_AXIS.apply(MODEL.apply(f)), rtol=1e-12)
+
+
+BAD_MAGNETOMETER = {
+    'not a rotation': ('magnetometer_alignment', {'rotation': [[1, 0, 0], [0, 1, 0], [0, 0, 2]]},
+                       'is not a rotation'),
+    'mirror': ('magnetometer_alignment', {'rotation': [[1, 0, 0], [0, 1, 0], [0, 0, -1]]},
+               'is not a rotation'),
+    'method': ('magnetometer', {'method': 'guess'}, 'not stand or ellipsoid'),
+    'microtesla K': ('magnetometer', {'scale_matrix': [[1e-3, 0, 0], [0, 1e-3, 0],
+                                                       [0, 0, 1e-3]]}, 'not in nT'),
+    'tool axis angle': ('tool_axis', {'gamma_deg': 50.0}, 'not an installation error'),
+}
+
+
+@pytest.mark.parametrize('name', sorted(BAD_MAGNETOMETER))
+def test_invalid_magnetometer_stage_is_a_loud_error(tmp_path, name):
+    """A defective magnetometer, alignment or tool-axis section is refused, naming the file."""
+    section, changes, reason = BAD_MAGNETOMETER[name]
+    doc = FULL.to_dict()
+    doc[section] = dict(doc[section], **changes)
+    path = tmp_path / 'calibration.json'
+    path.write_text(json.dumps(doc))
+    with pytest.raises(CalibrationFileError) as caught:
+        load_model(path)
+    assert reason in caught.value.reason
+
+
+def test_version_2_file_has_no_magnetometer_stage(tmp_path):
+    """A version 2 file loads as before; a magnetometer section in it is unknown."""
+    doc = MODEL.to_dict()
+    doc['schema_version'] = 2
+    path = tmp_path / 'calibration.json'
+    path.write_text(json.dumps(doc))
+    assert load_model(path) == MODEL
+    doc['magnetometer'] = FULL.to_dict()['magnetometer']
+    path.write_text(json.dumps(doc))
+    with pytest.raises(CalibrationFileError, match='unknown sections'):
+        load_model(path)

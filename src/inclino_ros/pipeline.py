@@ -64,6 +64,7 @@ class AzimuthSurvey:
     dip_deg: np.ndarray           # (M,)
     qc: SurveyQc                  # None without a reference field
     trusted: np.ndarray           # (M,) paired, finite and passing QC
+    defined_azimuth_deg: np.ndarray = None  # (M,) wherever defined, QC or not
 
 
 @dataclass(frozen=True)
@@ -97,9 +98,10 @@ def resolve_azimuth(corrected_mps2, field_nT, model, settings, magnetic_settings
     Return the AzimuthSurvey of corrected accelerometer and raw magnetometer readings.
 
     Both in the z-up tool frame, (M, 3); a NaN field row (no paired reading)
-    gives a NaN azimuth.  The field is corrected by the model's magnetic stage
-    and turned into the ISCWSA frame with the gravity vector
-    (``magnetics.gravity_from_specific_force``) for the azimuth of seed 001
+    gives a NaN azimuth.  The field is corrected by the model's magnetometer
+    stages (its own, the shared mount, seed 002's) and turned into the ISCWSA
+    frame with the gravity vector (``magnetics.gravity_from_specific_force``)
+    for the azimuth of seed 001
     Eq. 4; a sample failing QC against the reference, or below the minimum
     inclination (where the azimuth is undefined), is not trusted.
     """
@@ -110,16 +112,18 @@ def resolve_azimuth(corrected_mps2, field_nT, model, settings, magnetic_settings
     # Below MIN_FIELD_NT there is no Earth field in the reading (a dead magnetometer).
     steep_enough = (inclination(corrected_mps2)
                     >= math.radians(magnetic_settings.min_inclination_deg))
-    trusted = np.isfinite(azimuth) & (field_total_nT >= MIN_FIELD_NT) & steep_enough
+    defined = np.isfinite(azimuth) & (field_total_nT >= MIN_FIELD_NT) & steep_enough
+    trusted = defined.copy()
     qc = None
     if magnetic_settings.reference_total_nT > 0:
         qc = survey_qc(gravity, field, magnetic_settings.reference_total_nT,
                        magnetic_settings.reference_dip_deg, settings.gravity_mps2,
                        magnetic_settings.limits)
         trusted &= qc.ok
+    defined_azimuth = np.where(defined, azimuth, math.nan)
     azimuth = np.where(trusted, azimuth, math.nan)
     return AzimuthSurvey(
-        azimuth_deg=azimuth,
+        azimuth_deg=azimuth, defined_azimuth_deg=defined_azimuth,
         true_azimuth_deg=true_azimuth_deg(azimuth, magnetic_settings.declination_deg),
         b_total_nT=field_total_nT, dip_deg=dip_deg(gravity, field), qc=qc,
         trusted=trusted)

@@ -1,14 +1,33 @@
 """
 The calibration model: what is applied to every sample, and its file.
 
-A model is an ordered set of correction stages applied to raw specific force
-(three-axis sensors; a two-axis sensor has the installation stage only):
+A model is an ordered set of correction stages.  Each triad has its own, and
+both share the mount.  Raw specific force (three-axis sensors; a two-axis
+sensor has the mount stages only) goes through:
 
 1. ``temperature``: seed 001 Eqs. 5-7, each axis divided by its scale factor
    K_T(T), with T clamped to the fitted range;
 2. ``stand``: seed 001 Eqs. 10-11, ``K^-1 (A - b)`` from a multi-position
-   stand (or the reference-free sphere fit);
-3. ``installation``: seed 000 Eqs. 8-9, the level-bench angles gamma, beta.
+   stand (or the reference-free sphere fit); its output is the
+   accelerometer frame;
+3. ``installation`` (shared mount): seed 000 Eqs. 8-9, the level-bench
+   angles gamma, beta;
+4. ``tool_axis`` (shared mount): the same rotation found from roll groups
+   (``inclino fit-magnetometer``), measured after the installation stage.
+
+Raw magnetometer readings [nT] go through their own stages into the
+accelerometer frame, then the same mount, then seed 002's corrections:
+
+1. ``magnetometer``: seed 001 Eq. 12, ``K_m^-1 (m - b_m)`` (scale,
+   non-orthogonality, hard and soft iron) from the stand or the ellipsoid;
+2. ``magnetometer_alignment``: the rotation of the magnetometer's axes into
+   the accelerometer's sensing axes (identity without the stage: the
+   magnetometer sits on the accelerometer's axes), then the rotation the
+   accelerometer's own ``stand`` correction gives those axes
+   (``Stand.rotation``), so that a new accelerometer calibration carries
+   the magnetometer along;
+3. ``installation``, ``tool_axis``: the shared mount, as above;
+4. ``magnetic``: seed 002's cross-axial correction and interference.
 
 The file is JSON, versioned, written atomically (temporary file, fsync,
 rename) and validated on load; any defect raises ``CalibrationFileError``
@@ -26,15 +45,25 @@ import tempfile
 from inclino_ros.core.cross_axial import apply_cross_axial
 from inclino_ros.core.installation import (
     inverse_installation_matrix, pseudo_inclination, to_tool_frame)
-from inclino_ros.core.stand import correct_stand, MAX_CONDITION_NUMBER
+from inclino_ros.core.stand import correct_stand, MAX_CONDITION_NUMBER, rotation_part
 from inclino_ros.core.temperature import compensate_temperature, TemperatureFit
 import numpy as np
 
 FORMAT = 'inclino_ros.calibration'
-SCHEMA_VERSION = 2
-#: Versions load_model reads: version 1 files hold the installation stage only.
-READABLE_VERSIONS = (1, 2)
-STAGES = ('temperature', 'stand', 'installation')
+SCHEMA_VERSION = 3
+#: Versions load_model reads: version 1 files hold the installation stage only,
+#: version 2 files no magnetometer or tool-axis stage.
+READABLE_VERSIONS = (1, 2, 3)
+#: The accelerometer's stages, in the order they are applied.
+STAGES = ('temperature', 'stand', 'installation', 'tool_axis')
+#: The stages both triads share: the mount.
+MOUNT_STAGES = ('installation', 'tool_axis')
+#: The magnetometer's stages, in the order they are applied (the mount included).
+MAGNETOMETER_STAGES = ('magnetometer', 'magnetometer_alignment') + MOUNT_STAGES + ('magnetic',)
+#: Sections of each readable schema version.
+SECTIONS = {1: ('installation',),
+            2: ('temperature', 'stand', 'installation', 'magnetic'),
+            3: STAGES + ('magnetometer', 'magnetometer_alignment', 'magnetic')}
 
 
 class CalibrationFileError(Exception):
@@ -46,16 +75,8 @@ class CalibrationFileError(Exception):
         self.reason = reason
 
 
-@dataclass(frozen=True)
-class Installation:
-    """Seed 000 installation angles with the provenance of their capture."""
-
-    gamma_deg: float
-    beta_deg: float
-    captured_at: str
-    sample_count: int
-    std_deg: float
-    g_total_mps2: float
+class _SeedZeroRotation:
+    """A rotation of seed 000's form (gamma about Y, beta about X', Eq. 1) from sensor to tool."""
 
     @property
     def theta_deg(self):
@@ -72,6 +93,38 @@ class Installation:
     def apply(self, f, temperature_c=None):
         """Return ``f`` (N x 3) in the ideal tool frame (seed 000 Eq. 9)."""
         return to_tool_frame(f, self.inverse_matrix)
+
+
+@dataclass(frozen=True)
+class Installation(_SeedZeroRotation):
+    """Seed 000 installation angles with the provenance of their capture."""
+
+    gamma_deg: float
+    beta_deg: float
+    captured_at: str
+    sample_count: int
+    std_deg: float
+    g_total_mps2: float
+
+
+@dataclass(frozen=True)
+class ToolAxis(_SeedZeroRotation):
+    """
+    The tool axis found from roll groups, as seed 000's gamma, beta (shared mount).
+
+    Shots taken with the tool axis held in one direction and the tool turned
+    about it keep the components of gravity and field along that axis
+    constant (``core.shots``): the axis, in the frame after the installation
+    stage, is the level-bench reading of a vertical tool (``u = C e_z``,
+    seed 000 Eqs. 11-14), without a level bench.
+    """
+
+    gamma_deg: float
+    beta_deg: float
+    roll_groups: int
+    shots: int
+    axial_rms_deg: float       # what the fit leaves of the within-group axial spread
+    fitted_at: str
 
 
 @dataclass(frozen=True)
@@ -94,6 +147,79 @@ class Stand:
     def arrays(self):
         """Return K and b as numpy arrays, built once."""
         return np.array(self.scale_matrix), np.array(self.bias_mps2)
+
+    @cached_property
+    def rotation(self):
+        """
+        Return the rotation ``K^-1`` gives the sensing axes (``stand.rotation_part``).
+
+        The magnetometer, sitting on the accelerometer's axes, is turned by it
+        too: for a stand fit it holds the mount, for a sphere fit the turn of
+        its upper-triangular convention.
+        """
+        return rotation_part(np.linalg.inv(self.arrays[0]))
+
+
+@dataclass(frozen=True)
+class Magnetometer:
+    """
+    The magnetometer's own correction ``B = K_m^-1 (m - b_m)`` (seed 001 Eq. 12) [nT].
+
+    K_m holds the axis scales, their non-orthogonality and the soft iron,
+    b_m the bias and hard iron (and any field fixed to the tool when it was
+    fitted).  ``method``: ``stand`` (Eq. 12 against the field expected at
+    known stand attitudes) or ``ellipsoid`` (``inclino fit-magnetometer``,
+    no reference: K_m symmetric, scaled to ``field_nT``).
+    """
+
+    scale_matrix: tuple        # K_m, 3 rows of 3
+    bias_nT: tuple             # b_m
+    method: str
+    condition_number: float
+    rms_residual_nT: float     # stand: |corrected - expected|; ellipsoid: |B| - field_nT
+    field_nT: float            # the total field the scale refers to
+    positions: int             # stand positions or shots
+    fitted_at: str
+
+    @cached_property
+    def arrays(self):
+        """Return K_m and b_m as numpy arrays, built once."""
+        return np.array(self.scale_matrix), np.array(self.bias_nT)
+
+    def apply(self, b_nT):
+        """Return ``K_m^-1 (m - b_m)`` for readings (N, 3)."""
+        return correct_stand(b_nT, *self.arrays)
+
+
+@dataclass(frozen=True)
+class MagnetometerAlignment:
+    """
+    The rotation R of the magnetometer's axes into the accelerometer's sensing axes.
+
+    ``v_accelerometer = R v_magnetometer``.  ``method``: ``dip`` (from the
+    constancy of the dip, ``inclino fit-magnetometer``), ``stand`` (the turn
+    of the magnetometer's stand K_m, seed 001 Eq. 12) or ``given`` (a known
+    mounting).  ``dip_deg`` and ``dip_rms_deg``: the constant dip the fit
+    found and what it leaves (None otherwise).
+    """
+
+    rotation: tuple            # R, 3 rows of 3
+    method: str
+    dip_deg: float
+    dip_rms_deg: float
+    shots: int
+    fitted_at: str
+
+    @cached_property
+    def matrix(self):
+        """Return R as a numpy array, built once."""
+        return np.array(self.rotation)
+
+    @property
+    def angle_deg(self):
+        """Return the angle of the rotation [deg]."""
+        return math.degrees(math.acos(float(np.clip((np.trace(self.matrix) - 1.0) / 2.0,
+                                                    -1.0, 1.0))))
 
 
 @dataclass(frozen=True)
@@ -178,11 +304,33 @@ class CalibrationModel:
     stand: Stand = None
     temperature: Temperature = None
     magnetic: Magnetic = None
+    tool_axis: ToolAxis = None
+    magnetometer: Magnetometer = None
+    magnetometer_alignment: MagnetometerAlignment = None
 
     @property
     def stages(self):
         """Return the names of the accelerometer stages present, in their order."""
         return tuple(name for name in STAGES if getattr(self, name) is not None)
+
+    @property
+    def magnetometer_stages(self):
+        """Return the names of the magnetometer stages present (the mount included), in order."""
+        return tuple(name for name in MAGNETOMETER_STAGES if getattr(self, name) is not None)
+
+    @cached_property
+    def magnetometer_rotation(self):
+        """
+        Return the rotation taking the magnetometer's corrected axes into the accelerometer frame.
+
+        ``Stand.rotation`` (the turn of the accelerometer's own correction,
+        identity without a stand stage) after the alignment's R (identity
+        without one): the magnetometer follows the accelerometer's axes.
+        """
+        rotation = np.eye(3) if self.stand is None else self.stand.rotation
+        if self.magnetometer_alignment is not None:
+            rotation = rotation @ self.magnetometer_alignment.matrix
+        return rotation
 
     @property
     def calibrated(self):
@@ -205,16 +353,33 @@ class CalibrationModel:
                 f = stage.apply(f, temperature_c)
         return f
 
-    def apply_magnetic(self, b_nT):
-        """Return corrected magnetometer readings (N, 3) [nT, tool frame]."""
+    def apply_magnetic(self, b_nT, before=None):
+        """
+        Return corrected magnetometer readings (N, 3) [nT, tool frame].
+
+        Stages run in the order of MAGNETOMETER_STAGES; ``before`` names one
+        to stop at (``before='magnetic'``: the input of seed 002's fits).
+        The alignment's rotation is applied with the accelerometer's
+        (``magnetometer_rotation``) even without an alignment stage.
+        """
         b_nT = np.asarray(b_nT, dtype=float)
-        return b_nT if self.magnetic is None else self.magnetic.apply(b_nT)
+        for name in MAGNETOMETER_STAGES:
+            if name == before:
+                break
+            if name == 'magnetometer_alignment':
+                if self.magnetometer_alignment is not None or self.stand is not None:
+                    b_nT = to_tool_frame(b_nT, self.magnetometer_rotation)
+                continue
+            stage = getattr(self, name)
+            if stage is not None:
+                b_nT = stage.apply(b_nT)
+        return b_nT
 
     def to_dict(self):
         """Return the JSON-ready document of this model."""
         doc = {'format': FORMAT, 'schema_version': SCHEMA_VERSION,
                'accelerometer_axes': self.accelerometer_axes}
-        for name in STAGES + ('magnetic',):
+        for name in SECTIONS[SCHEMA_VERSION]:
             stage = getattr(self, name)
             if stage is not None:
                 doc[name] = asdict(stage)
@@ -303,12 +468,14 @@ def model_from_dict(doc):
     axes = doc['accelerometer_axes']
     if not is_int(axes) or axes not in (2, 3):
         raise ValueError(f'accelerometer_axes {axes!r} is not 2 or 3')
-    stages = STAGES + ('magnetic',) if version == SCHEMA_VERSION else ('installation',)
+    stages = SECTIONS[version]
     unknown = set(doc) - {'format', 'schema_version', 'accelerometer_axes', *stages}
     if unknown:
         raise ValueError(f'unknown sections {sorted(unknown)} in a version {version} file')
     readers = {'installation': installation_from_dict, 'stand': stand_from_dict,
-               'temperature': temperature_from_dict, 'magnetic': magnetic_from_dict}
+               'temperature': temperature_from_dict, 'magnetic': magnetic_from_dict,
+               'tool_axis': tool_axis_from_dict, 'magnetometer': magnetometer_from_dict,
+               'magnetometer_alignment': alignment_from_dict}
     model = CalibrationModel(accelerometer_axes=axes, **{
         name: readers[name](doc[name]) for name in stages if doc.get(name) is not None})
     if axes == 2 and (model.stand or model.temperature):
@@ -358,16 +525,74 @@ def _time(section, name, key):
 def installation_from_dict(section):
     """Return a validated Installation from its file section."""
     _check_fields(section, Installation, 'installation')
-    _finite(section, 'installation', 'gamma_deg', 'beta_deg', 'std_deg', 'g_total_mps2')
-    for name in ('gamma_deg', 'beta_deg'):
-        if abs(section[name]) >= 45.0:
-            raise ValueError(f'installation.{name} = {section[name]} is not an '
-                             'installation error (|angle| must be < 45 deg)')
+    _angles(section, 'installation')
+    _finite(section, 'installation', 'std_deg', 'g_total_mps2')
     _count(section, 'installation', 'sample_count')
     if section['std_deg'] < 0 or section['g_total_mps2'] <= 0:
         raise ValueError('installation.std_deg must be >= 0 and g_total_mps2 > 0')
     _time(section, 'installation', 'captured_at')
     return Installation(**section)
+
+
+def _angles(section, name):
+    """Raise ValueError unless gamma_deg, beta_deg are finite installation-size angles."""
+    _finite(section, name, 'gamma_deg', 'beta_deg')
+    for key in ('gamma_deg', 'beta_deg'):
+        if abs(section[key]) >= 45.0:
+            raise ValueError(f'{name}.{key} = {section[key]} is not an installation error '
+                             '(|angle| must be < 45 deg)')
+
+
+def _plausible_matrix(k, name, hint=''):
+    """Raise ValueError unless K is invertible with every axis scale within 0.5 of 1."""
+    if np.linalg.cond(k) > MAX_CONDITION_NUMBER or np.any(np.abs(np.diag(k) - 1.0) > 0.5):
+        raise ValueError(f'{name}.scale_matrix {k.tolist()} is not a plausible sensor '
+                         f'(singular, or an axis scale far from 1{hint})')
+
+
+def tool_axis_from_dict(section):
+    """Return a validated ToolAxis from its file section."""
+    _check_fields(section, ToolAxis, 'tool_axis')
+    _angles(section, 'tool_axis')
+    _finite(section, 'tool_axis', 'axial_rms_deg')
+    _count(section, 'tool_axis', 'roll_groups')
+    _count(section, 'tool_axis', 'shots')
+    _time(section, 'tool_axis', 'fitted_at')
+    return ToolAxis(**section)
+
+
+def magnetometer_from_dict(section):
+    """Return a validated Magnetometer from its file section."""
+    _check_fields(section, Magnetometer, 'magnetometer')
+    (k,) = _finite(section, 'magnetometer', 'scale_matrix', shape=(3, 3))
+    (bias,) = _finite(section, 'magnetometer', 'bias_nT', shape=(3,))
+    _finite(section, 'magnetometer', 'condition_number', 'rms_residual_nT', 'field_nT')
+    if section['method'] not in ('stand', 'ellipsoid'):
+        raise ValueError(f'magnetometer.method = {section["method"]!r} is not stand or ellipsoid')
+    _plausible_matrix(k, 'magnetometer', ': readings not in nT?')
+    if np.max(np.abs(bias)) > 1e5 or not section['field_nT'] > 0:
+        raise ValueError('magnetometer.bias_nT exceeds 100000 nT or field_nT is not positive')
+    _count(section, 'magnetometer', 'positions')
+    _time(section, 'magnetometer', 'fitted_at')
+    return Magnetometer(**dict(section, scale_matrix=tuple(map(tuple, k.tolist())),
+                               bias_nT=tuple(section['bias_nT'])))
+
+
+def alignment_from_dict(section):
+    """Return a validated MagnetometerAlignment from its file section."""
+    _check_fields(section, MagnetometerAlignment, 'magnetometer_alignment')
+    (r,) = _finite(section, 'magnetometer_alignment', 'rotation', shape=(3, 3))
+    if np.max(np.abs(r @ r.T - np.eye(3))) > 1e-6 or np.linalg.det(r) <= 0:
+        raise ValueError(f'magnetometer_alignment.rotation {r.tolist()} is not a rotation')
+    if section['method'] not in ('dip', 'stand', 'given'):
+        raise ValueError(f'magnetometer_alignment.method = {section["method"]!r} is not dip, '
+                         'stand or given')
+    for key in ('dip_deg', 'dip_rms_deg'):
+        if section[key] is not None:
+            _finite(section, 'magnetometer_alignment', key)
+    _count(section, 'magnetometer_alignment', 'shots')
+    _time(section, 'magnetometer_alignment', 'fitted_at')
+    return MagnetometerAlignment(**dict(section, rotation=tuple(map(tuple, r.tolist()))))
 
 
 def stand_from_dict(section):
@@ -380,9 +605,7 @@ def stand_from_dict(section):
         raise ValueError(f'stand.method = {section["method"]!r} is not stand or sphere')
     if section['rms_inclination_deg'] is not None:
         _finite(section, 'stand', 'rms_inclination_deg')
-    if np.linalg.cond(k) > MAX_CONDITION_NUMBER or np.any(np.abs(np.diag(k) - 1.0) > 0.5):
-        raise ValueError(f'stand.scale_matrix {k.tolist()} is not a plausible sensor '
-                         '(singular, or an axis scale far from 1)')
+    _plausible_matrix(k, 'stand')
     _count(section, 'stand', 'positions')
     _time(section, 'stand', 'fitted_at')
     return Stand(**dict(section, scale_matrix=tuple(map(tuple, k.tolist())),

@@ -42,17 +42,20 @@ class Station:
     captured_at: str
 
 
-def msa_inputs(stations, magnetic_stage):
+def msa_inputs(stations, model):
     """
     Return (G, B) of ``stations`` in the ISCWSA frame for the MSA solvers.
 
-    B is cross-axially corrected by ``magnetic_stage`` (W and c of a rotation
-    fit; None for none) but keeps its interference: that is what MSA solves.
+    B goes through the ``model``'s magnetometer stages before seed 002's (its
+    own, the shared mount) and the cross-axial correction of its magnetic
+    stage (W and c of a rotation fit), but keeps its interference: that is
+    what MSA solves.
     """
     force = np.array([s.specific_force_mps2 for s in stations], dtype=float).reshape(-1, 3)
-    field = np.array([s.field_nT for s in stations], dtype=float).reshape(-1, 3)
-    if magnetic_stage is not None:
-        field = apply_cross_axial(field, magnetic_stage)
+    field = model.apply_magnetic(
+        np.array([s.field_nT for s in stations], dtype=float).reshape(-1, 3), before='magnetic')
+    if model.magnetic is not None:
+        field = apply_cross_axial(field, model.magnetic)
     return gravity_from_specific_force(force), iscwsa_from_tool(field)
 
 

@@ -80,7 +80,8 @@ def load_readings(args):
 def fit(args, lines):
     """Fit the rotation of ``args.input`` into ``args.calibration``; see ``run_fit``."""
     existing = load_existing(args.calibration)
-    readings = load_readings(args)
+    # Fitted in the tool frame: after the magnetometer's own stages and the shared mount.
+    readings = existing.apply_magnetic(load_readings(args), before='magnetic')
     try:
         result = fit_cross_axial(readings)
     except RotationFitRefused as err:

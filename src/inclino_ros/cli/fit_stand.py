@@ -3,12 +3,22 @@
 
 Input: a CSV with the columns ``inclination_deg, toolface_deg, ax, ay, az``
 (one row per sample or per averaged position; m/s^2, REP 145 z-up specific
-force; an optional ``temperature_c``), or a bag with the raw sensor on
-``/imu/data_raw`` and the stand attitude on ``/stand/attitude``
-(Vector3Stamped: x inclination_deg, y seed-000 toolface_deg; each Imu sample
+force; an optional ``temperature_c``), and for the magnetometer
+``azimuth_deg`` (the magnetic azimuth of the hole direction) and ``bx, by,
+bz`` [nT, tool frame]; or a bag with the raw sensor on ``/imu/data_raw``,
+the stand attitude on ``/stand/attitude`` (Vector3Stamped: x
+inclination_deg, y seed-000 toolface_deg, z azimuth_deg; each Imu sample
 takes the latest attitude at or before its stamp), optionally
-``/imu/temperature``: what ``inclino simulate --stand`` writes.  Samples of
-one attitude are averaged into one position.
+``/imu/temperature`` and ``--mag-topic``.  Samples of one attitude are
+averaged into one position.
+
+With a reference field (``--reference-total-nT`` and
+``--reference-dip-deg``, or ``--site``) and magnetometer readings, the
+magnetometer's K_m and bias are fitted too (seed 001 Eq. 12: the same fit
+against the field expected at each position), into the stages
+``magnetometer`` and ``magnetometer_alignment``; refused beyond
+``--max-field-rms-deg``.  Positions that differ only in azimuth are one
+attitude for the accelerometer (averaged).
 
 ``--method stand`` fits ``A = K G + b`` to the positions (``stand.fit_stand``);
 ``--method sphere`` needs no attitude and fits every sample to ``|G| = g``
@@ -16,9 +26,9 @@ one attitude are averaged into one position.
 A temperature stage already in the file is applied to the readings first
 (at their temperature, else at its reference), as the model applies it
 before the stand stage.  The new stand stage replaces the old one, keeps the
-temperature stage and drops the installation stage: a stand K contains the
-mounting misalignment, and after a sphere fit the level bench must be
-measured again on the stand-corrected readings.
+other stages and drops the installation and tool-axis stages: a stand K
+contains the mounting misalignment, and after a sphere fit the level bench
+must be measured again on the stand-corrected readings.
 
 Refused (exit 1, the calibration file untouched): a fit ``stand`` refuses
 (too few positions, repeated attitudes, an ill-posed set), a position whose
@@ -27,8 +37,10 @@ inclination residual above ``--max-rms-deg`` (for a sphere fit: the RMS of
 ``|G| - g`` over g, as an angle).
 """
 
+from dataclasses import replace
 from functools import partial
 
+from inclino_ros.calibration.magnetometer import fit_field_stand, merge_repeated_attitudes
 from inclino_ros.calibration.model import CalibrationModel, Stand, utc_now_iso
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
@@ -36,12 +48,17 @@ from inclino_ros.cli.fitting import (
     matrix_lines, new_figure, read_csv, read_topic, Refused, report_paths, run_fit,
     sample_temperatures, save, write_text)
 from inclino_ros.cli.process import NODE_DEFAULTS
+from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core.attitude import angle_between, inclination
-from inclino_ros.core.stand import fit_sphere, fit_stand, stand_specific_force, StandFitRefused
+from inclino_ros.core.stand import (
+    fit_sphere, fit_stand, MIN_SEPARATION_DEG, stand_specific_force, StandFitRefused)
+from inclino_ros.io.timing import pair_nearest
 import numpy as np
 
 ATTITUDE_TOPIC = '/stand/attitude'
 ATTITUDE_COLUMNS = ('inclination_deg', 'toolface_deg')
+AZIMUTH_COLUMN = 'azimuth_deg'
+FIELD_COLUMNS = ('bx', 'by', 'bz')
 REPORT_NAME = 'fit_stand'
 
 
@@ -65,6 +82,14 @@ def register(subparsers):
                              '%(default)s)')
     parser.add_argument('--gravity-mps2', type=float, default=NODE_DEFAULTS['gravity_mps2'],
                         help='local gravity [m/s^2] (default: %(default)s)')
+    magnetic = parser.add_argument_group('magnetometer (seed 001 Eq. 12)')
+    magnetic.add_argument('--mag-topic', default='/imu/mag',
+                          help='sensor_msgs/MagneticField topic of a bag (default: %(default)s)')
+    magnetic.add_argument('--max-field-rms-deg', type=float,
+                          default=NODE_DEFAULTS['stand.max_field_rms_deg'],
+                          help='largest RMS angle between the corrected and the expected field '
+                               '[deg] (default: %(default)s)')
+    add_reference_arguments(magnetic)
     parser.set_defaults(func=run)
 
 
@@ -76,15 +101,18 @@ def run(args):
 def fit(args, lines):
     """Fit the stand stage of ``args.input`` into ``args.calibration``; see ``run_fit``."""
     existing = load_existing(args.calibration)
-    readings, attitude_deg, temperature_c = load_input(args)
+    readings, attitude_deg, temperature_c, fields = load_input(args)
     if existing.temperature is not None:
         readings = CalibrationModel(3, temperature=existing.temperature).apply(
             readings, temperature_c)
         lines.append('temperature stage of the file applied to the readings first ('
                      + ('at their temperatures)' if temperature_c is not None else
                         'no temperatures in the input: at its reference temperature)'))
+    magnetometer = {}
     if args.method == 'stand':
         stage, refusal, draw = fit_positions(args, readings, attitude_deg, lines)
+        if not refusal:
+            magnetometer = fit_magnetometer(args, existing, fields, attitude_deg, stage, lines)
     else:
         stage, refusal, draw = fit_readings(args, readings, lines)
     # A refused fit reports beside, not over, the report of the fit in the file.
@@ -95,7 +123,8 @@ def fit(args, lines):
     if refusal:
         raise Refused(refusal)
     dropped = existing.installation is not None
-    save(args.calibration, CalibrationModel(3, stand=stage, temperature=existing.temperature))
+    save(args.calibration, replace(existing, stand=stage, installation=None, tool_axis=None,
+                                   **magnetometer))
     lines.append(f'wrote {args.calibration}: stand stage ({args.method}, {stage.positions} '
                  f'{"positions" if args.method == "stand" else "readings"})'
                  + (', temperature stage kept' if existing.temperature else ''))
@@ -111,23 +140,33 @@ def fit(args, lines):
 
 def load_input(args):
     """
-    Return (readings (N, 3), attitude_deg (N, 2) or None, temperature_c (N,) or None).
+    Return (readings (N, 3), attitude_deg (N, 3) or None, temperature_c or None, fields or None).
 
-    The attitude is required for ``--method stand`` only.
+    The attitude (inclination, toolface, azimuth: 0 without the column) is
+    required for ``--method stand`` only; fields (N, 3) [nT] are the paired
+    magnetometer readings, when the input has them.
     """
     need_attitude = args.method == 'stand'
     if not is_bag(args.input):
         table = read_csv(args.input, (ATTITUDE_COLUMNS if need_attitude else ()) + AXIS_COLUMNS,
-                         optional=('temperature_c',))
+                         optional=('temperature_c', AZIMUTH_COLUMN) + FIELD_COLUMNS)
         readings = np.column_stack([table[name] for name in AXIS_COLUMNS])
-        attitude_deg = (np.column_stack([table[name] for name in ATTITUDE_COLUMNS])
-                        if need_attitude else None)
-        return readings, attitude_deg, table.get('temperature_c')
+        attitude_deg = (np.column_stack(
+            [table[name] for name in ATTITUDE_COLUMNS]
+            + [table.get(AZIMUTH_COLUMN, np.zeros(len(readings)))]) if need_attitude else None)
+        fields = (np.column_stack([table[name] for name in FIELD_COLUMNS])
+                  if all(name in table for name in FIELD_COLUMNS) else None)
+        return readings, attitude_deg, table.get('temperature_c'), fields
     imu = read_topic(args.input, args.raw_topic)
     temperature_c = (sample_temperatures(imu, args.input, args.temperature_topic)[0]
                      if has_topic(args.input, args.temperature_topic) else None)
     if not need_attitude:
-        return imu.linear_acceleration_mps2, None, temperature_c
+        return imu.linear_acceleration_mps2, None, temperature_c, None
+    fields = None
+    if has_topic(args.input, args.mag_topic):
+        mag = read_topic(args.input, args.mag_topic)
+        fields = pair_nearest(imu.stamps_ns, mag.stamps_ns, mag.field_nT,
+                              round(0.05 * 1e9))[0]
     attitude = read_topic(args.input, args.attitude_topic)
     order = np.argsort(attitude.stamps_ns, kind='stable')
     latest = np.searchsorted(attitude.stamps_ns[order], imu.stamps_ns, side='right') - 1
@@ -135,9 +174,11 @@ def load_input(args):
     if not held.any():
         raise CommandError(f'no sample of {args.raw_topic} comes at or after the first '
                            f'{args.attitude_topic} message')
-    attitude_deg = attitude.vector[order[latest[held]], :2]
+    attitude_deg = attitude.vector[order[latest[held]]]
+    attitude_deg[~np.isfinite(attitude_deg[:, 2]), 2] = 0.0   # z NaN: no azimuth known
     return (imu.linear_acceleration_mps2[held], attitude_deg,
-            None if temperature_c is None else temperature_c[held])
+            None if temperature_c is None else temperature_c[held],
+            None if fields is None else fields[held])
 
 
 def group_positions(readings, attitude_deg):
@@ -173,6 +214,7 @@ def fit_positions(args, readings, attitude_deg, lines):
         raise Refused(
             f'tool moving at position(s) {(moving + 1).tolist()}: spread of the samples up to '
             f'{spread_deg.max():.4f} deg exceeds --max-std-deg {args.max_std_deg} deg')
+    means, attitudes = merge_repeated_attitudes(means, attitudes, MIN_SEPARATION_DEG)
     truth = stand_specific_force(attitudes[:, 0], attitudes[:, 1], args.gravity_mps2)
     try:
         result = fit_stand(means, truth)
@@ -195,6 +237,46 @@ def fit_positions(args, readings, attitude_deg, lines):
     return (stand_stage(result, 'stand', result.rms_inclination_deg, len(means)), refusal,
             partial(plot_positions, raw_deg=raw_deg, after_deg=after_deg,
                     rms_deg=result.rms_inclination_deg))
+
+
+def fit_magnetometer(args, existing, fields, attitude_deg, stand, lines):
+    """
+    Return the magnetometer stages (a dict for ``replace``) of the stand positions, or {}.
+
+    Fitted when the input has magnetometer readings and a reference field is
+    given (seed 001 Eq. 12, ``magnetometer.fit_field_stand``); Refused as it
+    refuses.
+    """
+    try:
+        total_nT, dip_deg, _, source = resolve_reference(args)
+    except ValueError as err:
+        raise CommandError(str(err)) from None
+    if fields is None or total_nT is None or dip_deg is None:
+        lines.append('magnetometer not fitted: ' + (
+            'no bx, by, bz (or magnetometer topic) in the input' if fields is None else
+            'no reference field (--reference-total-nT and --reference-dip-deg, or --site)'))
+        return {}
+    paired = np.isfinite(fields).all(axis=1)
+    fields = existing.apply_magnetic(fields, before='magnetometer')
+    positions, means, _, spread_deg = group_positions(fields[paired], attitude_deg[paired])
+    moving = np.flatnonzero(spread_deg > args.max_std_deg)
+    if moving.size:
+        raise Refused(f'tool moving at position(s) {(moving + 1).tolist()}: spread of the '
+                      f'magnetometer up to {spread_deg.max():.4f} deg exceeds --max-std-deg '
+                      f'{args.max_std_deg} deg')
+    try:
+        fit = fit_field_stand(means, positions, total_nT, dip_deg, stand,
+                              args.max_field_rms_deg)
+    except StandFitRefused as err:
+        raise Refused(err.reason) from None
+    lines.append(f'magnetometer (seed 001 Eq. 12) against {total_nT:.1f} nT, dip '
+                 f'{dip_deg:.3f} deg ({source}): {len(means)} positions, field residual '
+                 f'{fit.rms_residual_deg:.4f} deg RMS (worst {fit.residual_deg.max():.4f})')
+    lines += matrix_lines('K_m (m = K_m B + b_m, symmetric part)',
+                          fit.magnetometer.scale_matrix, '10.6f')
+    lines.append('bias_nT: ' + ' '.join(f'{v:.1f}' for v in fit.magnetometer.bias_nT)
+                 + f"; axes turned {fit.alignment.angle_deg:.4f} deg into the accelerometer's")
+    return {'magnetometer': fit.magnetometer, 'magnetometer_alignment': fit.alignment}
 
 
 def fit_readings(args, readings, lines):

@@ -11,7 +11,7 @@ import importlib
 import sys
 
 COMMANDS = ('simulate', 'process', 'play', 'calibrate', 'demo', 'fit-stand', 'fit-temperature',
-            'msa', 'simulate-well', 'fit-rotation')
+            'msa', 'simulate-well', 'fit-rotation', 'fit-magnetometer', 'survey')
 
 
 def build_parser():
@@ -26,9 +26,25 @@ def build_parser():
     return parser
 
 
+def build_command_parser(argv):
+    """
+    Return the parser of the subcommand ``argv`` names (only its module imported), else all.
+
+    Loading every subcommand's module costs more than a quick command's work.
+    """
+    if argv and argv[0] in COMMANDS:
+        parser = argparse.ArgumentParser(prog='inclino')
+        subparsers = parser.add_subparsers(dest='command', required=True)
+        importlib.import_module(f'inclino_ros.cli.{argv[0].replace("-", "_")}').register(
+            subparsers)
+        return parser
+    return build_parser()
+
+
 def main(argv=None):
     """Run one subcommand; return its exit code."""
-    args = build_parser().parse_args(argv)
+    argv = sys.argv[1:] if argv is None else list(argv)
+    args = build_command_parser(argv).parse_args(argv)
     return args.func(args)
 
 

@@ -144,12 +144,22 @@ def load_stations(args):
 
 def calibrated_field(args, table, lines):
     """
-    Return the model of ``args.calibration``; its cross-axial stage applied to ``table['B']``.
+    Return the model of ``args.calibration``, its corrections applied to ``table['B']``.
+
+    The magnetometer stages up to seed 002's cross-axial correction correct
+    the raw readings of ``table['B']``.
 
     ISCWSA and tool axes differ by a turn about x (``magnetics.iscwsa_from_tool``,
     its own inverse): B is turned into the tool frame, corrected and turned back.
     """
     model = load_existing(args.calibration)
+    before = model.magnetometer_stages[:model.magnetometer_stages.index('magnetic')] \
+        if model.magnetic is not None else model.magnetometer_stages
+    if before or model.stand is not None:
+        table['B'] = magnetics.iscwsa_from_tool(model.apply_magnetic(
+            magnetics.iscwsa_from_tool(table['B']), before='magnetic'))
+        lines.append(f"magnetometer stages of {args.calibration} before seed 002's applied "
+                     f'to B: {", ".join(before) or "the accelerometer frame turn"}')
     stage = model.magnetic
     if stage is not None and stage.rotation_fitted_at is not None:
         table['B'] = magnetics.iscwsa_from_tool(

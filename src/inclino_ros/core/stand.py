@@ -21,6 +21,7 @@ import math
 
 from inclino_ros.core.attitude import angle_between, as_vectors, inclination, specific_force
 import numpy as np
+from scipy.linalg import polar
 
 #: Least stand positions: 12 unknowns (K and b), three equations per position,
 #: and six is the classic six-position set (each axis up and down).
@@ -214,6 +215,22 @@ def fit_sphere(readings, g):
     residual = np.linalg.norm(correct_stand(readings, scale_matrix, bias), axis=1) - g
     return SphereFit(scale_matrix=scale_matrix, bias_mps2=bias, condition_number=condition,
                      residual_mps2=residual, rms_residual_mps2=_rms(residual))
+
+
+def rotation_part(matrix):
+    """
+    Return the rotation nearest ``matrix`` (3x3): the orthogonal factor of its polar decomposition.
+
+    ``matrix = U P`` with U a rotation and P symmetric positive definite
+    (``scipy.linalg.polar``).  For a correction ``K^-1`` it is the turn the
+    correction gives the sensing axes, free of their scales and of the
+    symmetric part of their non-orthogonality.  ValueError for a reflection
+    (a determinant that is not positive).
+    """
+    matrix = np.asarray(matrix, dtype=float)
+    if not np.linalg.det(matrix) > 0.0:
+        raise ValueError('the matrix mirrors (determinant not positive): no rotation part')
+    return polar(matrix)[0]
 
 
 def _refuse_non_finite(values, name):

@@ -237,7 +237,8 @@ class InclinometerNode(Node):
             self.temperature.status(self.get_name(), now_s, self.param('temperature.max_age_s'),
                                     self.model.temperature),
             self.magnetometer.status(self.get_name(), self.magnetic_settings,
-                                     self.model.magnetic, len(self.magnetic.stations))]
+                                     self.model.magnetic, len(self.magnetic.stations),
+                                     self.model)]
         self.diagnostics_pub.publish(array)
 
     def _calibration_status(self):

@@ -57,7 +57,9 @@ class MagneticServices:
             captured = await self.collector.collect(
                 'rotation', duration_s=node.param('rotation.duration_s'))
             field = captured.field_nT[np.isfinite(captured.field_nT).all(axis=1)]
-            fit = fit_cross_axial(field)
+            # The ellipse is fitted in the tool frame: after the magnetometer's own stages
+            # and the shared mount, before seed 002's.
+            fit = fit_cross_axial(node.model.apply_magnetic(field, before='magnetic'))
             stage = replace(self._stage(), hard_iron_nT=tuple(fit.offset_nT.tolist()),
                             soft_iron=tuple(map(tuple, fit.correction.tolist())),
                             interference_nT=(0.0, 0.0, 0.0), rotation_fitted_at=utc_now_iso(),
@@ -127,7 +129,7 @@ class MagneticServices:
             return self.collector.refuse(response, 'MSA needs the reference field: set '
                                          'magnetic.reference_total_nT and reference_dip_deg')
         stage = self._stage()
-        gravity, field = msa_inputs(self.stations, node.model.magnetic)
+        gravity, field = msa_inputs(self.stations, node.model)
         try:
             result = SOLVERS[method](gravity, field, settings.reference_total_nT,
                                      settings.reference_dip_deg)

@@ -93,6 +93,10 @@ PARAMETERS = (
     Parameter('stand.toolface_deg', 0.0,
               'Stand attitude of the next ~/capture_position: seed000 toolface [deg].',
               0.0, 360.0, read_only=False),
+    Parameter('stand.azimuth_deg', 0.0,
+              'Stand attitude of the next ~/capture_position: magnetic azimuth of the hole '
+              'direction [deg] (as survey.z); used with magnetic.reference_* for the '
+              'magnetometer.', 0.0, 360.0, read_only=False),
     Parameter('stand.samples', 100,
               'Samples a stand position capture collects after the service call.',
               2, 1000000, read_only=False),
@@ -105,6 +109,10 @@ PARAMETERS = (
     Parameter('stand.max_rms_deg', 0.05,
               'Largest inclination residual RMS [deg] of a stand fit over its own positions: '
               'beyond it ~/solve_stand_calibration refuses.', 1e-4, 10.0, read_only=False),
+    Parameter('stand.max_field_rms_deg', 0.1,
+              'Largest RMS angle [deg] between the corrected and the expected field over the '
+              'stand positions: beyond it ~/solve_stand_calibration refuses.', 1e-4, 10.0,
+              read_only=False),
     Parameter('stations_file', '~/.ros/inclino_ros/stations.json',
               'Survey stations of ~/take_survey for ~/solve_msa: loaded at start (a corrupt '
               'file stops the node), written atomically.'),

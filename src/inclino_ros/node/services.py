@@ -47,7 +47,8 @@ class CalibrationServices:
             installation = solve_level_capture(
                 node.model.apply(captured.raw, captured.temperatures_c, before='installation'),
                 node.settings.accelerometer_axes, limits)
-            self.collector.commit(replace(node.model, installation=installation))
+            # The level bench measures the whole mount: a tool axis on top would count twice.
+            self.collector.commit(replace(node.model, installation=installation, tool_axis=None))
         except CaptureRefused as err:
             return self.collector.refuse(response, str(err))
         return self.collector.answer(response, (
@@ -63,44 +64,71 @@ class CalibrationServices:
                 response, 'stand calibration needs a three-axis accelerometer')
         inclination_deg = node.param('stand.inclination_deg')
         toolface_deg = node.param('stand.toolface_deg')
+        azimuth_deg = node.param('stand.azimuth_deg')
+        reference = self.reference()
         try:
-            check_new_attitude(self.positions, inclination_deg, toolface_deg)
+            check_new_attitude(self.positions, inclination_deg, toolface_deg, azimuth_deg,
+                               reference)
             captured = await self.collector.collect('stand')
+            fields = (None if reference is None else
+                      node.model.apply_magnetic(captured.field_nT, before='magnetometer'))
             position = average_position(
                 node.model.apply(captured.raw, captured.temperatures_c, before='stand'),
-                inclination_deg, toolface_deg, node.param('stand.max_std_deg'))
+                inclination_deg, toolface_deg, node.param('stand.max_std_deg'), fields,
+                azimuth_deg)
         except CaptureRefused as err:
             return self.collector.refuse(
                 response, str(err), f'{len(self.positions)} positions kept')
         self.positions.append(position)
         mean = ', '.join(f'{v:.5f}' for v in position.reading_mps2)
+        field = ('' if reference is None else
+                 '; no paired imu/mag reading' if position.field_nT is None else
+                 f'; field ({", ".join(f"{v:.0f}" for v in position.field_nT)}) nT, spread '
+                 f'{position.field_std_deg:.4f} deg')
         response.success = True
         response.message = (
             f'position {len(self.positions)} captured at inclination_deg={inclination_deg} '
-            f'toolface_deg={toolface_deg}: mean ({mean}) m/s^2, spread '
-            f'{position.std_deg:.4f} deg from {position.samples} samples; '
+            f'toolface_deg={toolface_deg} azimuth_deg={azimuth_deg}: mean ({mean}) m/s^2, '
+            f'spread {position.std_deg:.4f} deg from {position.samples} samples{field}; '
             f'{len(self.positions)} positions held (solve needs at least 6)')
         node.get_logger().info(response.message)
         return response
 
+    def reference(self):
+        """Return the reference field (total nT, dip deg), None while it is unknown."""
+        settings = self.node.magnetic_settings
+        if settings.reference_total_nT <= 0:
+            return None
+        return settings.reference_total_nT, settings.reference_dip_deg
+
     def solve_stand_calibration(self, request, response):
-        """Fit K and b to the captured positions (seed 001 Eq. 10), persist and apply."""
+        """Fit K and b (seed 001 Eq. 10), and K_m, b_m (Eq. 12) with a reference; apply."""
         node = self.node
         try:
-            stand = solve_positions(self.positions, node.settings.gravity_mps2,
-                                    node.param('stand.max_rms_deg'))
+            stand, field, note = solve_positions(
+                self.positions, node.settings.gravity_mps2, node.param('stand.max_rms_deg'),
+                self.reference(), node.param('stand.max_field_rms_deg'))
             # K is fitted against the tool's attitude on the stand, so it already
             # holds the mounting misalignment: a kept gamma/beta would count it twice.
-            self.collector.commit(replace(node.model, stand=stand, installation=None))
+            model = replace(node.model, stand=stand, installation=None, tool_axis=None)
+            if field is not None:
+                model = replace(model, magnetometer=field.magnetometer,
+                                magnetometer_alignment=field.alignment)
+            self.collector.commit(model)
         except (StandFitRefused, CaptureRefused) as err:
             return self.collector.refuse(response, str(err))
         k = np.array(stand.scale_matrix)
+        magnetometer = note if field is None else (
+            f'magnetometer K_m, b_m fitted (seed 001 Eq. 12): field residual '
+            f'{field.rms_residual_deg:.4f} deg RMS, bias '
+            f'({", ".join(f"{v:.1f}" for v in field.magnetometer.bias_nT)}) nT')
         return self.collector.answer(response, (
-            f'stand calibration from {stand.positions} positions: K diagonal '
+            f'stand calibration from {len(self.positions)} positions: K diagonal '
             f'({", ".join(f"{v:.5f}" for v in np.diag(k))}), bias '
             f'({", ".join(f"{v:.5f}" for v in stand.bias_mps2)}) m/s^2, condition number '
             f'{stand.condition_number:.2f}, residual rms_inclination_deg='
-            f'{stand.rms_inclination_deg:.4f}; installation correction reset (K holds it)'))
+            f'{stand.rms_inclination_deg:.4f}; {magnetometer}; installation correction reset '
+            '(K holds it)'))
 
     def clear_positions(self, request, response):
         """Forget the captured stand positions."""

@@ -5,6 +5,7 @@ import math
 
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 
+from inclino_ros.calibration.model import age_seconds, MOUNT_STAGES
 from inclino_ros.core.screening import REASONS
 from inclino_ros.core.temperature import in_range
 from inclino_ros.io.bag import NT_PER_TESLA
@@ -118,6 +119,31 @@ class TemperatureInput:
         return status
 
 
+#: When each magnetometer stage was made: (stage, field of its time).
+STAGE_TIMES = (('magnetometer', 'fitted_at'), ('magnetometer_alignment', 'fitted_at'),
+               ('installation', 'captured_at'), ('tool_axis', 'fitted_at'),
+               ('magnetic', 'rotation_fitted_at'), ('magnetic', 'msa_fitted_at'))
+
+
+def magnetometer_stage_values(model, now=None):
+    """Return diagnostics values of the magnetometer's stages: names, times and ages [s]."""
+    names = [f'{name} (shared)' if name in MOUNT_STAGES else name
+             for name in model.magnetometer_stages]
+    values = {'magnetometer_stages': ', '.join(names) or 'none: raw readings'}
+    for stage_name, field in STAGE_TIMES:
+        stage = getattr(model, stage_name)
+        moment = None if stage is None else getattr(stage, field)
+        if moment is not None:
+            key = f'{stage_name}_{field}' if stage_name == 'magnetic' else stage_name
+            values[f'{key}'] = moment
+            values[f'{key}_age_s'] = f'{age_seconds(moment, now):.0f}'
+    if model.magnetometer is not None:
+        values['magnetometer_method'] = model.magnetometer.method
+    if model.magnetometer_alignment is not None:
+        values['magnetometer_alignment_deg'] = f'{model.magnetometer_alignment.angle_deg:.4f}'
+    return values
+
+
 class MagneticInput:
     """Recent imu/mag readings, and how the azimuths of the last period fared."""
 
@@ -152,10 +178,18 @@ class MagneticInput:
         self._period[key] += 1
         self._last = (azimuth_survey, row)
 
-    def status(self, node_name, settings, model_stage, stations):
-        """Return the magnetics DiagnosticStatus for the period; reset the period."""
+    def status(self, node_name, settings, model_stage, stations, model=None, now=None):
+        """
+        Return the magnetics DiagnosticStatus for the period; reset the period.
+
+        With ``model``: the magnetometer's stages in the order applied
+        (``magnetometer_stages``, the shared mount marked), each one's time and
+        age in seconds, the alignment's angle.
+        """
         status = DiagnosticStatus(name=f'{node_name}: magnetics', level=DiagnosticStatus.OK)
         values = {key: str(n) for key, n in self._period.items()}
+        if model is not None:
+            values.update(magnetometer_stage_values(model, now))
         values.update(rejected_non_finite=str(self.rejected), stations_held=str(stations),
                       reference_total_nT=f'{settings.reference_total_nT:g}',
                       reference_dip_deg=f'{settings.reference_dip_deg:g}',

@@ -1,0 +1,211 @@
+"""
+The magnetometer's own stages, from a stand (seed 001 Eq. 12) or from shots (no reference).
+
+Both write the same two stages of the model: ``magnetometer`` (K_m, b_m:
+the triad alone) and ``magnetometer_alignment`` (R: its axes turned into the
+accelerometer's sensing axes).  The model applies R and then the turn of the
+accelerometer's own correction (``Stand.rotation``), so R is stored free of
+it: ``R = Stand.rotation^T R_found`` for the R_found a fit finds into the
+accelerometer frame.  The shared mount (``installation``, ``tool_axis``)
+comes after, for both triads.
+"""
+
+from dataclasses import dataclass, replace
+import math
+
+from inclino_ros.calibration.model import (
+    Magnetometer, MagnetometerAlignment, Stand, ToolAxis, utc_now_iso)
+from inclino_ros.core.attitude import angle_between
+from inclino_ros.core.installation import to_tool_frame
+from inclino_ros.core.magnetics import expected_field_tool_nT
+from inclino_ros.core.shots import fit_shots, ShotLimits, tilt_angles
+from inclino_ros.core.stand import fit_stand, rotation_part, StandFitRefused
+import numpy as np
+
+
+def _matrix(array):
+    """Return a 3x3 array as nested tuples (a stage field)."""
+    return tuple(map(tuple, np.asarray(array, dtype=float).tolist()))
+
+
+def split_correction(correction, accelerometer_rotation):
+    """
+    Return (K_m symmetric, R) with ``accelerometer_rotation R K_m^-1 = correction``.
+
+    ``correction`` maps magnetometer readings (bias removed) into the
+    accelerometer frame; its polar decomposition ``U S`` gives the triad's
+    own symmetric part S = K_m^-1 and the turn U, stored without the
+    accelerometer's own turn: ``R = accelerometer_rotation^T U``.
+    """
+    turn = rotation_part(correction)
+    own = turn.T @ correction
+    return np.linalg.inv(0.5 * (own + own.T)), accelerometer_rotation.T @ turn
+
+
+def accelerometer_rotation(stand):
+    """Return the turn of the accelerometer's own correction (identity without a stand stage)."""
+    return np.eye(3) if stand is None else stand.rotation
+
+
+@dataclass(frozen=True)
+class FieldStandFit:
+    """Seed 001 Eq. 12 fitted to stand positions: the two stages and the residual per position."""
+
+    magnetometer: Magnetometer
+    alignment: MagnetometerAlignment
+    residual_deg: np.ndarray   # (P,) angle between the corrected and the expected field
+    rms_residual_deg: float
+
+
+def fit_field_stand(fields_nT, attitudes_deg, reference_total_nT, reference_dip_deg, stand,
+                    max_rms_deg):
+    """
+    Return the FieldStandFit of the magnetometer at stand positions, or raise StandFitRefused.
+
+    ``fields_nT`` (P, 3): mean raw readings per position; ``attitudes_deg``
+    (P, 3): inclination, seed-000 toolface and magnetic azimuth of each; the
+    truth is the reference field seen from the tool
+    (``magnetics.expected_field_tool_nT``) and the fit ``stand.fit_stand``,
+    the accelerometer's (Eq. 12 is Eq. 10 against another truth), with its
+    refusals.  ``stand`` is the accelerometer's new stand stage: the fitted
+    K_m maps the readings into the tool frame, which is its frame.  Refused
+    too when the RMS angle between corrected and expected fields over the
+    positions exceeds ``max_rms_deg``.
+    """
+    fields_nT = np.asarray(fields_nT, dtype=float).reshape(-1, 3)
+    attitudes_deg = np.asarray(attitudes_deg, dtype=float).reshape(-1, 3)
+    truth = expected_field_tool_nT(attitudes_deg[:, 0], attitudes_deg[:, 1],
+                                   attitudes_deg[:, 2], reference_total_nT, reference_dip_deg)
+    try:
+        fit = fit_stand(fields_nT, truth)
+    except StandFitRefused as err:
+        raise StandFitRefused(f'magnetometer: {err.reason}') from None
+    corrected = fit.apply(fields_nT)
+    residual_deg = np.degrees(angle_between(corrected, truth))
+    rms_deg = float(np.sqrt(np.mean(residual_deg ** 2)))
+    if rms_deg > max_rms_deg:
+        worst = int(np.argmax(residual_deg))
+        raise StandFitRefused(
+            f'the magnetometer fit does not reproduce its positions: the corrected field is '
+            f'{rms_deg:.4f} deg RMS from the expected one (limit {max_rms_deg} deg; worst: '
+            f'position {worst + 1}, {residual_deg[worst]:.4f} deg): a wrong azimuth, a wrong '
+            'reference field, or iron near the stand')
+    k_m, rotation = split_correction(np.linalg.inv(fit.scale_matrix),
+                                     accelerometer_rotation(stand))
+    now = utc_now_iso()
+    rms_nT = float(np.sqrt(np.mean(np.sum((corrected - truth) ** 2, axis=1))))
+    return FieldStandFit(
+        magnetometer=Magnetometer(
+            scale_matrix=_matrix(k_m), bias_nT=tuple(fit.bias_mps2.tolist()), method='stand',
+            condition_number=float(fit.condition_number), rms_residual_nT=rms_nT,
+            field_nT=float(reference_total_nT), positions=int(fields_nT.shape[0]),
+            fitted_at=now),
+        alignment=MagnetometerAlignment(
+            rotation=_matrix(rotation), method='stand', dip_deg=None, dip_rms_deg=None,
+            shots=int(fields_nT.shape[0]), fitted_at=now),
+        residual_deg=residual_deg, rms_residual_deg=rms_deg)
+
+
+def merge_repeated_attitudes(readings, attitudes_deg, min_separation_deg):
+    """
+    Return (readings, attitudes) with repeats of one accelerometer attitude averaged.
+
+    Stand positions that differ only in azimuth read the same specific force:
+    new attitudes for the magnetometer, repeats for the accelerometer.
+    ``attitudes_deg`` (P, 3): inclination, toolface, azimuth; positions whose
+    gravity directions lie within ``min_separation_deg`` and whose azimuths
+    differ are one.  A repeat of the whole attitude stays, for ``fit_stand``
+    to refuse.
+    """
+    readings = np.asarray(readings, dtype=float).reshape(-1, 3)
+    attitudes_deg = np.asarray(attitudes_deg, dtype=float)
+    i, t = np.radians(attitudes_deg[:, 0]), np.radians(attitudes_deg[:, 1])
+    unit = np.stack([np.sin(i) * np.cos(t), np.sin(i) * np.sin(t), np.cos(i)], axis=1)
+    owner = np.arange(len(unit))
+    for k in range(len(unit)):
+        near = np.flatnonzero(
+            (np.degrees(angle_between(unit[:k], unit[k])) < min_separation_deg)
+            & (np.abs((attitudes_deg[:k, 2] - attitudes_deg[k, 2] + 180.0) % 360.0 - 180.0)
+               >= min_separation_deg))
+        if near.size:
+            owner[k] = owner[near[0]]
+    kept = np.unique(owner)
+    means = np.array([readings[owner == k].mean(axis=0) for k in kept])
+    return means, attitudes_deg[kept, :2]
+
+
+@dataclass(frozen=True)
+class ShotCalibration:
+    """A reference-free calibration: the new model, the fit, and what changed (text lines)."""
+
+    model: object
+    fit: object
+    notes: tuple
+
+
+def calibrate_from_shots(existing, accel_mps2, field_nT, roll_group=None, temperature_c=None,
+                         gravity_mps2=9.80665, reference_total_nT=None, limits=ShotLimits()):
+    """
+    Return the ShotCalibration of shots (``core.shots.fit_shots``) on top of ``existing``.
+
+    The accelerometer is fitted too unless ``existing`` has a stand stage (then
+    its readings are corrected by it and its frame kept, with the
+    installation).  A new accelerometer frame drops the installation, which
+    was measured in the old one (as ``fit-stand --method sphere`` does).  With
+    roll groups the tool axis is measured after the installation stage and
+    becomes the ``tool_axis`` stage.  Every other stage is kept.  Raises
+    ShotFitRefused with the reason.
+    """
+    fit_accel = existing.stand is None
+    accel = existing.apply(accel_mps2, temperature_c,
+                           before='stand' if fit_accel else 'installation')
+    field = existing.apply_magnetic(field_nT, before='magnetometer')
+    fit = fit_shots(accel, field, roll_group, gravity_mps2, reference_total_nT, fit_accel, limits)
+    now = utc_now_iso()
+    notes = []
+    stand = existing.stand
+    installation = existing.installation
+    if fit_accel:
+        stand = Stand(scale_matrix=_matrix(fit.accel_matrix),
+                      bias_mps2=tuple(fit.accel_bias_mps2.tolist()), method='sphere',
+                      condition_number=float(fit.condition_number), rms_inclination_deg=None,
+                      positions=int(accel.shape[0]), fitted_at=now)
+        notes.append('accelerometer fitted too (no stand stage in the file): stand stage, '
+                     'method sphere')
+        if installation is not None:
+            installation = None
+            notes.append("installation stage dropped: it was measured in the accelerometer's "
+                         'previous frame' + ('' if fit.tool_axis is not None else
+                                             '; calibrate the level bench again or give '
+                                             'roll groups'))
+    else:
+        notes.append("accelerometer stand stage of the file kept (its frame is the tool's)")
+    k_m, rotation = split_correction(fit.alignment @ np.linalg.inv(fit.mag_matrix),
+                                     accelerometer_rotation(stand))
+    magnetometer = Magnetometer(
+        scale_matrix=_matrix(k_m), bias_nT=tuple(fit.mag_bias_nT.tolist()), method='ellipsoid',
+        condition_number=float(fit.condition_number),
+        rms_residual_nT=float(np.sqrt(np.mean((fit.b_total_nT - fit.field_nT) ** 2))),
+        field_nT=float(fit.field_nT), positions=int(accel.shape[0]), fitted_at=now)
+    alignment = MagnetometerAlignment(
+        rotation=_matrix(rotation), method='dip', dip_deg=float(fit.dip_deg),
+        dip_rms_deg=float(fit.dip_rms_deg), shots=int(accel.shape[0]), fitted_at=now)
+    tool_axis = existing.tool_axis
+    if fit.tool_axis is not None:
+        axis = fit.tool_axis if installation is None else to_tool_frame(
+            fit.tool_axis, installation.inverse_matrix)
+        gamma, beta = (math.degrees(float(v)) for v in tilt_angles(axis))
+        tool_axis = ToolAxis(gamma_deg=gamma, beta_deg=beta, roll_groups=len(fit.groups),
+                             shots=int(np.sum(np.asarray(roll_group) >= 0)),
+                             axial_rms_deg=float(np.sqrt(np.mean(fit.axial_rms_deg ** 2))),
+                             fitted_at=now)
+    elif fit_accel and tool_axis is not None:
+        tool_axis = None
+        notes.append("tool_axis stage dropped: it was measured in the accelerometer's "
+                     'previous frame')
+    if existing.magnetic is not None:
+        notes.append('magnetic (seed 002) stage kept: it was fitted on the previous '
+                     'magnetometer correction; fit the rotation and MSA again')
+    model = replace(existing, stand=stand, installation=installation, tool_axis=tool_axis,
+                    magnetometer=magnetometer, magnetometer_alignment=alignment)
+    return ShotCalibration(model=model, fit=fit, notes=tuple(notes))

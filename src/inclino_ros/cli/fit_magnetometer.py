@@ -1,0 +1,313 @@
+"""
+``inclino fit-magnetometer``: calibrate both triads from shots, without a stand or a reference.
+
+Input: a CSV with the columns ``ax, ay, az`` (m/s^2, REP 145 specific
+force, tool frame, z along the tool axis), ``bx, by, bz`` (nT, same frame)
+and optionally ``roll_group`` (rows with the same non-empty value were
+taken with the tool axis held in one direction and the tool turned about
+it) and ``temperature_c``; one row per still shot.  Or a bag: the still
+segments of ``--raw-topic`` and ``--mag-topic`` are found (every window of
+``--still-window-s`` whose directions spread less than ``--max-still-deg``
+on both triads, joined into segments of at least ``--min-still-s``) and each
+becomes a shot (no roll groups).
+
+One joint fit (``core.shots``) finds the magnetometer ellipsoid (hard iron,
+full soft iron), the accelerometer's when the file has no stand stage, the
+rotation between the triads (the dip is constant) and, from the roll
+groups, the tool axis (seed 000's installation without a level bench).  The
+file gets the stages ``magnetometer``, ``magnetometer_alignment``,
+``tool_axis`` (with roll groups) and ``stand`` (method sphere, when fitted);
+its other stages are kept, but a new accelerometer frame drops the
+installation measured in the old one.  The field is scaled to
+``--reference-total-nT`` (or ``--site``) if given, else to the sensor's own
+mean scale.
+
+Report (``fit_magnetometer.txt``, and ``fit_magnetometer.png`` with
+``--plot``: matplotlib alone takes longer to load than the whole fit): |g|,
+|B| and dip per shot before (the file's correction, raw for a new file) and
+after; the azimuth and inclination spread of each roll group before and after.
+
+Refused, exit 1 with the reason and the calibration file byte-identical: a
+missing column, non-finite rows (named), too few shots, readings in uT (or
+another unit) where nT are expected, a field that never changes (no
+rotation), all shots in one plane, a fit that does not make |B|, |g| and
+the dip constant, a roll group not held on its axis, outlier shots (named).
+"""
+
+from dataclasses import replace
+import math
+
+from inclino_ros.calibration.magnetometer import calibrate_from_shots
+from inclino_ros.cli.errors import CommandError
+from inclino_ros.cli.fitting import (
+    add_file_arguments, finish_figure, is_bag, load_existing, new_figure, read_topic, Refused,
+    report_paths, run_fit, save, TEMPERATURE_TOPIC, write_text)
+from inclino_ros.cli.process import NODE_DEFAULTS
+from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
+from inclino_ros.core import magnetics
+from inclino_ros.core.attitude import angle_between
+from inclino_ros.core.shots import ShotFitRefused, ShotLimits
+from inclino_ros.io import tables
+from inclino_ros.io.timing import pair_nearest
+import numpy as np
+
+REPORT_NAME = 'fit_magnetometer'
+ACCEL_COLUMNS = ('ax', 'ay', 'az')
+FIELD_COLUMNS = ('bx', 'by', 'bz')
+GROUP_COLUMN = 'roll_group'
+
+
+def register(subparsers):
+    """Add the ``fit-magnetometer`` subcommand."""
+    parser = subparsers.add_parser(
+        'fit-magnetometer',
+        help='calibrate magnetometer and accelerometer from shots in many orientations '
+             '(no stand, no reference)', description=__doc__.split('\n\n', 1)[1])
+    add_file_arguments(parser, 'CSV file (ax, ay, az, bx, by, bz [, roll_group])')
+    parser.add_argument('--gravity-mps2', type=float, default=NODE_DEFAULTS['gravity_mps2'],
+                        help='local gravity [m/s^2] (default: %(default)s)')
+    parser.add_argument('--plot', action='store_true',
+                        help='also draw the report as fit_magnetometer.png')
+    parser.add_argument('--max-dip-rms-deg', type=float, default=ShotLimits.max_dip_rms_deg,
+                        help='largest RMS of the dip the fit may leave [deg] (default: '
+                             '%(default)s)')
+    parser.add_argument('--max-b-rms-fraction', type=float,
+                        default=ShotLimits.max_b_rms_fraction,
+                        help='largest RMS of |B| the fit may leave, a fraction of the field '
+                             '(default: %(default)s)')
+    bag = parser.add_argument_group('bag input')
+    bag.add_argument('--raw-topic', default='/imu/data_raw',
+                     help='sensor_msgs/Imu topic (default: %(default)s)')
+    bag.add_argument('--mag-topic', default='/imu/mag',
+                     help='sensor_msgs/MagneticField topic (default: %(default)s)')
+    bag.add_argument('--temperature-topic', default=TEMPERATURE_TOPIC,
+                     help='sensor_msgs/Temperature topic, if the bag has it (default: '
+                          '%(default)s)')
+    bag.add_argument('--still-window-s', type=float, default=0.5,
+                     help='window of the stillness test [s] (default: %(default)s)')
+    bag.add_argument('--max-still-deg', type=float, default=0.5,
+                     help='largest spread of the directions in a still window [deg] '
+                          '(default: %(default)s)')
+    bag.add_argument('--min-still-s', type=float, default=1.0,
+                     help='shortest still segment taken as a shot [s] (default: %(default)s)')
+    bag.add_argument('--max-pairing-s', type=float, default=0.05,
+                     help='largest time between an Imu sample and its magnetometer message '
+                          '[s] (default: %(default)s)')
+    add_reference_arguments(parser.add_argument_group(
+        'reference field (optional: scales |B| and checks the dip found)'))
+    parser.set_defaults(func=run)
+
+
+def run(args):
+    """Fit, report and write the stages; return the exit code."""
+    return run_fit('fit-magnetometer', args, fit)
+
+
+def read_shots(path):
+    """Return (accel (N, 3), field (N, 3), group labels (N,) or None, temperature or None)."""
+    try:
+        table = tables.read_csv(path, ACCEL_COLUMNS + FIELD_COLUMNS, optional=('temperature_c',),
+                                text=(GROUP_COLUMN,))
+    except tables.TableError as err:
+        raise Refused(str(err)) from None
+    accel = np.column_stack([table[name] for name in ACCEL_COLUMNS])
+    field = np.column_stack([table[name] for name in FIELD_COLUMNS])
+    bad = np.flatnonzero(~(np.isfinite(accel).all(axis=1) & np.isfinite(field).all(axis=1)))
+    if bad.size:
+        raise Refused(f'non-finite values in row(s) {(bad + 1).tolist()} of {path} (data rows, '
+                      'counted from 1 after the header): drop or retake those shots')
+    groups = table.get(GROUP_COLUMN)
+    labels = None
+    if groups is not None and any(groups):
+        names = list(dict.fromkeys(name for name in groups if name))
+        labels = np.array([names.index(name) if name else -1 for name in groups])
+    return accel, field, labels, table.get('temperature_c')
+
+
+def still_segments(stamps_ns, accel, field, window_s, max_deg, min_s):
+    """
+    Return [(start, end)] index ranges of the still segments of a stream.
+
+    Windows of ``window_s`` whose accelerometer and magnetometer directions
+    both spread less than ``max_deg`` (RMS angle about their mean) are still;
+    consecutive still windows join, and a joined run of at least ``min_s`` is
+    a segment.
+    """
+    seconds = (stamps_ns - stamps_ns[0]) / 1e9
+    window = np.floor(seconds / window_s).astype(int)
+    edges = np.flatnonzero(np.diff(window)) + 1
+    starts, ends = np.append(0, edges), np.append(edges, len(window))
+    still = []
+    for start, end in zip(starts, ends):
+        spreads = [np.degrees(np.sqrt(np.mean(angle_between(v[start:end],
+                                                            v[start:end].mean(axis=0)) ** 2)))
+                   for v in (accel, field)]
+        still.append(end - start >= 2 and max(spreads) < max_deg)
+    segments, run_start = [], None
+    for k, is_still in enumerate(still + [False]):
+        if is_still and run_start is None:
+            run_start = k
+        elif not is_still and run_start is not None:
+            first, last = starts[run_start], ends[k - 1]
+            if seconds[last - 1] - seconds[first] >= min_s - window_s:
+                segments.append((first, last))
+            run_start = None
+    return segments
+
+
+def read_bag_shots(args, lines):
+    """Return the shots of the still segments of a bag (no roll groups)."""
+    imu = read_topic(args.input, args.raw_topic)
+    mag = read_topic(args.input, args.mag_topic)
+    field, paired = pair_nearest(imu.stamps_ns, mag.stamps_ns, mag.field_nT,
+                                 round(args.max_pairing_s * 1e9))
+    order = np.argsort(imu.stamps_ns[paired], kind='stable')
+    stamps = imu.stamps_ns[paired][order]
+    accel = imu.linear_acceleration_mps2[paired][order]
+    field = field[paired][order]
+    if stamps.size < 2:
+        raise Refused(f'{args.input}: fewer than two {args.raw_topic} samples with a paired '
+                      f'{args.mag_topic} reading')
+    segments = still_segments(stamps, accel, field, args.still_window_s, args.max_still_deg,
+                              args.min_still_s)
+    lines.append(f'{len(segments)} still segment(s) found in {args.input} '
+                 f'({stamps.size} paired samples)')
+    shots_a = np.array([accel[a:b].mean(axis=0) for a, b in segments]).reshape(-1, 3)
+    shots_b = np.array([field[a:b].mean(axis=0) for a, b in segments]).reshape(-1, 3)
+    return shots_a, shots_b, None, None
+
+
+def fit(args, lines):
+    """Fit the shots of ``args.input`` into ``args.calibration``; see ``run_fit``."""
+    existing = load_existing(args.calibration)
+    try:
+        total_nT, dip_ref, _, source = resolve_reference(args)
+    except ValueError as err:
+        raise CommandError(str(err)) from None
+    if is_bag(args.input):
+        accel, field, labels, temperature_c = read_bag_shots(args, lines)
+    else:
+        accel, field, labels, temperature_c = read_shots(args.input)
+    if accel.shape[0]:
+        problem = magnetics.field_unit_problem(np.median(np.linalg.norm(field, axis=1)))
+        if problem:
+            raise Refused(f'bx, by, bz must be in nT: {problem}')
+    limits = replace(ShotLimits(), max_dip_rms_deg=args.max_dip_rms_deg,
+                     max_b_rms_fraction=args.max_b_rms_fraction)
+    try:
+        result = calibrate_from_shots(existing, accel, field, labels, temperature_c,
+                                      args.gravity_mps2, total_nT, limits)
+    except ShotFitRefused as err:
+        raise Refused(err.reason) from None
+    before = survey_of(existing, accel, field, temperature_c, args.gravity_mps2)
+    after = survey_of(result.model, accel, field, temperature_c, args.gravity_mps2)
+    lines += summary_lines(result, labels, before, after, total_nT, dip_ref, source)
+    png, txt = report_paths(args, REPORT_NAME)
+    if args.plot:
+        plot_report(png, labels, before, after, result.fit.field_nT, args.gravity_mps2)
+    save(args.calibration, result.model)
+    written = ['magnetometer', 'magnetometer_alignment'] + (
+        ['tool_axis'] if result.fit.tool_axis is not None else []) + (
+        ['stand (method sphere)'] if result.fit.accel_matrix is not None else [])
+    lines += [f'wrote the stages {", ".join(written)} to {args.calibration}',
+              f'report: {txt}' + (f', {png}' if args.plot else '')]
+    write_text(txt, lines)
+
+
+def survey_of(model, accel, field, temperature_c, g):
+    """Return per-shot |g|, |B|, dip, inclination, azimuth of ``model`` (up to seed 002)."""
+    f = model.apply(accel, temperature_c)
+    b = model.apply_magnetic(field, before='magnetic')
+    gravity, b_iscwsa = magnetics.gravity_from_specific_force(f), magnetics.iscwsa_from_tool(b)
+    return {'g_total_mps2': magnetics.g_total(gravity), 'b_total_nT': magnetics.b_total_nT(b),
+            'dip_deg': magnetics.dip_deg(gravity, b_iscwsa),
+            'inclination_deg': magnetics.inclination_deg(gravity),
+            'azimuth_deg': magnetics.azimuth_deg(gravity, b_iscwsa)}
+
+
+def circular_spread_deg(angles_deg):
+    """Return the RMS deviation [deg] of angles from their circular mean."""
+    mean = math.degrees(math.atan2(np.mean(np.sin(np.radians(angles_deg))),
+                                   np.mean(np.cos(np.radians(angles_deg)))))
+    return float(np.sqrt(np.mean(((np.asarray(angles_deg) - mean + 180.0) % 360.0 - 180.0) ** 2)))
+
+
+def group_spreads(labels, survey):
+    """Return [(azimuth spread, inclination spread)] [deg] per roll group."""
+    if labels is None:
+        return []
+    return [(circular_spread_deg(survey['azimuth_deg'][labels == k]),
+             float(np.std(survey['inclination_deg'][labels == k])))
+            for k in range(int(labels.max()) + 1)]
+
+
+def summary_lines(result, labels, before, after, total_nT, dip_ref, source):
+    """Return the text summary of a shot calibration."""
+    fit = result.fit
+    model = result.model
+    lines = [f'{len(fit.b_total_nT)} shots, {len(fit.groups)} roll group(s); joint fit in '
+             f'{fit.evaluations} evaluations; noise found: {fit.noise_mps2:.3g} m/s^2, '
+             f'{fit.noise_nT:.3g} nT per shot']
+    lines += list(result.notes)
+    lines.append(f'field scaled to {fit.field_nT:.1f} nT '
+                 + (f'(reference, {source})' if total_nT is not None
+                    else "(the magnetometer's own mean scale: no reference given)"))
+    lines.append(f'dip found {fit.dip_deg:.4f} deg, RMS over the shots {fit.dip_rms_deg:.4f} deg'
+                 + ('' if dip_ref is None else
+                    f'; reference {dip_ref:.4f} deg ({fit.dip_deg - dip_ref:+.4f})'))
+    k_m, bias = model.magnetometer.arrays
+    lines.append('magnetometer K_m: ' + '; '.join(' '.join(f'{v:.6f}' for v in row)
+                                                  for row in k_m)
+                 + '  bias/hard iron nT: ' + ' '.join(f'{v:.1f}' for v in bias))
+    lines.append(f'magnetometer axes turned {model.magnetometer_alignment.angle_deg:.4f} deg '
+                 "into the accelerometer's")
+    if model.tool_axis is not None:
+        axis = model.tool_axis
+        lines.append(f'tool axis from the roll groups: gamma_deg={axis.gamma_deg:.4f} '
+                     f'beta_deg={axis.beta_deg:.4f} (axial RMS left {axis.axial_rms_deg:.4f} deg)')
+    lines.append(f'{"shot":>4} {"group":>5} {"|g| before":>11} {"after":>9} {"|B| before":>11} '
+                 f'{"after":>9} {"dip before":>10} {"after":>8}')
+    for i in range(len(fit.b_total_nT)):
+        group = '' if labels is None or labels[i] < 0 else str(labels[i] + 1)
+        lines.append(f'{i + 1:>4} {group:>5} {before["g_total_mps2"][i]:11.5f} '
+                     f'{after["g_total_mps2"][i]:9.5f} {before["b_total_nT"][i]:11.1f} '
+                     f'{after["b_total_nT"][i]:9.1f} {before["dip_deg"][i]:10.4f} '
+                     f'{after["dip_deg"][i]:8.4f}')
+    for what, key in (('|g| [m/s^2]', 'g_total_mps2'), ('|B| [nT]', 'b_total_nT'),
+                      ('dip [deg]', 'dip_deg')):
+        lines.append(f'spread (std) of {what}: before {np.std(before[key]):.5g}, after '
+                     f'{np.std(after[key]):.5g}')
+    for k, ((az0, inc0), (az1, inc1)) in enumerate(zip(group_spreads(labels, before),
+                                                       group_spreads(labels, after))):
+        lines.append(f'roll group {k + 1}: azimuth spread {az0:.4f} -> {az1:.4f} deg RMS, '
+                     f'inclination spread {inc0:.4f} -> {inc1:.4f} deg, turned over '
+                     f'{fit.roll_deg[k]:.0f} deg')
+    return lines
+
+
+def plot_report(path, labels, before, after, field_nT, g):
+    """Plot |g|, |B|, dip per shot and the azimuth of the roll-group shots, before and after."""
+    pyplot, fig, axes = new_figure(4, 'inclino fit-magnetometer: shots before and after')
+    shot = np.arange(1, len(after['b_total_nT']) + 1)
+    for ax, key, unit, centre in ((axes[0], 'g_total_mps2', 'm/s^2', g),
+                                  (axes[1], 'b_total_nT', 'nT', field_nT),
+                                  (axes[2], 'dip_deg', 'deg', None)):
+        for survey, colour, name in ((before, 'tab:red', 'before'), (after, 'tab:green', 'after')):
+            values = survey[key] - (np.mean(survey[key]) if centre is None else centre)
+            ax.plot(shot, values, 'o', color=colour, markersize=4, label=name)
+        ax.set_ylabel(f'{key} - {"mean" if centre is None else "nominal"} [{unit}]')
+    if labels is not None:
+        for survey, colour, name in ((before, 'tab:red', 'before'), (after, 'tab:green', 'after')):
+            values = np.full(shot.size, np.nan)
+            for k in range(int(labels.max()) + 1):
+                members = labels == k
+                azimuth = survey['azimuth_deg'][members]
+                mean = math.degrees(math.atan2(np.mean(np.sin(np.radians(azimuth))),
+                                               np.mean(np.cos(np.radians(azimuth)))))
+                values[members] = (azimuth - mean + 180.0) % 360.0 - 180.0
+            axes[3].plot(shot, values, 'o', color=colour, markersize=4, label=name)
+    axes[3].set_ylabel('roll-group azimuth - group mean [deg]')
+    axes[3].set_xlabel('shot')
+    for ax in axes:
+        ax.axhline(0.0, color='black', linewidth=0.8)
+    finish_figure(pyplot, fig, axes, path)

@@ -1,0 +1,196 @@
+"""
+``inclino survey``: inclination, toolface and azimuth of each shot of a CSV file.
+
+Input: a CSV with ``ax, ay, az`` (m/s^2, REP 145 specific force, tool frame)
+and ``bx, by, bz`` (nT, same frame), optionally ``temperature_c``; any other
+columns are carried through.  Every row goes through ``pipeline.run`` with
+the calibration file, as in the node and ``inclino process``.
+
+Output: the input columns (one whose name the output uses is kept as
+``input_<name>``) plus ``inclination_deg``, ``toolface_deg``, ``azimuth_deg``,
+``g_total_mps2``, ``b_total_nT``, ``dip_deg`` and ``status`` (``ok`` or why
+the row gave no angles: ``non_finite``, ``saturated``, ``zero``).  The
+azimuth is written wherever it is defined (a field of at least 1000 nT, an
+inclination of at least ``--min-inclination-deg``): QC is a column here,
+not a filter.  With a reference field (``--reference-total-nT`` and
+``--reference-dip-deg``, or ``--site``, else the calibration's MSA
+reference) the QC columns follow: ``b_total_delta_nT``, ``dip_delta_deg``,
+``g_total_delta_mps2`` and the flags ``qc_b_total``, ``qc_dip``,
+``qc_g_total``, ``qc_ok`` (1 pass, 0 fail); with a declination also
+``true_azimuth_deg``.
+
+Exit codes: 0 written, 2 an input that cannot be used (missing column, a
+field not in nT, no calibration file).
+"""
+
+import csv
+import math
+import sys
+
+from inclino_ros.calibration.model import CalibrationFileError, load_model
+from inclino_ros.cli.errors import CommandError
+from inclino_ros.cli.process import NODE_DEFAULTS
+from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
+from inclino_ros.core.magnetics import field_unit_problem, QcLimits, true_azimuth_deg
+from inclino_ros.core.screening import ACCEPTED, REASONS
+from inclino_ros.io import tables
+from inclino_ros.pipeline import MagneticSettings, run as run_pipeline, Settings
+import numpy as np
+
+INPUT_COLUMNS = ('ax', 'ay', 'az', 'bx', 'by', 'bz')
+ANGLE_COLUMNS = ('inclination_deg', 'toolface_deg', 'azimuth_deg', 'g_total_mps2',
+                 'b_total_nT', 'dip_deg')
+QC_COLUMNS = ('b_total_delta_nT', 'dip_delta_deg', 'g_total_delta_mps2', 'qc_b_total',
+              'qc_dip', 'qc_g_total', 'qc_ok')
+
+
+def register(subparsers):
+    """Add the ``survey`` subcommand."""
+    parser = subparsers.add_parser(
+        'survey', help='inclination, toolface, azimuth and QC of each shot of a CSV file',
+        description=__doc__.split('\n\n', 1)[1])
+    parser.add_argument('input', metavar='IN', help='CSV file (ax, ay, az, bx, by, bz)')
+    parser.add_argument('-o', '--output', required=True, metavar='OUT', help='CSV file to write')
+    parser.add_argument('--calibration', required=True, metavar='FILE',
+                        help='calibration file to apply')
+    parser.add_argument('--toolface-convention', choices=('seed000', 'iscwsa_highside'),
+                        default=NODE_DEFAULTS['toolface_convention'],
+                        help='gravity toolface definition (default: %(default)s)')
+    parser.add_argument('--gravity-mps2', type=float, default=NODE_DEFAULTS['gravity_mps2'],
+                        help='local gravity [m/s^2] (default: %(default)s)')
+    parser.add_argument('--min-inclination-deg', type=float,
+                        default=NODE_DEFAULTS['magnetic.min_inclination_deg'],
+                        help='below it the azimuth is undefined (NaN) (default: %(default)s)')
+    add_reference_arguments(parser.add_argument_group('reference field (adds the QC columns)'))
+    parser.set_defaults(func=run)
+
+
+def run(args):
+    """Write the survey of IN to OUT; return the exit code."""
+    try:
+        rows, written = survey(args)
+    except CommandError as err:
+        print(f'inclino survey: error: {err}', file=sys.stderr)
+        return 2
+    print(f'wrote {args.output}: {rows} rows, {written} with an azimuth')
+    return 0
+
+
+def _numbers(rows, header, name):
+    """Return column ``name`` as floats, NaN where a cell is not a number."""
+    index = header.index(name)
+
+    def number(text):
+        try:
+            return float(text)
+        except ValueError:
+            return math.nan
+    return np.array([number(row[index]) if index < len(row) else math.nan for row in rows])
+
+
+def _model(path):
+    """Return the calibration model of ``path``; CommandError if there is none or it is bad."""
+    try:
+        return load_model(path)
+    except FileNotFoundError:
+        raise CommandError(f'no calibration file {path}') from None
+    except (CalibrationFileError, OSError) as err:
+        raise CommandError(str(err)) from None
+
+
+def survey(args):
+    """Compute and write the survey; return (rows, rows with an azimuth)."""
+    try:
+        header, rows = tables.read_rows(args.input)
+    except tables.TableError as err:
+        raise CommandError(str(err)) from None
+    missing = [name for name in INPUT_COLUMNS if name not in header]
+    if missing:
+        raise CommandError(f'{args.input} lacks the column(s) {", ".join(missing)}; it has '
+                           f'{", ".join(header)}')
+    raw, field = (np.column_stack([_numbers(rows, header, n) for n in names])
+                  for names in (INPUT_COLUMNS[:3], INPUT_COLUMNS[3:]))
+    temperature_c = (_numbers(rows, header, 'temperature_c') if 'temperature_c' in header
+                     else None)
+    magnitude = np.linalg.norm(field, axis=1)
+    if np.isfinite(magnitude).any():
+        problem = field_unit_problem(np.nanmedian(magnitude))
+        if problem:
+            raise CommandError(f'bx, by, bz must be in nT: {problem}')
+    model = _model(args.calibration)
+    if model.accelerometer_axes != 3:
+        raise CommandError(f'{args.calibration} is for a two-axis accelerometer: a survey '
+                           'needs three axes')
+    stage = model.magnetic
+    fallback = ((stage.msa_reference_total_nT, stage.msa_reference_dip_deg)
+                if stage is not None and stage.msa_method is not None else (None, None))
+    try:
+        total_nT, dip_deg, declination_deg, _ = resolve_reference(args, fallback)
+        settings = Settings(gravity_mps2=args.gravity_mps2,
+                            accelerometer_range_mps2=NODE_DEFAULTS['accelerometer_range_mps2'],
+                            toolface_convention=args.toolface_convention,
+                            toolface_min_inclination_deg=NODE_DEFAULTS[
+                                'toolface_min_inclination_deg'])
+    except ValueError as err:
+        raise CommandError(str(err)) from None
+    if (total_nT is None) != (dip_deg is None):
+        raise CommandError('the reference needs both --reference-total-nT and '
+                           '--reference-dip-deg (or --site)')
+    magnetic = MagneticSettings(reference_total_nT=total_nT or 0.0,
+                                reference_dip_deg=dip_deg or 0.0,
+                                declination_deg=declination_deg or 0.0, limits=QcLimits(),
+                                min_inclination_deg=args.min_inclination_deg)
+    result = run_pipeline(raw, model, settings, temperature_c, field, magnetic)
+    columns = output_columns(result, declination_deg, total_nT is not None)
+    write(args.output, header, rows, result.codes, columns)
+    return len(rows), int(np.isfinite(columns['azimuth_deg'][1]).sum())
+
+
+def output_columns(result, declination_deg, with_qc):
+    """Return ``{name: (accepted mask, values of the accepted rows)}`` of the output."""
+    accepted = result.accepted
+    azimuth = result.magnetic
+    values = {'inclination_deg': result.inclination_deg, 'toolface_deg': result.toolface_deg,
+              'azimuth_deg': azimuth.defined_azimuth_deg, 'g_total_mps2': result.g_total_mps2,
+              'b_total_nT': azimuth.b_total_nT, 'dip_deg': azimuth.dip_deg}
+    if declination_deg is not None:
+        values['true_azimuth_deg'] = true_azimuth_deg(azimuth.defined_azimuth_deg,
+                                                      declination_deg)
+    if with_qc:
+        qc = azimuth.qc
+        values.update(b_total_delta_nT=qc.b_total_delta_nT, dip_delta_deg=qc.dip_delta_deg,
+                      g_total_delta_mps2=qc.g_total_delta, qc_b_total=qc.b_total_ok,
+                      qc_dip=qc.dip_ok, qc_g_total=qc.g_total_ok, qc_ok=qc.ok)
+    return {name: (accepted, value) for name, value in values.items()}
+
+
+def _cell(value):
+    """Return a CSV cell: 1/0 for flags, repr for numbers, ``nan`` for NaN."""
+    if isinstance(value, (bool, np.bool_)):
+        return '1' if value else '0'
+    return repr(float(value))
+
+
+def write(path, header, rows, codes, columns):
+    """Write the input rows with the output columns (and the status) to ``path``."""
+    names = list(columns) + ['status']
+    renamed = [f'input_{name}' if name in names else name for name in header]
+    if renamed != header:
+        print('inclino survey: input column(s) '
+              + ', '.join(n for n, r in zip(header, renamed) if n != r)
+              + ' kept as input_<name>', file=sys.stderr)
+    status = ['ok' if code == ACCEPTED else REASONS[code] for code in codes]
+    full = {}
+    for name, (accepted, values) in columns.items():
+        column = np.full(len(rows), math.nan, dtype=object)
+        column[accepted] = list(values)
+        full[name] = column
+    try:
+        with open(path, 'w', newline='') as stream:
+            writer = csv.writer(stream)
+            writer.writerow(renamed + names)
+            for i, row in enumerate(rows):
+                writer.writerow(list(row) + [_cell(full[name][i]) for name in columns]
+                                + [status[i]])
+    except OSError as err:
+        raise CommandError(f'cannot write {path}: {err}') from None

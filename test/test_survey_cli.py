@@ -1,0 +1,105 @@
+"""``inclino survey`` and ``inclino fit-stand`` with the magnetometer (issue 8 items 2 and 4)."""
+
+import csv
+
+from inclino_ros.calibration.model import load_model
+from inclino_ros.pipeline import MagneticSettings, run, Settings
+from inclino_ros.sim import sensor_model
+import numpy as np
+import shots_sim
+from shots_sim import angle_error_deg
+from test_magnetometer_stand import POSITIONS_DEG
+from test_msa_cli import quiet
+
+REFERENCE = ('--reference-total-nT', '50000', '--reference-dip-deg', '60')
+
+
+def write_rows(path, header, rows):
+    """Write a CSV file."""
+    with open(path, 'w', newline='') as stream:
+        writer = csv.writer(stream)
+        writer.writerow(header)
+        writer.writerows(rows)
+
+
+def read_rows(path):
+    """Return the rows of a CSV file as dicts of strings."""
+    with open(path, newline='') as stream:
+        return list(csv.DictReader(stream))
+
+
+def stand_csv(path, tool, rng, samples=50):
+    """Write fit-stand's CSV of the tool at the twelve positions (one row per reading)."""
+    rows = []
+    for incl, tf, azim in POSITIONS_DEG:
+        accel, field = shots_sim.read(tool, np.full(samples, incl), np.full(samples, tf),
+                                      np.full(samples, azim), rng)
+        rows += [[incl, tf, azim, *a, *b] for a, b in zip(accel, field)]
+    write_rows(path, ['inclination_deg', 'toolface_deg', 'azimuth_deg', 'ax', 'ay', 'az',
+                      'bx', 'by', 'bz'], rows)
+
+
+def test_fit_stand_then_survey(tmp_path):
+    """fit-stand with a reference writes K and K_m; survey then reads true azimuths, with QC."""
+    rng = np.random.default_rng(12)
+    tool = shots_sim.tool(sensor_model.QUARTZ_FLUXGATE)
+    stand_csv(tmp_path / 'stand.csv', tool, rng)
+    calibration = tmp_path / 'cal.json'
+    code, out, err = quiet(['fit-stand', tmp_path / 'stand.csv', '--calibration', calibration,
+                            *REFERENCE])
+    assert code == 0, err
+    assert 'magnetometer (seed 001 Eq. 12)' in out
+    model = load_model(calibration)
+    assert model.magnetometer.method == 'stand' and model.stand.method == 'stand'
+
+    incl, tf, azim = shots_sim.random_attitudes(rng, 200)
+    accel, field = shots_sim.read(tool, incl, tf, azim, rng)
+    write_rows(tmp_path / 'in.csv', ['shot', 'ax', 'ay', 'az', 'bx', 'by', 'bz', 'azimuth_deg'],
+               [[k, *a, *b, z] for k, (a, b, z) in enumerate(zip(accel, field, azim))])
+    code, _, err = quiet(['survey', tmp_path / 'in.csv', '-o', tmp_path / 'out.csv',
+                          '--calibration', calibration, *REFERENCE])
+    assert code == 0, err
+    rows = read_rows(tmp_path / 'out.csv')
+    assert list(rows[0])[:8] == ['shot', 'ax', 'ay', 'az', 'bx', 'by', 'bz',
+                                 'input_azimuth_deg']
+    for name in ('inclination_deg', 'toolface_deg', 'azimuth_deg', 'g_total_mps2',
+                 'b_total_nT', 'dip_deg', 'qc_b_total', 'qc_dip', 'qc_g_total', 'qc_ok'):
+        assert name in rows[0]
+    azimuth = np.array([float(r['azimuth_deg']) for r in rows])
+    assert np.max(np.abs(angle_error_deg(azimuth, azim))) < 0.1
+    assert all(r['qc_ok'] == '1' and r['status'] == 'ok' for r in rows)
+    # The same core as the node and inclino process: pipeline.run gives the same numbers.
+    survey = run(accel, model, Settings(), None, field, MagneticSettings(50000.0, 60.0))
+    np.testing.assert_array_equal(azimuth, survey.magnetic.azimuth_deg)
+
+
+def test_azimuth_written_where_qc_fails(tmp_path):
+    """QC is a column: a wrong reference fails every row, the azimuth is still written."""
+    rng = np.random.default_rng(13)
+    tool = sensor_model.IDEAL   # true axes, no mount: an empty calibration reads true
+    incl, tf, azim = shots_sim.random_attitudes(rng, 20)
+    accel, field = shots_sim.read(tool, incl, tf, azim, rng, interference_nT=(0.0, 0.0, 0.0))
+    rows = [[*a, *b] for a, b in zip(accel, field)] + [[float('nan')] * 6]
+    write_rows(tmp_path / 'in.csv', ['ax', 'ay', 'az', 'bx', 'by', 'bz'], rows)
+    (tmp_path / 'cal.json').write_text(
+        '{"format": "inclino_ros.calibration", "schema_version": 3, "accelerometer_axes": 3}')
+    code, _, err = quiet(['survey', tmp_path / 'in.csv', '-o', tmp_path / 'out.csv',
+                          '--calibration', tmp_path / 'cal.json', '--reference-total-nT',
+                          '40000', '--reference-dip-deg', '70'])
+    assert code == 0, err
+    out = read_rows(tmp_path / 'out.csv')
+    assert all(r['qc_ok'] == '0' for r in out[:-1])
+    azimuth = np.array([float(r['azimuth_deg']) for r in out[:-1]])
+    assert np.max(np.abs(angle_error_deg(azimuth, azim))) < 1e-6
+    assert out[-1]['status'] == 'non_finite' and out[-1]['azimuth_deg'] == 'nan'
+
+
+def test_microtesla_input_is_named(tmp_path):
+    """A field in uT is an unusable input: exit 2 naming the unit."""
+    write_rows(tmp_path / 'in.csv', ['ax', 'ay', 'az', 'bx', 'by', 'bz'],
+               [[0.0, 0.0, 9.8, 25.0, 0.0, 43.3]])
+    (tmp_path / 'cal.json').write_text(
+        '{"format": "inclino_ros.calibration", "schema_version": 3, "accelerometer_axes": 3}')
+    code, _, err = quiet(['survey', tmp_path / 'in.csv', '-o', tmp_path / 'out.csv',
+                          '--calibration', tmp_path / 'cal.json'])
+    assert code == 2 and 'uT' in err
