@@ -226,7 +226,7 @@ def test_process_azimuth_on_a_common_board(board_chain):
     """
     model = load_model(board_chain['calibration'])
     assert model.magnetometer_stages == ('installation', 'magnetic')
-    assert 'before seed 002\'s applied to B: installation' in board_chain['msa'][1]
+    assert "before seed 002's applied to B: installation" in board_chain['msa'][1]
     np.testing.assert_allclose(model.magnetic.hard_iron_nT, (80.0, 80.0), atol=3.0)
     assert model.magnetic.interference_nT[2] == pytest.approx(-2000.0, abs=15.0)
     assert_azimuths_on_target(board_chain)
