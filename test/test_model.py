@@ -50,7 +50,7 @@ def test_apply_and_properties():
     assert not bare.calibrated
     np.testing.assert_array_equal(bare.apply(f), f)
     assert bare.to_dict() == {'format': FORMAT, 'schema_version': SCHEMA_VERSION,
-                              'accelerometer_axes': 3}
+                              'accelerometer_axes': 3, 'sensor_id': None}
 
 
 @pytest.mark.parametrize('model', [MODEL, CalibrationModel(accelerometer_axes=3)])
@@ -60,7 +60,7 @@ def test_save_load_round_trip(tmp_path, model):
     save_model(str(path), model)
     assert load_model(str(path)) == model
     doc = json.loads(path.read_text())
-    assert doc['format'] == 'inclino_ros.calibration' and doc['schema_version'] == 2
+    assert doc['format'] == 'inclino_ros.calibration' and doc['schema_version'] == 3
     assert os.listdir(path.parent) == ['calibration.json']
 
 
@@ -175,11 +175,14 @@ BAD_DOCUMENTS = {
     'wrong format': (_edit(format='other.calibration'), 'not an inclino_ros.calibration'),
     'no format': (_edit(format=None), 'not an inclino_ros.calibration'),
     'not an object': ([valid_doc()], 'not an inclino_ros.calibration'),
-    'schema 3': (_edit(schema_version=3), 'schema_version 3 is not one of (1, 2)'),
+    'schema 4': (_edit(schema_version=4), 'schema_version 4 is not one of (1, 2, 3)'),
     'schema string': (_edit(schema_version='1'), "schema_version '1' is not one of"),
     'no schema': (_edit(schema_version=None), 'schema_version None is not one of'),
     'schema bool': (_edit(schema_version=True), 'schema_version True is not one of'),
-    'stand in version 1': (_edit(schema_version=1, stand={}), "unknown sections ['stand']"),
+    'stand in version 1': (_edit(schema_version=1, stand={}, sensor_id=None),
+                           "unknown sections ['stand']"),
+    'sensor_id in version 2': (_edit(schema_version=2), "unknown sections ['sensor_id']"),
+    'sensor_id number': (_edit(sensor_id=7), 'sensor_id 7 is not a string'),
     'axes float': (_edit(accelerometer_axes=3.0), 'accelerometer_axes 3.0 is not 2 or 3'),
     'axes 4': (_edit(accelerometer_axes=4), 'accelerometer_axes 4 is not 2 or 3'),
     'no axes': (_edit(accelerometer_axes=None), 'accelerometer_axes'),

@@ -5,7 +5,7 @@ import math
 
 from inclino_ros.calibration.model import (
     CalibrationFileError, CalibrationModel, Installation, load_model, save_model, Stand,
-    Temperature)
+    Temperature, VERSION_3_FIELDS)
 import numpy as np
 import pytest
 
@@ -62,20 +62,34 @@ def test_temperature_is_clamped_and_defaults_to_the_reference():
 
 
 def test_round_trip_with_every_stage(tmp_path):
-    """A model with all stages saves and loads back equal; the file is version 2."""
+    """A model with all stages saves and loads back equal; the file is version 3."""
     path = tmp_path / 'calibration.json'
     save_model(path, MODEL)
     assert load_model(path) == MODEL
-    assert json.loads(path.read_text())['schema_version'] == 2
+    assert json.loads(path.read_text())['schema_version'] == 3
 
 
 def test_version_1_file_still_loads(tmp_path):
-    """A version 1 file (installation only) is read."""
+    """A version 1 file (installation only, no temperature recorded) is read."""
     doc = CalibrationModel(3, installation=INSTALLATION).to_dict()
     doc['schema_version'] = 1
+    del doc['sensor_id'], doc['installation']['temperature_c']
     path = tmp_path / 'calibration.json'
     path.write_text(json.dumps(doc))
     assert load_model(path).installation == INSTALLATION
+
+
+def test_version_2_file_still_loads(tmp_path):
+    """A version 2 file (no sensor_id, no stage temperatures, scale-only drift) is read."""
+    doc = MODEL.to_dict()
+    doc['schema_version'] = 2
+    del doc['sensor_id']
+    for section, added in VERSION_3_FIELDS.items():
+        for field in added:
+            doc.get(section, {}).pop(field, None)
+    path = tmp_path / 'calibration.json'
+    path.write_text(json.dumps(doc))
+    assert load_model(path) == MODEL
 
 
 def edited(section, **changes):
