@@ -368,7 +368,7 @@ def refused_fit(case, tmp_path):
 @pytest.mark.parametrize('case, reason', [
     ('too few positions', 'only 5 stand position'),
     ('repeated attitude', 'are one attitude'),
-    ('moving', 'tool moving at position(s) [7]'),
+    ('moving', 'position 7: tool is moving'),
     ('wrong attitude', 'exceeds --max-rms-deg'),
     ('no 25 C', 'no reading within 1.0 deg C of 25.0'),
     ('few temperatures', 'needs at least 4 distinct temperatures'),

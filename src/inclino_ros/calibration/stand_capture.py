@@ -11,8 +11,8 @@ it becomes the model's ``stand`` stage.
 from dataclasses import dataclass
 import math
 
-from inclino_ros.calibration.level_capture import CaptureRefused
 from inclino_ros.calibration.model import Stand, utc_now_iso
+from inclino_ros.calibration.still_capture import CaptureRefused, require_still_vectors
 from inclino_ros.core.attitude import angle_between
 from inclino_ros.core.stand import (
     fit_stand, MIN_SEPARATION_DEG, stand_specific_force, StandFitRefused)
@@ -26,14 +26,9 @@ class Position:
     inclination_deg: float
     toolface_deg: float
     reading_mps2: tuple  # mean of the temperature-compensated readings
-    std_deg: float       # RMS angle of the samples about their mean direction
+    std_deg: float       # per-sample noise of the direction, one component (still test)
     samples: int
-
-
-def direction_spread_deg(samples):
-    """Return the RMS angle [deg] of the sample directions about their mean direction."""
-    samples = np.asarray(samples, dtype=float)
-    return math.degrees(math.sqrt(np.mean(angle_between(samples, samples.mean(axis=0)) ** 2)))
+    temperature_c: float = None  # what the readings stood for; None: unknown
 
 
 def check_new_attitude(positions, inclination_deg, toolface_deg):
@@ -49,29 +44,43 @@ def check_new_attitude(positions, inclination_deg, toolface_deg):
                 'stand.inclination_deg / stand.toolface_deg to the next stand attitude')
 
 
-def average_position(samples, inclination_deg, toolface_deg, max_std_deg):
-    """Return the Position of a still capture, or raise CaptureRefused if it moved."""
+def average_position(samples, inclination_deg, toolface_deg, limits, times_s=None,
+                     temperature_c=None):
+    """
+    Return the Position of a still capture; CaptureRefused if it moved or is too noisy.
+
+    ``limits`` (``stillness.StillLimits``) as ``still_capture.require_still``
+    applies them to the directions of the samples; ``times_s`` their times.
+    """
     samples = np.asarray(samples, dtype=float)
-    if samples.shape[0] < 2:
-        raise CaptureRefused(f'only {samples.shape[0]} sample(s) captured, need at least 2')
-    std_deg = direction_spread_deg(samples)
-    if std_deg > max_std_deg:
-        raise CaptureRefused(f'tool is moving: spread {std_deg:.4f} deg exceeds '
-                             f'stand.max_std_deg {max_std_deg} deg')
+    stillness = require_still_vectors(samples, times_s, limits)
     return Position(inclination_deg=float(inclination_deg), toolface_deg=float(toolface_deg),
-                    reading_mps2=tuple(samples.mean(axis=0).tolist()), std_deg=std_deg,
-                    samples=int(samples.shape[0]))
+                    reading_mps2=tuple(samples.mean(axis=0).tolist()),
+                    std_deg=stillness.noise_deg, samples=int(samples.shape[0]),
+                    temperature_c=temperature_c)
 
 
-def solve_positions(positions, gravity_mps2, max_rms_deg):
+def solve_positions(positions, gravity_mps2, max_rms_deg, max_temperature_difference_c=None):
     """
     Return the Stand stage fitted to ``positions``, or raise StandFitRefused.
 
     Refused as ``stand.fit_stand`` refuses (too few, repeated or ill-posed
-    positions), and when the fit's inclination residual RMS over its own
+    positions), when the fit's inclination residual RMS over its own
     positions exceeds ``max_rms_deg`` (inconsistent captures: a position
-    mislabelled, or the tool not seated the same way).
+    mislabelled, or the tool not seated the same way), and when the
+    positions stand for temperatures more than ``max_temperature_difference_c``
+    apart (a drift between them the stand would take for K).  The stage
+    records their mean temperature (None when any is unknown).
     """
+    temperatures_c = [p.temperature_c for p in positions]
+    known = None not in temperatures_c and bool(temperatures_c)
+    if known and max_temperature_difference_c is not None \
+            and np.ptp(temperatures_c) > max_temperature_difference_c:
+        raise StandFitRefused(
+            f'the positions were captured {np.ptp(temperatures_c):.1f} C apart '
+            f'({min(temperatures_c):.1f} .. {max(temperatures_c):.1f} C, more than '
+            f'{max_temperature_difference_c:g} C): without a temperature stage the drift is '
+            'taken for K; fit the temperature stage first or capture at one temperature')
     readings = np.array([p.reading_mps2 for p in positions]).reshape(-1, 3)
     truth = stand_specific_force([p.inclination_deg for p in positions],
                                  [p.toolface_deg for p in positions], gravity_mps2)
@@ -87,4 +96,5 @@ def solve_positions(positions, gravity_mps2, max_rms_deg):
         bias_mps2=tuple(fit.bias_mps2.tolist()), method='stand',
         condition_number=float(fit.condition_number),
         rms_inclination_deg=float(fit.rms_inclination_deg), positions=len(positions),
-        fitted_at=utc_now_iso())
+        fitted_at=utc_now_iso(),
+        temperature_c=float(np.mean(temperatures_c)) if known else None)
