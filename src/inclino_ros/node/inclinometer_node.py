@@ -57,8 +57,10 @@ class InclinometerNode(Node):
             gravity_mps2=self.param('gravity_mps2'),
             accelerometer_range_mps2=self.param('accelerometer_range_mps2'),
             toolface_convention=self.param('toolface_convention'),
-            toolface_min_inclination_deg=self.param('toolface_min_inclination_deg'))
-        self.noise_std_mps2 = self.param('accelerometer_noise_std_mps2')
+            noise_std_mps2=self.param('accelerometer_noise_std_mps2'),
+            toolface_max_std_deg=self.param('toolface_max_std_deg'),
+            g_total_tolerance_mps2=self.param('g_total_tolerance_mps2'),
+            two_axis_max_inclination_deg=self.param('two_axis_max_inclination_deg'))
         self.frame_id = self.param('frame_id')
         self.calibration_file = os.path.expanduser(self.param('calibration_file'))
         self.model = self._load_model()
@@ -145,7 +147,8 @@ class InclinometerNode(Node):
             reference_total_nT=self.param('magnetic.reference_total_nT'),
             reference_dip_deg=self.param('magnetic.reference_dip_deg'),
             declination_deg=self.param('magnetic.declination_deg'),
-            min_inclination_deg=self.param('magnetic.min_inclination_deg'),
+            noise_std_nT=self.param('magnetometer_noise_std_nT'),
+            azimuth_max_std_deg=self.param('magnetic.azimuth_max_std_deg'),
             limits=QcLimits(
                 b_total_tolerance_nT=self.param('magnetic.b_total_tolerance_nT'),
                 dip_tolerance_deg=self.param('magnetic.dip_tolerance_deg'),
@@ -184,17 +187,19 @@ class InclinometerNode(Node):
                 self.param('magnetic.max_pairing_s'))
         survey = run(raw, self.model, self.settings, temperature_c, field_nT,
                      self.magnetic_settings)
-        covariances = imu_covariances(survey, self.model, self.settings, self.noise_std_mps2)
+        covariances = imu_covariances(survey)
         row = 0
         for index, (message, code) in enumerate(zip(messages, survey.codes.tolist())):
             if code != ACCEPTED:
                 self.stats.drop(code)
                 continue
-            self.stats.accept(float(survey.g_total_mps2[row]))
+            self.stats.accept(float(survey.g_total_mps2[row]),
+                              math.isnan(survey.toolface_deg[row]))
             field = (math.nan,) * 3 if field_nT is None else tuple(field_nT[index])
             if survey.magnetic is not None:
                 self.magnetometer.count(survey.magnetic, row, math.isfinite(field[0]))
-            self.collector.add_sample(tuple(raw[index]), temperature_c, field)
+            self.collector.add_sample(tuple(raw[index]), temperature_c, field,
+                                      stamp_ns(message.header.stamp) * 1e-9)
             self._publish(message.header, survey, row, covariances)
             row += 1
 

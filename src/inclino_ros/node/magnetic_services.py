@@ -6,7 +6,7 @@ The node's magnetometer services (seed 002): rotation fit, survey stations, MSA.
   (§2.1), persists and applies W and c; the MSA interference is reset, as it
   was solved on the old cross-axial correction.
 - ``~/take_survey``: averages a still station (``survey.samples``; refused when
-  the tool moves more than ``survey.max_std_deg``), appends it
+  the tool moves or the mean misses ``survey.max_sem_deg``), appends it
   to the persisted station list, answers inclination, azimuth and QC.
 - ``~/solve_msa``: multi-station analysis of the stations against the
   reference field (§2.2, ``msa.method``), persists and applies the interference.
@@ -15,10 +15,10 @@ The node's magnetometer services (seed 002): rotation fit, survey stations, MSA.
 
 from dataclasses import replace
 
-from inclino_ros.calibration.level_capture import CaptureRefused
 from inclino_ros.calibration.model import NO_MAGNETIC_CORRECTION, utc_now_iso
-from inclino_ros.calibration.stand_capture import direction_spread_deg
 from inclino_ros.calibration.stations import msa_inputs, save_stations, Station
+from inclino_ros.calibration.still_capture import (
+    CaptureRefused, require_axis_still, require_still_vectors)
 from inclino_ros.core.cross_axial import fit_cross_axial, RotationFitRefused
 from inclino_ros.core.magnetics import iscwsa_from_tool
 from inclino_ros.core.msa import (
@@ -56,6 +56,8 @@ class MagneticServices:
         try:
             captured = await self.collector.collect(
                 'rotation', duration_s=node.param('rotation.duration_s'))
+            require_axis_still(node.model.apply(captured.raw, captured.temperatures_c),
+                               captured.times_s, node.calibration.still_limits('survey'))
             field = captured.field_nT[np.isfinite(captured.field_nT).all(axis=1)]
             fit = fit_cross_axial(field)
             stage = replace(self._stage(), hard_iron_nT=tuple(fit.offset_nT.tolist()),
@@ -84,16 +86,16 @@ class MagneticServices:
             return self.collector.refuse(
                 response, f'only {paired.sum()} of {paired.size} samples had a paired imu/mag '
                 'reading', kept)
-        spread_deg = direction_spread_deg(captured.raw[paired])
-        if spread_deg > node.param('survey.max_std_deg'):
-            return self.collector.refuse(
-                response, f'tool is moving: spread {spread_deg:.4f} deg exceeds '
-                f'survey.max_std_deg {node.param("survey.max_std_deg")} deg', kept)
+        try:
+            require_still_vectors(captured.raw[paired], captured.times_s[paired],
+                                  node.calibration.still_limits('survey'))
+        except CaptureRefused as err:
+            return self.collector.refuse(response, str(err), kept)
         temperatures_c = (None if captured.temperatures_c is None
                           else captured.temperatures_c[paired].mean())
         survey = run(captured.raw[paired].mean(axis=0), node.model, node.settings,
                      temperatures_c, captured.field_nT[paired].mean(axis=0)[None],
-                     node.magnetic_settings)
+                     node.magnetic_settings, averaged=int(paired.sum()))
         if not survey.accepted.all():
             return self.collector.refuse(response, 'the averaged station is not a valid '
                                          'reading', kept)

@@ -1,0 +1,131 @@
+"""
+Issue 9 through the real node: still captures, non-gravity samples, the quality of every angle.
+
+Truth from the physical sensor model (``sim.sensor_model``).  Each test names the closed
+form behind its tolerance.
+"""
+
+import math
+
+from diagnostic_msgs.msg import DiagnosticStatus
+from inclino_ros.sim import sensor_model
+import numpy as np
+import pytest
+from ros_harness import G
+
+RATE_HZ = 100.0
+MOUNT = sensor_model.Mount(gamma_deg=0.8, beta_deg=-1.2)
+
+
+def tool(noise_mps2, axes=3):
+    """Return a tool on MOUNT whose accelerometer has white noise ``noise_mps2`` per axis."""
+    return sensor_model.Tool(mount=MOUNT, accelerometer=sensor_model.Triad(noise_std=noise_mps2),
+                             accelerometer_axes=axes)
+
+
+def readings(tool_, inclination_deg, toolface_deg, count, seed, turn_deg_per_s=0.0):
+    """Return ``count`` readings at 100 Hz, the toolface turning at ``turn_deg_per_s``."""
+    times_s = np.arange(count) / RATE_HZ
+    return sensor_model.read(tool_, inclination_deg, toolface_deg + turn_deg_per_s * times_s,
+                             rng=seed).accel_mps2
+
+
+def statuses(probe, suffix):
+    """Return the diagnostics statuses named ``...suffix`` received so far."""
+    return [s for a in probe.received['/diagnostics'] for s in a.status if s.name.endswith(suffix)]
+
+
+def test_a_still_mems_is_captured_and_a_turning_tool_refused(start_node, probe):
+    """
+    ~/capture_position, default limits and 500 samples at 100 Hz (stamps).
+
+    A real MEMS IMU lying still, 0.014 m/s^2 per sample (0.12 deg spread), was refused as
+    "tool is moving: spread 0.13 deg exceeds stand.max_std_deg 0.1 deg"; it is captured
+    now.  The same tool turning at 0.05 deg/s (drift standard error 0.0025 deg/s here)
+    is refused as moving, with its drift.
+    """
+    start_node()
+    probe.wait_for_node()
+    probe.stamp_period_s = 1.0 / RATE_HZ
+    still = readings(tool(0.014), 90.0, 0.0, 600, seed=1)
+    probe.set_parameters(stand__inclination_deg=90.0, stand__toolface_deg=0.0)
+    answer = probe.calibrate(lambda i: still[i], service='capture_position')
+    assert answer.success, answer.message
+    assert answer.message.startswith('position 1 captured')
+    turning = readings(tool(0.014), 45.0, 30.0, 600, seed=2, turn_deg_per_s=0.05)
+    probe.set_parameters(stand__inclination_deg=45.0, stand__toolface_deg=30.0)
+    answer = probe.calibrate(lambda i: turning[i], service='capture_position')
+    assert not answer.success
+    assert 'refused: tool is moving (drift 0.0' in answer.message
+    assert '1 positions kept' in answer.message
+
+
+def test_gravity_removed_stream_gives_no_angle_and_says_so(start_node, probe):
+    """
+    An IMU that publishes gravity-removed acceleration (|a| ~ 0.6 m/s^2): nothing published.
+
+    Every sample is 9.2 m/s^2 off g, beyond g_total_tolerance_mps2 (3): dropped as dynamic,
+    counted, and the input status is an ERROR naming the reason.
+    """
+    start_node()
+    probe.wait_for_node()
+    rng = np.random.default_rng(3)
+    for _ in range(50):
+        probe.publish(rng.normal(0.0, 0.35, 3))
+    probe.spin_for(1.5)
+    assert probe.received['survey'] == [] and probe.received['imu/data'] == []
+    errors = [s for s in statuses(probe, ': input') if s.level == DiagnosticStatus.ERROR]
+    assert errors and 'most samples dropped' in errors[-1].message
+    assert 'as dynamic' in errors[-1].message
+    values = {kv.key: kv.value for kv in errors[-1].values}
+    assert values['dropped_dynamic'] == '50' and values['accepted_total'] == '0'
+
+
+def test_toolface_nan_where_its_sigma_exceeds_the_limit(start_node, probe):
+    """
+    Default noise 0.01 m/s^2: toolface 1 sigma = 0.0584 deg / sin I (uncalibrated).
+
+    At 0.02, 0.1 and 0.5 deg inclination that is 167, 33 and 6.7 deg: NaN (limit 5 deg);
+    at 2 deg, 1.67 deg: published.  The imu/data pitch variance is s^2 / |f|^2.
+    """
+    start_node()
+    probe.wait_for_node()
+    published = {}
+    for inclination_deg in (0.02, 0.1, 0.5, 2.0):
+        probe.spin_for(0.2)
+        probe.clear()
+        probe.publish(sensor_model.true_specific_force(inclination_deg, 40.0)[0])
+        (survey,) = probe.wait_outputs('survey', 1)
+        (imu,) = probe.wait_outputs('imu/data', 1)
+        published[inclination_deg] = survey.vector.y
+        f = np.array([imu.linear_acceleration.x, imu.linear_acceleration.y,
+                      imu.linear_acceleration.z])
+        assert imu.orientation_covariance[4] == pytest.approx(0.01 ** 2 / (f @ f), rel=1e-9)
+    assert all(math.isnan(published[i]) for i in (0.02, 0.1, 0.5))
+    assert published[2.0] == pytest.approx(40.0, abs=1e-6)
+
+
+def test_two_axis_tool_past_90_deg_is_dropped_not_folded(start_node, probe):
+    """
+    A two-axis sensor past 90 deg is dropped and counted, never folded back.
+
+    It cannot tell I from 180 - I: true 120 deg reads as 60 deg (61.6 with this mounting,
+    beyond two_axis_max_inclination_deg 60).  Its orientation covariance at 30 deg carries
+    the completion: var pitch from the x, y noise through z = sqrt(g^2 - x^2 - y^2),
+    larger than s^2 / g^2.
+    """
+    start_node(accelerometer_axes=2)
+    probe.wait_for_node()
+    past = sensor_model.read(tool(0.0, axes=2), 120.0, 0.0).accel_mps2[0]
+    probe.publish(past)
+    probe.spin_for(1.5)
+    assert probe.received['survey'] == []
+    dropped = [{kv.key: kv.value for kv in s.values} for s in statuses(probe, ': input')]
+    assert dropped[-1]['dropped_two_axis_range'] == '1'
+    probe.clear()
+    probe.publish(sensor_model.read(tool(0.0, axes=2), 30.0, 0.0).accel_mps2[0])
+    (imu,) = probe.wait_outputs('imu/data', 1)
+    # Uncalibrated, tool x toward the high side: pitch = -asin(f_x / g) taken from f_x alone
+    # (f_z completed), so var pitch = s^2 / (g cos 30)^2 to first order.
+    assert imu.orientation_covariance[4] == pytest.approx(
+        0.01 ** 2 / (G * math.cos(math.radians(30.0))) ** 2, rel=0.05)
