@@ -129,13 +129,13 @@ def test_classic_and_improved_compared(wells):
     print('\n'.join(lines))
 
 
-def test_improved_interval_holds_the_minimum(wells):
-    """The interval eps_z0 +- d contains the true eps_z and V's minimum is inside, not on it."""
+def test_improved_search_bracket_holds_the_minimum(wells):
+    """The search bracket eps_z0 +- d contains the true eps_z and V's minimum (not its edge)."""
     for well, results in wells.values():
         result = results['improved']
-        low, high = result.interval_nT
+        low, high = result.search_bracket_nT
         assert low < well.interference_nT[2] < high
-        assert not result.diagnostics.at_interval_bound
+        assert low < result.eps_nT[2] < high
         assert result.v_after_nT2 < 1e-3 * result.v_before_nT2
 
 

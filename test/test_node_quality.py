@@ -12,6 +12,7 @@ from inclino_ros.sim import sensor_model
 import numpy as np
 import pytest
 from ros_harness import G
+from std_srvs.srv import Trigger
 
 RATE_HZ = 100.0
 MOUNT = sensor_model.Mount(gamma_deg=0.8, beta_deg=-1.2)
@@ -129,3 +130,51 @@ def test_two_axis_tool_past_90_deg_is_dropped_not_folded(start_node, probe):
     # (f_z completed), so var pitch = s^2 / (g cos 30)^2 to first order.
     assert imu.orientation_covariance[4] == pytest.approx(
         0.01 ** 2 / (G * math.cos(math.radians(30.0))) ** 2, rel=0.05)
+
+
+def take_stations(probe, attitudes_deg, seed):
+    """
+    Take one ~/take_survey per (inclination, azimuth, toolface), paired imu/mag samples.
+
+    The tool (sensor model): 4e-4 g and 20 nT per sample (1e-4 g and 5 nT over the 16 a
+    station averages), the drill string's (80, -80, 2000) nT (ISCWSA) fixed to it.
+    """
+    tool_ = sensor_model.Tool(accelerometer=sensor_model.Triad(noise_std=4e-4 * G),
+                              magnetometer=sensor_model.Triad(noise_std=20.0))
+    for k, (inclination_deg, azimuth_deg, toolface_deg) in enumerate(attitudes_deg):
+        reading = sensor_model.read(tool_, np.full(60, inclination_deg), toolface_deg,
+                                    azimuth_deg, interference_nT=(80.0, 80.0, -2000.0),
+                                    rng=seed + k)
+        probe.spin_for(0.1)
+        future = probe.services['take_survey'].call_async(Trigger.Request())
+        for i in range(60):
+            if future.done():
+                break
+            probe.publish_pair(reading.accel_mps2[i], reading.mag_nT[i])
+            probe.spin_for(0.005)
+        probe.executor.spin_until_future_complete(future, timeout_sec=5.0)
+        assert future.result().success, future.result().message
+
+
+def test_solve_msa_improved_needs_a_cross_axial_source(start_node, probe):
+    """
+    ~/solve_msa improved without ~/capture_rotation: from the classic solve, or refused.
+
+    Formerly the cross-axial interference was silently taken as zero.  Toolfaces at one
+    angle: refused with the reason; spread: taken from the classic solve, said so, with the
+    interference's 1 sigma (the WMM reference uncertainty in it) stored and answered.
+    """
+    start_node(**{'magnetic.reference_total_nT': 50000.0, 'magnetic.reference_dip_deg': 60.0,
+                  'survey.samples': 16})
+    probe.wait_for_node()
+    well = [(30.0 + 5.0 * k, 85.0 + k, 0.0) for k in range(12)]
+    take_stations(probe, well, seed=10)
+    answer = probe.call('solve_msa')
+    assert not answer.success
+    assert 'improved needs the cross-axial interference' in answer.message
+    assert probe.call('clear_surveys').success
+    take_stations(probe, [(i, a, (k * 137.5) % 360.0) for k, (i, a, _) in enumerate(well)],
+                  seed=30)
+    answer = probe.call('solve_msa')
+    assert answer.success, answer.message
+    assert 'from the classic solve' in answer.message and '+-' in answer.message

@@ -40,17 +40,24 @@ class Station:
     field_nT: tuple             # raw magnetometer, tool frame
     samples: int
     captured_at: str
+    temperature_c: float = None  # mean sensor temperature of the station; None: unknown
 
 
-def msa_inputs(stations, magnetic_stage):
+def msa_inputs(stations, magnetic_stage, temperature_stage=None):
     """
     Return (G, B) of ``stations`` in the ISCWSA frame for the MSA solvers.
 
-    B is cross-axially corrected by ``magnetic_stage`` (W and c of a rotation
-    fit; None for none) but keeps its interference: that is what MSA solves.
+    B is compensated by the magnetometer ``temperature_stage`` (at each
+    station's temperature, its reference where unknown), cross-axially
+    corrected by ``magnetic_stage`` (W and c of a rotation fit; None for
+    none) but keeps its interference: that is what MSA solves.
     """
     force = np.array([s.specific_force_mps2 for s in stations], dtype=float).reshape(-1, 3)
     field = np.array([s.field_nT for s in stations], dtype=float).reshape(-1, 3)
+    if temperature_stage is not None:
+        reference_c = temperature_stage.reference_temperature_c
+        field = temperature_stage.apply(field, [reference_c if s.temperature_c is None
+                                                else s.temperature_c for s in stations])
     if magnetic_stage is not None:
         field = apply_cross_axial(field, magnetic_stage)
     return gravity_from_specific_force(force), iscwsa_from_tool(field)
@@ -91,6 +98,10 @@ def _stations_from_dict(doc):
             raise ValueError(f'station {number} needs 3 + 3 finite numbers')
         if not isinstance(station.samples, int) or station.samples < 1:
             raise ValueError(f'station {number} has no samples')
+        if station.temperature_c is not None and not (
+                isinstance(station.temperature_c, (int, float))
+                and math.isfinite(station.temperature_c)):
+            raise ValueError(f'station {number} has a temperature that is not a number')
         stations.append(Station(tuple(station.specific_force_mps2), tuple(station.field_nT),
-                                station.samples, station.captured_at))
+                                station.samples, station.captured_at, station.temperature_c))
     return stations

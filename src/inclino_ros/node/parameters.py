@@ -128,6 +128,13 @@ PARAMETERS = (
               'and ~/solve_msa refused.', 0.0, 100000.0, read_only=False),
     Parameter('magnetic.reference_dip_deg', 0.0,
               'Reference dip [deg], positive down.', -90.0, 90.0, read_only=False),
+    Parameter('magnetic.reference_total_std_nT', 138.0,
+              '1 sigma of the reference total field itself [nT] (WMM 2025: 138; an IFR model '
+              'about half): enters the 1 sigma of the MSA interference and of every azimuth.',
+              0.0, 10000.0, read_only=False),
+    Parameter('magnetic.reference_dip_std_deg', 0.2,
+              '1 sigma of the reference dip itself [deg] (WMM 2025: 0.20).', 0.0, 10.0,
+              read_only=False),
     Parameter('magnetic.declination_deg', 0.0,
               'Declination [deg] added to the magnetic azimuth for the azimuth topic.',
               -180.0, 180.0, read_only=False),
