@@ -5,9 +5,13 @@ Truth from the physical sensor model (``sim.sensor_model``).  Each test names th
 form behind its tolerance.
 """
 
+from dataclasses import replace
+from datetime import datetime, timedelta, timezone
 import math
 
 from diagnostic_msgs.msg import DiagnosticStatus
+from inclino_ros.calibration.model import (
+    CalibrationModel, load_model, NO_MAGNETIC_CORRECTION, save_model, Stand)
 from inclino_ros.sim import sensor_model
 import numpy as np
 import pytest
@@ -178,3 +182,77 @@ def test_solve_msa_improved_needs_a_cross_axial_source(start_node, probe):
     answer = probe.call('solve_msa')
     assert answer.success, answer.message
     assert 'from the classic solve' in answer.message and '+-' in answer.message
+
+
+def calibration_file(tmp_path, sensor_id, stand_age_days, msa_age_days):
+    """Write a calibration holding a stand and an MSA interference of the given ages."""
+    now = datetime.now(timezone.utc)
+
+    def ago(days):
+        return (now - timedelta(days=days)).isoformat(timespec='seconds')
+
+    stand = Stand(scale_matrix=((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)),
+                  bias_mps2=(0.0, 0.0, 0.0), method='stand', condition_number=1.5,
+                  rms_inclination_deg=0.002, positions=9, fitted_at=ago(stand_age_days))
+    magnetic = replace(NO_MAGNETIC_CORRECTION, interference_nT=(0.0, 0.0, -2000.0),
+                       msa_method='axial', msa_stations=20, msa_reference_total_nT=50000.0,
+                       msa_reference_dip_deg=60.0, msa_fitted_at=ago(msa_age_days))
+    save_model(tmp_path / 'calibration.json', CalibrationModel(
+        accelerometer_axes=3, stand=stand, magnetic=magnetic, sensor_id=sensor_id))
+
+
+@pytest.mark.parametrize('sensor_id', ['TOOL-B', ''])
+def test_the_calibration_of_another_sensor_stops_the_node(start_node, tmp_path, sensor_id):
+    """A file stamped TOOL-A read by a node of another (or no) sensor_id: a loud exit 1."""
+    calibration_file(tmp_path, 'TOOL-A', 1.0, 1.0)
+    node = start_node(sensor_id=sensor_id) if sensor_id else start_node()
+    assert node.process.wait(timeout=30) == 1
+    assert "belongs to sensor 'TOOL-A'" in node.log() and 'refusing to start' in node.log()
+
+
+def test_stages_warn_when_old_and_captures_stamp_the_sensor(start_node, probe, tmp_path):
+    """
+    A stand 200 days old (limit 180) and an MSA 4 days old (limit 3): the diagnostics WARN.
+
+    The node of sensor TOOL-A runs on the file of TOOL-A, and a new capture keeps the stamp.
+    """
+    calibration_file(tmp_path, 'TOOL-A', 200.0, 4.0)
+    start_node(sensor_id='TOOL-A', **{'level_capture.samples': 50})
+    probe.wait_for_node()
+    probe.spin_for(1.2)
+    status = statuses(probe, ': calibration')[-1]
+    assert status.level == DiagnosticStatus.WARN
+    assert 'stand is 200.0 days old (limit 180)' in status.message
+    assert 'msa is 4.0 days old (limit 3)' in status.message
+    values = {kv.key: kv.value for kv in status.values}
+    assert values['sensor_id'] == 'TOOL-A'
+    level = sensor_model.true_specific_force(0.0, 0.0)[0]
+    rng = np.random.default_rng(4)
+    answer = probe.calibrate(lambda i: level + rng.normal(0.0, 0.002, 3))
+    assert answer.success, answer.message
+    assert load_model(tmp_path / 'calibration.json').sensor_id == 'TOOL-A'
+
+
+def test_stages_of_different_temperatures_are_refused(start_node, probe, tmp_path):
+    """
+    A stand captured at 35 C, no temperature stage: a level capture at 22 C is refused.
+
+    Their drift (MEMS: 0.5-1 mg/degC, 13 C: up to 0.7 deg) would not be corrected.  At
+    35.5 C (within temperature.max_stage_difference_c 2 C) it is taken and records 35.5 C.
+    """
+    calibration_file(tmp_path, None, 1.0, 1.0)
+    model = load_model(tmp_path / 'calibration.json')
+    save_model(tmp_path / 'calibration.json',
+               replace(model, stand=replace(model.stand, temperature_c=35.0)))
+    start_node(**{'level_capture.samples': 50})
+    probe.wait_for_node()
+    level = sensor_model.true_specific_force(0.0, 0.0)[0]
+    rng = np.random.default_rng(8)
+    for temperature_c, accepted in ((22.0, False), (35.5, True)):
+        probe.publish_temperature(temperature_c)
+        probe.spin_for(0.3)
+        answer = probe.calibrate(lambda i: level + rng.normal(0.0, 0.002, 3))
+        assert answer.success == accepted, answer.message
+        assert accepted or 'stands for 22.0 C but the stand stage for 35.0 C' in answer.message
+    installation = load_model(tmp_path / 'calibration.json').installation
+    assert installation.temperature_c == pytest.approx(35.5)

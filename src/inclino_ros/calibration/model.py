@@ -461,10 +461,40 @@ def check_sensor(model, sensor_id, path):
     that names none matches only such a file.
     """
     if model.sensor_id is not None and model.sensor_id != (sensor_id or None):
-        wanted = repr(sensor_id) if sensor_id else 'a node without sensor_id'
+        wanted = repr(sensor_id) if sensor_id else 'an unnamed one (no sensor_id given)'
         raise CalibrationFileError(
             path, f'belongs to sensor {model.sensor_id!r}, not to {wanted}: the calibration '
-            'of another tool (set sensor_id, or use the file of this tool)')
+            'of another tool (set sensor_id / --sensor-id, or use the file of this tool)')
+
+
+#: Stages with a time, the field holding it, and which age limit applies: the drill
+#: string's interference (MSA) has its own, shorter one.
+STAGE_TIMES = (('temperature', 'fitted_at', 'calibration'),
+               ('stand', 'fitted_at', 'calibration'),
+               ('installation', 'captured_at', 'calibration'),
+               ('magnetometer_temperature', 'fitted_at', 'calibration'),
+               ('magnetic', 'rotation_fitted_at', 'calibration'),
+               ('magnetic', 'msa_fitted_at', 'interference'))
+
+
+def stage_ages_s(model, now=None):
+    """Return ``[(stage name, age [s], limit kind)]`` of every dated stage of ``model``."""
+    ages = []
+    for name, field, kind in STAGE_TIMES:
+        stage = getattr(model, name)
+        when = None if stage is None else getattr(stage, field)
+        if when is not None:
+            label = 'msa' if field == 'msa_fitted_at' else (
+                'rotation' if field == 'rotation_fitted_at' else name)
+            ages.append((label, age_seconds(when, now), kind))
+    return ages
+
+
+def stale_stages(model, max_age_s, interference_max_age_s, now=None):
+    """Return ``[(stage, age [s], limit [s])]`` of the stages older than their limit."""
+    limits = {'calibration': max_age_s, 'interference': interference_max_age_s}
+    return [(name, age, limits[kind]) for name, age, kind in stage_ages_s(model, now)
+            if age > limits[kind]]
 
 
 def readings_temperature_c(temperature_stage, measured_c):

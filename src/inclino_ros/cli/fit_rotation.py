@@ -79,7 +79,7 @@ def load_readings(args):
 
 def fit(args, lines):
     """Fit the rotation of ``args.input`` into ``args.calibration``; see ``run_fit``."""
-    existing = load_existing(args.calibration)
+    existing = load_existing(args.calibration, args.sensor_id)
     readings = load_readings(args)
     try:
         result = fit_cross_axial(readings)

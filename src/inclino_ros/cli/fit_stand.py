@@ -94,7 +94,7 @@ def run(args):
 
 def fit(args, lines):
     """Fit the stand stage of ``args.input`` into ``args.calibration``; see ``run_fit``."""
-    existing = load_existing(args.calibration)
+    existing = load_existing(args.calibration, args.sensor_id)
     readings, attitude_deg, temperature_c, times_s = load_input(args)
     stood_for_c = readings_temperature_c(
         existing.temperature, None if temperature_c is None else float(np.mean(temperature_c)))
@@ -126,7 +126,7 @@ def fit(args, lines):
     if refusal:
         raise Refused(refusal)
     dropped = existing.installation is not None
-    save(args.calibration, CalibrationModel(3, stand=stage, temperature=existing.temperature))
+    save(args.calibration, replace(existing, stand=stage, installation=None))
     lines.append(f'wrote {args.calibration}: stand stage ({args.method}, {stage.positions} '
                  f'{"positions" if args.method == "stand" else "readings"})'
                  + (', temperature stage kept' if existing.temperature else ''))

@@ -77,7 +77,7 @@ def register(subparsers):
                         help='one attitude: readings within this many deg C of 25 deg C give '
                              'the reference when the input has no ref columns (default: '
                              '%(default)s)')
-    parser.add_argument('--attitude-separation-deg', type=float, default=5.0,
+    parser.add_argument('--attitude-separation-deg', type=float, default=20.0,
                         help='bag: readings further apart in direction belong to different '
                              'attitudes (default: %(default)s)')
     parser.add_argument('--max-temperature-difference-c', type=float,
@@ -97,7 +97,7 @@ def fit(args, lines):
     if args.order < 1:
         raise CommandError('--order must be at least 1')
     _, _, unit, section, later = TRIADS[args.triad]
-    existing = load_existing(args.calibration)
+    existing = load_existing(args.calibration, args.sensor_id)
     temperature_c, readings, reference, attitude = load_input(args)
     heated = heated_attitudes(temperature_c, attitude, args.order)
     try:
@@ -112,6 +112,10 @@ def fit(args, lines):
         raise Refused(err.reason) from None
     if target_c is not None:
         result = result.referenced_to(target_c)
+    elif any(getattr(existing, name) is not None for name in later):
+        lines.append(f'WARNING: the {" and ".join(n for n in later if getattr(existing, n))} '
+                     'stage(s) record no temperature: compensating to '
+                     f'{result.reference_temperature_c:g} C assumes they were captured there')
     stage = stage_of(args.triad, result, temperature_c.size)
     model = replace(existing, **{section: stage})
     previous = replace(existing, **{section: None})

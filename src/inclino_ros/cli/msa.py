@@ -61,7 +61,8 @@ import sys
 
 from inclino_ros.calibration.model import NO_MAGNETIC_CORRECTION, utc_now_iso
 from inclino_ros.cli.errors import CommandError
-from inclino_ros.cli.fitting import finish_figure, load_existing, new_figure, read_csv, save
+from inclino_ros.cli.fitting import (
+    add_sensor_argument, finish_figure, load_existing, new_figure, read_csv, save)
 from inclino_ros.cli.process import NODE_DEFAULTS
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core import magnetics
@@ -92,6 +93,7 @@ def register(subparsers):
     parser.add_argument('--calibration', metavar='FILE',
                         help='calibration file: its cross-axial correction is applied first, '
                              'the solved interference stored in its magnetic stage')
+    add_sensor_argument(parser)
     parser.add_argument('--method', choices=METHODS, default='improved',
                         help='correction method (default: %(default)s)')
     parser.add_argument('--cross-axial-nT', type=float, nargs=2, metavar=('EX', 'EY'),
@@ -177,7 +179,7 @@ def calibrated_field(args, table, lines):
     ISCWSA and tool axes differ by a turn about x (``magnetics.iscwsa_from_tool``,
     its own inverse): B is turned into the tool frame, corrected and turned back.
     """
-    model = load_existing(args.calibration)
+    model = load_existing(args.calibration, args.sensor_id)
     stage = model.magnetic
     if stage is not None and stage.rotation_fitted_at is not None:
         table['B'] = magnetics.iscwsa_from_tool(

@@ -37,8 +37,9 @@ from dataclasses import dataclass
 import math
 import sys
 
-from inclino_ros.calibration.model import CalibrationFileError, load_model
+from inclino_ros.calibration.model import CalibrationFileError, check_sensor, load_model
 from inclino_ros.cli.errors import CommandError
+from inclino_ros.cli.fitting import add_sensor_argument
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core.screening import count_reasons, REASONS
 from inclino_ros.io.bag import (
@@ -186,6 +187,7 @@ def register(subparsers):
     parser.add_argument('output', metavar='OUT', help='output bag to create')
     parser.add_argument('--calibration', required=True, metavar='FILE',
                         help='calibration file (as written by the node or inclino calibrate)')
+    add_sensor_argument(parser)
     parser.add_argument('--topic', default='/imu/data_raw',
                         help='sensor_msgs/Imu topic to read (default: %(default)s)')
     parser.add_argument('--temperature-topic', metavar='TOPIC',
@@ -252,12 +254,12 @@ def run(args):
     print(f'wrote {args.output} ({args.storage}): {summary.accepted} messages on each of '
           f'{SURVEY_TOPIC} and {IMU_TOPIC}')
     print('\n'.join(summary.lines()))
-    if summary.accepted == 0:
-        print(f'inclino process: no sample of {args.topic} was accepted', file=sys.stderr)
-        return 1
     loud = summary.mostly_dropped()
     if loud is not None:
         print(f'inclino process: ERROR: {loud}', file=sys.stderr)
+        return 1
+    if summary.accepted == 0:
+        print(f'inclino process: no sample of {args.topic} was accepted', file=sys.stderr)
         return 1
     return 0
 
@@ -266,6 +268,7 @@ def _prepare(args):
     """Return (model, settings, message count, TemperatureSeries or None) or raise CommandError."""
     try:
         model = load_model(args.calibration)
+        check_sensor(model, args.sensor_id, args.calibration)
     except FileNotFoundError:
         raise CommandError(f'no calibration file {args.calibration}') from None
     except (CalibrationFileError, OSError) as err:

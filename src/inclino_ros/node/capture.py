@@ -8,7 +8,7 @@ services share: commit a model (write atomically, then apply), succeed,
 refuse (nothing changed).
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from inclino_ros.calibration.model import save_model
 from inclino_ros.calibration.still_capture import CaptureRefused
@@ -113,6 +113,7 @@ class Collector:
 
     def commit(self, model):
         """Write ``model`` atomically, then apply it; CaptureRefused if it is not written."""
+        model = replace(model, sensor_id=self.node.sensor_id or model.sensor_id)
         try:
             save_model(self.node.calibration_file, model)
         except OSError as err:

@@ -45,6 +45,12 @@ PARAMETERS = (
     Parameter('calibration_file', '~/.ros/inclino_ros/calibration.json',
               'Calibration file: loaded at start when present (a corrupt file stops the '
               'node), written atomically by the calibration services.'),
+    Parameter('sensor_id', '',
+              'The sensor this node reads (e.g. its serial number): written into the '
+              'calibration file; a file of another sensor stops the node.'),
+    Parameter('calibration.max_age_days', 180.0,
+              'Diagnostics WARN when a calibration stage is older than this [days].',
+              0.01, 36500.0, read_only=False),
     Parameter('accelerometer_axes', 3,
               'Accelerometer axes: 3, or 2 for a two-axis sensor (z completed from '
               'gravity_mps2, tool upright).', 2, 3),
@@ -152,6 +158,9 @@ PARAMETERS = (
               'An azimuth whose 1 sigma (sensor noise, calibration, MSA interference and its '
               'reference field) exceeds this [deg] is published as NaN.', 0.01, 180.0,
               read_only=False),
+    Parameter('magnetic.interference_max_age_days', 3.0,
+              'Diagnostics WARN when the MSA interference is older than this [days]: the drill '
+              'string magnetisation changes with every trip.', 0.01, 3650.0, read_only=False),
     Parameter('magnetic.max_pairing_s', 0.05,
               'Largest stamp difference [s] between an accelerometer sample and the '
               'imu/mag reading paired with it; beyond it the azimuth is NaN.', 1e-4, 10.0,
