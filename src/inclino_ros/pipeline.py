@@ -111,11 +111,16 @@ class Survey:
     toolface_deg: np.ndarray     # (M,), NaN where its 1 sigma exceeds the limit
     orientation_wxyz: np.ndarray  # (M, 4)
     g_total_mps2: np.ndarray     # (M,)
-    covariance_mps2: np.ndarray  # (M, 3, 3) of corrected_mps2 (sensor noise)
+    covariance_mps2: np.ndarray  # (M, 3, 3) of corrected_mps2 (sensor noise), read-only
     tilt_var_rad2: float         # variance of the tilt from the calibration itself
-    inclination_std_deg: np.ndarray  # (M,) 1 sigma
     toolface_std_deg: np.ndarray     # (M,) 1 sigma (inf for a vertical tool)
     magnetic: AzimuthSurvey = None  # when magnetometer readings were given
+
+    @property
+    def inclination_std_deg(self):
+        """Return the 1 sigma of each inclination [deg] (``uncertainty.inclination_std_rad``)."""
+        return np.degrees(inclination_std_rad(self.corrected_mps2, self.covariance_mps2,
+                                              self.tilt_var_rad2))
 
     @property
     def accepted(self):
@@ -227,8 +232,6 @@ def run(raw, model, settings, temperature_c=None, field_nT=None,
                   orientation_wxyz=orientation_quaternion(corrected),
                   g_total_mps2=np.sqrt(np.einsum('ij,ij->i', corrected, corrected)),
                   covariance_mps2=covariance, tilt_var_rad2=tilt_var,
-                  inclination_std_deg=np.degrees(
-                      inclination_std_rad(corrected, covariance, tilt_var)),
                   toolface_std_deg=toolface_std_deg,
                   magnetic=None if field_nT is None else resolve_azimuth(
                       corrected, field_nT[kept], model, settings, magnetic_settings,
@@ -250,4 +253,4 @@ def imu_covariances(survey):
     orientation[:, :2, :2] = roll_pitch_covariance(survey.corrected_mps2,
                                                    survey.covariance_mps2, survey.tilt_var_rad2)
     orientation[:, 2, 2] = UNOBSERVED_YAW_VARIANCE
-    return survey.covariance_mps2.reshape(count, 9), orientation.reshape(count, 9)
+    return np.reshape(survey.covariance_mps2, (count, 9)), orientation.reshape(count, 9)

@@ -35,6 +35,13 @@ def _outer_sum(grad, covariance):
     return np.einsum('mi,mij,mj->m', grad, covariance, grad)
 
 
+def _quadratic(a, b, c, covariance):
+    """Return ``g^T C g`` per sample for g = (a, b, c), written out (C symmetric, (M, 3, 3))."""
+    cov = covariance
+    return (a * a * cov[:, 0, 0] + b * b * cov[:, 1, 1] + c * c * cov[:, 2, 2]
+            + 2.0 * (a * b * cov[:, 0, 1] + a * c * cov[:, 0, 2] + b * c * cov[:, 1, 2]))
+
+
 def specific_force_covariance(f_sensor, noise_std, axes, linear_map=None):
     """
     Return the covariance (M, 3, 3) of corrected specific force from per-axis white noise.
@@ -46,18 +53,16 @@ def specific_force_covariance(f_sensor, noise_std, axes, linear_map=None):
     """
     f = np.asarray(f_sensor, dtype=float)
     count = f.shape[0]
+    linear_map = np.eye(3) if linear_map is None else np.asarray(linear_map)
     if axes == 2:
         jacobian = np.zeros((count, 3, 2))
         jacobian[:, 0, 0] = jacobian[:, 1, 1] = 1.0
-        with np.errstate(divide='ignore', invalid='ignore'):
-            jacobian[:, 2, 0] = -f[:, 0] / f[:, 2]
-            jacobian[:, 2, 1] = -f[:, 1] / f[:, 2]
-        covariance = noise_std ** 2 * jacobian @ jacobian.transpose(0, 2, 1)
-    else:
-        covariance = np.broadcast_to(noise_std ** 2 * np.eye(3), (count, 3, 3))
-    if linear_map is not None:
-        covariance = linear_map @ covariance @ np.asarray(linear_map).T
-    return np.array(covariance)
+        with np.errstate(divide='ignore', invalid='ignore'):   # f_z = 0: unbounded
+            jacobian[:, 2, :] = -f[:, :2] / f[:, 2:3]
+        jacobian = linear_map @ jacobian
+        return noise_std ** 2 * jacobian @ jacobian.transpose(0, 2, 1)
+    # Three axes: one matrix for all samples (a read-only broadcast).
+    return np.broadcast_to(noise_std ** 2 * linear_map @ linear_map.T, (count, 3, 3))
 
 
 def inclination_std_rad(f, covariance, tilt_var=0.0):
@@ -65,40 +70,41 @@ def inclination_std_rad(f, covariance, tilt_var=0.0):
     f = np.asarray(f, dtype=float)
     h = np.hypot(f[:, 0], f[:, 1])
     squared = np.einsum('ij,ij->i', f, f)
-    with np.errstate(divide='ignore', invalid='ignore'):
-        grad = np.stack([f[:, 0] * f[:, 2] / h, f[:, 1] * f[:, 2] / h, -h], axis=1)
-        grad /= squared[:, None]
-    # At h = 0 the inclination's noise is the cross-axial noise over |f| (any direction).
+    # At h = 0 the inclination's noise is the cross-axial noise over |f| (any direction):
+    # the gradient's limit along x.
     vertical = h == 0.0
-    grad[vertical] = np.array([1.0, 0.0, 0.0]) / np.sqrt(squared[vertical, None])
+    cos_tf = np.where(vertical, 1.0, f[:, 0] / np.where(vertical, 1.0, h))
+    sin_tf = np.where(vertical, 0.0, f[:, 1] / np.where(vertical, 1.0, h))
+    grad = np.stack([cos_tf * f[:, 2], sin_tf * f[:, 2], -h], axis=1) / squared[:, None]
     return np.sqrt(_outer_sum(grad, covariance) + tilt_var)
 
 
 def toolface_std_rad(f, covariance, tilt_var=0.0):
     """Return the 1 sigma [rad] of the gravity toolface of ``f`` (M, 3); inf when vertical."""
     f = np.asarray(f, dtype=float)
-    h2 = f[:, 0] ** 2 + f[:, 1] ** 2
-    sin2 = h2 / np.einsum('ij,ij->i', f, f)
-    with np.errstate(divide='ignore', invalid='ignore'):
-        grad = np.stack([-f[:, 1], f[:, 0], np.zeros_like(h2)], axis=1) / h2[:, None]
-        variance = _outer_sum(grad, covariance) + tilt_var / sin2
+    fx, fy = f[:, 0], f[:, 1]
+    h2 = fx * fx + fy * fy
+    with np.errstate(all='ignore'):   # h -> 0: the sigma grows without bound (inf)
+        variance = (_quadratic(-fy / h2, fx / h2, 0.0, covariance)
+                    + tilt_var * (h2 + f[:, 2] * f[:, 2]) / h2)
     return np.where(h2 > 0.0, np.sqrt(variance), np.inf)
 
 
 def roll_pitch_covariance(f, covariance, tilt_var=0.0):
     """Return the covariance (M, 2, 2) [rad^2] of (roll, pitch) of ``attitude.roll_pitch``."""
     f = np.asarray(f, dtype=float)
-    r2 = f[:, 1] ** 2 + f[:, 2] ** 2
-    r = np.sqrt(r2)
-    squared = r2 + f[:, 0] ** 2
+    fx, fy, fz = f[:, 0], f[:, 1], f[:, 2]
+    r2 = fy * fy + fz * fz
     jacobian = np.zeros((f.shape[0], 2, 3))
-    with np.errstate(divide='ignore', invalid='ignore'):
-        jacobian[:, 0, 1] = f[:, 2] / r2
-        jacobian[:, 0, 2] = -f[:, 1] / r2
+    with np.errstate(all='ignore'):   # pointing along x: roll undefined (inf)
+        r = np.sqrt(r2)
+        squared = r2 + fx * fx
+        jacobian[:, 0, 1] = fz / r2
+        jacobian[:, 0, 2] = -fy / r2
         jacobian[:, 1, 0] = -r / squared
-        jacobian[:, 1, 1] = f[:, 0] * f[:, 1] / (r * squared)
-        jacobian[:, 1, 2] = f[:, 0] * f[:, 2] / (r * squared)
-    return jacobian @ covariance @ jacobian.transpose(0, 2, 1) + tilt_var * np.eye(2)
+        jacobian[:, 1, 1] = fx * fy / (r * squared)
+        jacobian[:, 1, 2] = fx * fz / (r * squared)
+        return jacobian @ covariance @ jacobian.transpose(0, 2, 1) + tilt_var * np.eye(2)
 
 
 def azimuth_gradients(G, B):
