@@ -135,6 +135,14 @@ def inclination_error_deg(model, tool, inclination_deg, toolface_deg, temperatur
     return np.degrees(inclination(corrected)) - readings.inclination_deg
 
 
+def random_errors_deg(model, tool, seed, count=300):
+    """Return the inclination errors at random attitudes and temperatures 20..100 degC."""
+    random = np.random.default_rng(seed)
+    return inclination_error_deg(model, tool, random.uniform(0.0, 180.0, count),
+                                 random.uniform(0.0, 360.0, count),
+                                 random.uniform(20.0, 100.0, count))
+
+
 def test_bias_drift_is_fitted_from_two_attitudes(tmp_path):
     """
     0.8 mg/degC of bias drift: a one-attitude fit cannot see it, two attitudes fit it.
@@ -165,11 +173,7 @@ def test_bias_drift_is_fitted_from_two_attitudes(tmp_path):
     model = load_model(tmp_path / 'two.json')
     assert model.temperature.attitudes == 2
     assert np.abs(inclination_error_deg(model, DRIFTING, *third)).max() < 1e-6
-    random = np.random.default_rng(6)
-    errors = inclination_error_deg(model, DRIFTING, random.uniform(0.0, 180.0, 200),
-                                   random.uniform(0.0, 360.0, 200),
-                                   random.uniform(20.0, 100.0, 200))
-    assert np.abs(errors).max() < 1e-6
+    assert np.abs(random_errors_deg(model, DRIFTING, 6)).max() < 1e-6
 
 
 def test_a_stand_at_35_c_and_a_later_heating_fit_agree(tmp_path):
@@ -200,11 +204,7 @@ def test_a_stand_at_35_c_and_a_later_heating_fit_agree(tmp_path):
     assert code == 0, err
     assert 'compensating to 35 C' in out
     model = load_model(calibration)
-    random = np.random.default_rng(7)
-    errors = inclination_error_deg(model, tool, random.uniform(0.0, 180.0, 300),
-                                   random.uniform(0.0, 360.0, 300),
-                                   random.uniform(20.0, 100.0, 300))
-    assert np.abs(errors).max() < 1e-4
+    assert np.abs(random_errors_deg(model, tool, 7)).max() < 1e-4
 
 
 def test_magnetometer_temperature_is_fitted_the_same_way(tmp_path):

@@ -43,9 +43,8 @@ from inclino_ros.calibration.still_capture import CaptureRefused, require_still_
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_common_arguments, AXIS_COLUMNS, finish_figure, has_topic, is_bag, load_existing,
-    matrix_lines, new_figure, read_csv, read_topic, Refused, report_paths, run_fit,
-    sample_temperatures, save, write_text)
-from inclino_ros.cli.process import NODE_DEFAULTS
+    matrix_lines, new_figure, NODE_DEFAULTS, node_option, read_csv, read_topic, Refused,
+    report_paths, run_fit, sample_temperatures, save, write_text)
 from inclino_ros.core.attitude import inclination
 from inclino_ros.core.stand import fit_sphere, fit_stand, stand_specific_force, StandFitRefused
 from inclino_ros.core.stillness import MIN_SAMPLES, StillLimits
@@ -68,17 +67,13 @@ def register(subparsers):
     parser.add_argument('--max-rms-deg', type=float, default=0.05,
                         help='largest RMS inclination residual accepted [deg] (default: '
                              '%(default)s)')
-    parser.add_argument('--max-sem-deg', type=float, default=NODE_DEFAULTS['stand.max_sem_deg'],
-                        help='largest standard error of the mean direction of one position '
-                             '[deg] (default: %(default)s)')
-    parser.add_argument('--max-drift-deg-per-s', type=float,
-                        default=NODE_DEFAULTS['still.max_drift_deg_per_s'],
-                        help='a position whose mean drifts faster [deg/s], beyond 5 sigma of '
-                             'its noise, moved (default: %(default)s)')
-    parser.add_argument('--max-temperature-difference-c', type=float,
-                        default=NODE_DEFAULTS['temperature.max_stage_difference_c'],
-                        help='without a temperature stage, positions further apart in '
-                             'temperature [deg C] are refused (default: %(default)s)')
+    node_option(parser, '--max-sem-deg', 'stand.max_sem_deg',
+                'largest standard error of the mean direction of one position [deg]')
+    node_option(parser, '--max-drift-deg-per-s', 'still.max_drift_deg_per_s',
+                'a position whose mean drifts faster [deg/s], beyond 5 sigma of its noise, moved')
+    node_option(parser, '--max-temperature-difference-c', 'temperature.max_stage_difference_c',
+                'without a temperature stage, positions further apart in temperature [deg C] '
+                'are refused')
     parser.add_argument('--attitude-topic', default=ATTITUDE_TOPIC,
                         help='Vector3Stamped stand attitude topic of a bag (default: '
                              '%(default)s)')

@@ -40,8 +40,8 @@ from inclino_ros.calibration.model import (
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_common_arguments, finish_figure, is_bag, load_existing, matrix_lines, new_figure,
-    read_csv, read_topic, Refused, report_paths, run_fit, sample_temperatures, save, write_text)
-from inclino_ros.cli.process import NODE_DEFAULTS
+    node_option, read_csv, read_topic, Refused, report_paths, run_fit, sample_temperatures,
+    save, write_text)
 from inclino_ros.core.attitude import angle_between, inclination
 from inclino_ros.core.temperature import (
     AXES, fit_temperature, fit_temperature_drift, REFERENCE_TEMPERATURE_C,
@@ -80,10 +80,9 @@ def register(subparsers):
     parser.add_argument('--attitude-separation-deg', type=float, default=20.0,
                         help='bag: readings further apart in direction belong to different '
                              'attitudes (default: %(default)s)')
-    parser.add_argument('--max-temperature-difference-c', type=float,
-                        default=NODE_DEFAULTS['temperature.max_stage_difference_c'],
-                        help='later stages whose temperatures differ by more [deg C] cannot '
-                             'share one compensation: refused (default: %(default)s)')
+    node_option(parser, '--max-temperature-difference-c', 'temperature.max_stage_difference_c',
+                'later stages whose temperatures differ by more [deg C] cannot share one '
+                'compensation: refused')
     parser.set_defaults(func=run)
 
 

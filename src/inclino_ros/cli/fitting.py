@@ -19,10 +19,13 @@ from inclino_ros.calibration.model import (
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.io import tables
 from inclino_ros.io.bag import BagError, concatenate, read, topic_info
+from inclino_ros.node.parameters import PARAMETERS
 
 RAW_TOPIC = '/imu/data_raw'
 TEMPERATURE_TOPIC = '/imu/temperature'
 AXIS_COLUMNS = ('ax', 'ay', 'az')
+#: The node's parameter defaults: the commands' options default to the same values.
+NODE_DEFAULTS = {parameter.name: parameter.default for parameter in PARAMETERS}
 
 
 class Refused(Exception):
@@ -93,6 +96,12 @@ def sample_temperatures(imu, path, topic):
     series = read_topic(path, topic)
     inside = (imu.stamps_ns >= series.stamps_ns.min()) & (imu.stamps_ns <= series.stamps_ns.max())
     return series.at(imu.stamps_ns), inside
+
+
+def node_option(parser, flag, parameter, help_text, **kwargs):
+    """Add the float option ``flag`` defaulting to the node's ``parameter`` (said in its help)."""
+    parser.add_argument(flag, type=float, default=NODE_DEFAULTS[parameter],
+                        help=f'{help_text} (default: %(default)s, as {parameter})', **kwargs)
 
 
 def add_sensor_argument(parser):

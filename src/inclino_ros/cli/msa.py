@@ -63,7 +63,7 @@ from inclino_ros.calibration.model import NO_MAGNETIC_CORRECTION, utc_now_iso
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_sensor_argument, finish_figure, load_existing, new_figure, read_csv, save)
-from inclino_ros.cli.process import NODE_DEFAULTS
+from inclino_ros.cli.process import add_limit_arguments
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core import magnetics
 from inclino_ros.core.cross_axial import apply_cross_axial
@@ -104,13 +104,7 @@ def register(subparsers):
     parser.add_argument('--reference-dip-std-deg', type=float, default=WMM_REFERENCE_STD[1],
                         help='1 sigma of the reference dip [deg] (default: WMM 2025, '
                              '%(default)s)')
-    parser.add_argument('--azimuth-max-std-deg', type=float,
-                        default=NODE_DEFAULTS['magnetic.azimuth_max_std_deg'],
-                        help='a station azimuth of larger 1 sigma is NaN (default: %(default)s)')
-    parser.add_argument('--toolface-max-std-deg', type=float,
-                        default=NODE_DEFAULTS['toolface_max_std_deg'],
-                        help='a station toolface of larger 1 sigma is NaN (default: '
-                             '%(default)s)')
+    add_limit_arguments(parser)
     parser.add_argument('--exclude-failing', action='store_true',
                         help='leave stations failing QC out of the solve (named) instead of '
                              'refusing')

@@ -39,7 +39,7 @@ import sys
 
 from inclino_ros.calibration.model import CalibrationFileError, check_sensor, load_model
 from inclino_ros.cli.errors import CommandError
-from inclino_ros.cli.fitting import add_sensor_argument
+from inclino_ros.cli.fitting import add_sensor_argument, NODE_DEFAULTS, node_option
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core.screening import count_reasons, REASONS
 from inclino_ros.io.bag import (
@@ -47,7 +47,6 @@ from inclino_ros.io.bag import (
     not_measured_covariance, read, STORAGES, TEMPERATURE, topic_info, VECTOR3_STAMPED,
     Vector3Series)
 from inclino_ros.io.timing import pair_nearest
-from inclino_ros.node.parameters import PARAMETERS
 from inclino_ros.pipeline import (
     imu_covariances, MagneticSettings, run as run_pipeline, Settings)
 import numpy as np
@@ -55,7 +54,6 @@ from tqdm import tqdm
 
 SURVEY_TOPIC = '/survey'
 IMU_TOPIC = '/imu/data'
-NODE_DEFAULTS = {parameter.name: parameter.default for parameter in PARAMETERS}
 #: Azimuth counts of the summary (accepted samples only).
 MAGNETIC_COUNTS = ('mag_paired', 'mag_unpaired', 'azimuth_trusted', 'azimuth_untrusted',
                    'azimuth_imprecise', 'qc_failed', 'qc_failed_b_total', 'qc_failed_dip',
@@ -206,20 +204,15 @@ def register(subparsers):
                         default=NODE_DEFAULTS['accelerometer_range_mps2'],
                         help='sensor full scale [m/s^2]; samples at or beyond are dropped '
                              '(default: %(default)s)')
-    parser.add_argument('--noise-mps2', dest='noise_std_mps2', metavar='NOISE_MPS2', type=float,
-                        default=NODE_DEFAULTS['accelerometer_noise_std_mps2'],
-                        help='accelerometer noise per sample, 1 sigma [m/s^2]: the 1 sigma of '
-                             'the angles and the /imu/data covariances (default: %(default)s)')
-    parser.add_argument('--toolface-max-std-deg', type=float,
-                        default=NODE_DEFAULTS['toolface_max_std_deg'],
-                        help='a toolface of larger 1 sigma is NaN (default: %(default)s)')
-    parser.add_argument('--g-total-tolerance-mps2', type=float,
-                        default=NODE_DEFAULTS['g_total_tolerance_mps2'],
-                        help='three axes: a sample whose corrected G-total is further from g '
-                             'is not gravity and dropped (default: %(default)s)')
-    parser.add_argument('--two-axis-max-inclination-deg', type=float,
-                        default=NODE_DEFAULTS['two_axis_max_inclination_deg'],
-                        help='two axes: a steeper sample is dropped (default: %(default)s)')
+    node_option(parser, '--noise-mps2', 'accelerometer_noise_std_mps2',
+                'accelerometer noise per sample, 1 sigma [m/s^2]: the 1 sigma of the angles and '
+                'the /imu/data covariances', dest='noise_std_mps2', metavar='NOISE_MPS2')
+    add_limit_arguments(parser)
+    node_option(parser, '--g-total-tolerance-mps2', 'g_total_tolerance_mps2',
+                'three axes: a sample whose corrected G-total is further from g is not gravity '
+                'and dropped')
+    node_option(parser, '--two-axis-max-inclination-deg', 'two_axis_max_inclination_deg',
+                'two axes: a steeper sample is dropped')
     parser.add_argument('--chunk-size', type=int, default=CHUNK_SIZE,
                         help='samples processed per batch (default: %(default)s)')
     magnetic = parser.add_argument_group('magnetic azimuth (seed 002)')
@@ -229,19 +222,22 @@ def register(subparsers):
     magnetic.add_argument('--max-pairing-s', type=float, default=0.05, metavar='S',
                           help='largest time between an Imu sample and its magnetometer '
                                'message [s]; beyond it the azimuth is NaN (default: %(default)s)')
-    magnetic.add_argument('--mag-noise-nT', type=float,
-                          default=NODE_DEFAULTS['magnetometer_noise_std_nT'],
-                          help='magnetometer noise per sample, 1 sigma [nT] (default: '
-                               '%(default)s)')
-    magnetic.add_argument('--azimuth-max-std-deg', type=float,
-                          default=NODE_DEFAULTS['magnetic.azimuth_max_std_deg'],
-                          help='an azimuth of larger 1 sigma is NaN (default: %(default)s)')
+    node_option(magnetic, '--mag-noise-nT', 'magnetometer_noise_std_nT',
+                'magnetometer noise per sample, 1 sigma [nT]')
     add_reference_arguments(magnetic)
     parser.set_defaults(func=run)
 
 
+def add_limit_arguments(parser):
+    """Add --toolface-max-std-deg and --azimuth-max-std-deg (``process`` and ``msa``)."""
+    node_option(parser, '--toolface-max-std-deg', 'toolface_max_std_deg',
+                'a toolface of larger 1 sigma is NaN')
+    node_option(parser, '--azimuth-max-std-deg', 'magnetic.azimuth_max_std_deg',
+                'an azimuth of larger 1 sigma is NaN')
+
+
 def run(args):
-    """Process IN into OUT; return 0, 1 if no sample was accepted, 2 on an error."""
+    """Process IN into OUT; return 0, 1 if most samples dropped or none accepted, 2 on an error."""
     try:
         model, settings, count, temperature = _prepare(args)
         magnetometer = _magnetometer(args, model)

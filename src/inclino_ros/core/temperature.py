@@ -140,25 +140,11 @@ def fit_temperature(temperature_c, readings, reference, order,
     the data; an axis that reads about 0 at every fit attitude; an axis whose
     fitted K_T at the reference temperature is not positive.
     """
-    temperature_c = np.asarray(temperature_c, dtype=float)
-    readings = np.asarray(readings, dtype=float)
+    temperature_c, readings, _, t_min_c, t_max_c = _checked_run(
+        temperature_c, readings, order, reference_temperature_c)
     reference = np.broadcast_to(np.asarray(reference, dtype=float), readings.shape)
-    if readings.ndim != 2 or readings.shape[1] != 3 or temperature_c.shape != readings[:, 0].shape:
-        raise ValueError(f'need temperature_c (M,) and readings (M, 3), not '
-                         f'{temperature_c.shape} and {readings.shape}')
-    if not (np.isfinite(temperature_c).all() and np.isfinite(readings).all()
-            and np.isfinite(reference).all()):
+    if not np.isfinite(reference).all():
         raise TemperatureFitRefused('non-finite temperature, readings or reference')
-    distinct = np.unique(np.round(temperature_c / TEMPERATURE_RESOLUTION_C)).size
-    if distinct < order + 2:
-        raise TemperatureFitRefused(
-            f'order {order} needs at least {order + 2} distinct temperatures (more than its '
-            f'{order + 1} coefficients), got {distinct}')
-    t_min_c, t_max_c = float(temperature_c.min()), float(temperature_c.max())
-    if not t_min_c <= reference_temperature_c <= t_max_c:
-        raise TemperatureFitRefused(
-            f'reference temperature {reference_temperature_c} C lies outside the data '
-            f'[{t_min_c}, {t_max_c}] C: K_T cannot be normalised there without extrapolating')
     fraction = np.max(np.abs(reference) / np.linalg.norm(reference, axis=1)[:, None], axis=0)
     weak = [AXES[i] for i in np.flatnonzero(fraction < MIN_AXIS_FRACTION)]
     if weak:
@@ -202,23 +188,8 @@ def fit_temperature_drift(temperature_c, readings, attitude, order,
     attitudes do not spread by ``MIN_AXIS_SPREAD_FRACTION`` of the vector;
     a fit that does not converge.
     """
-    temperature_c = np.asarray(temperature_c, dtype=float)
-    readings = np.asarray(readings, dtype=float)
-    if readings.ndim != 2 or readings.shape[1] != 3 or temperature_c.shape != readings[:, 0].shape:
-        raise ValueError(f'need temperature_c (M,) and readings (M, 3), not '
-                         f'{temperature_c.shape} and {readings.shape}')
-    if not (np.isfinite(temperature_c).all() and np.isfinite(readings).all()):
-        raise TemperatureFitRefused('non-finite temperature or readings')
-    rounded = np.round(temperature_c / TEMPERATURE_RESOLUTION_C)
-    if np.unique(rounded).size < order + 2:
-        raise TemperatureFitRefused(
-            f'order {order} needs at least {order + 2} distinct temperatures, got '
-            f'{np.unique(rounded).size}')
-    t_min_c, t_max_c = float(temperature_c.min()), float(temperature_c.max())
-    if not t_min_c <= reference_temperature_c <= t_max_c:
-        raise TemperatureFitRefused(
-            f'reference temperature {reference_temperature_c} C lies outside the data '
-            f'[{t_min_c}, {t_max_c}] C')
+    temperature_c, readings, rounded, t_min_c, t_max_c = _checked_run(
+        temperature_c, readings, order, reference_temperature_c)
     labels, index = np.unique(np.asarray(attitude), return_inverse=True)
     index = index.reshape(-1)
     heated = [a for a in range(labels.size)
@@ -257,6 +228,35 @@ def fit_temperature_drift(temperature_c, readings, attitude, order,
         reference_temperature_c=reference_temperature_c, rms_residual=np.array(rms),
         bias_coefficients=_pad_rows(bias, order), attitudes=len(heated),
         references=np.array(references).T)
+
+
+def _checked_run(temperature_c, readings, order, reference_temperature_c):
+    """
+    Return (temperature_c, readings, rounded temperatures, t_min_c, t_max_c) of a heating run.
+
+    ValueError for wrong shapes; TemperatureFitRefused for non-finite data,
+    fewer than ``order + 2`` distinct temperatures (n + 1 coefficients and a
+    residual to judge them by), a reference temperature outside the data.
+    """
+    temperature_c = np.asarray(temperature_c, dtype=float)
+    readings = np.asarray(readings, dtype=float)
+    if readings.ndim != 2 or readings.shape[1] != 3 or temperature_c.shape != readings[:, 0].shape:
+        raise ValueError(f'need temperature_c (M,) and readings (M, 3), not '
+                         f'{temperature_c.shape} and {readings.shape}')
+    if not (np.isfinite(temperature_c).all() and np.isfinite(readings).all()):
+        raise TemperatureFitRefused('non-finite temperature, readings or reference')
+    rounded = np.round(temperature_c / TEMPERATURE_RESOLUTION_C)
+    distinct = np.unique(rounded).size
+    if distinct < order + 2:
+        raise TemperatureFitRefused(
+            f'order {order} needs at least {order + 2} distinct temperatures (more than its '
+            f'{order + 1} coefficients), got {distinct}')
+    t_min_c, t_max_c = float(temperature_c.min()), float(temperature_c.max())
+    if not t_min_c <= reference_temperature_c <= t_max_c:
+        raise TemperatureFitRefused(
+            f'reference temperature {reference_temperature_c} C lies outside the data '
+            f'[{t_min_c}, {t_max_c}] C: K_T cannot be normalised there without extrapolating')
+    return temperature_c, readings, rounded, t_min_c, t_max_c
 
 
 def _pad_rows(rows, order):
