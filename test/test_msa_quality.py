@@ -112,11 +112,14 @@ def test_improved_without_a_cross_axial_source_refuses():
     assert np.abs(azimuth_difference_deg(zero.azimuth_deg, truth)).max() > 0.15
     assert improved_cross_axial(G, B, *REFERENCE, rotation_fitted_at='t')[0] == (0.0, 0.0)
     G, B, truth = east_west_well()
-    cross_axial, source = improved_cross_axial(G, B, *REFERENCE)
+    cross_axial, source, covariance = improved_cross_axial(G, B, *REFERENCE)
     assert source.startswith('from the classic solve')
     np.testing.assert_allclose(cross_axial, EPS_ISCWSA_NT[:2], atol=10.0)
-    result = solve_msa_improved(G, B, *REFERENCE, cross_axial_nT=cross_axial)
+    result = solve_msa_improved(G, B, *REFERENCE, cross_axial_nT=cross_axial,
+                                cross_axial_covariance_nT2=covariance)
     assert np.abs(azimuth_difference_deg(result.azimuth_deg, truth)).max() < 0.1
+    # The classic solve's uncertainty of eps_x, eps_y is carried along.
+    np.testing.assert_allclose(result.eps_covariance_nT2[:2, :2], covariance)
 
 
 def test_a_minimum_on_the_search_bracket_edge_is_refused():

@@ -217,11 +217,13 @@ def correct(args, table, lines):
     elif args.method == 'axial':
         result = solve_msa_axial(G, B, *reference, **options)
     else:
-        cross_axial, source = improved_cross_axial(
+        cross_axial, source, covariance = improved_cross_axial(
             G, B, *reference, given_nT=args.cross_axial_nT,
             rotation_fitted_at=table.get('rotation_fitted_at'), **options)
-        lines.append(f'cross-axial {cross_axial[0]:.1f}, {cross_axial[1]:.1f} nT: {source}')
-        result = solve_msa_improved(G, B, *reference, cross_axial_nT=cross_axial, **options)
+        lines.append(f'cross-axial {cross_axial[0]:.1f}, {cross_axial[1]:.1f} nT: {source}'
+                     + ('' if covariance is not None else ' (its uncertainty not included)'))
+        result = solve_msa_improved(G, B, *reference, cross_axial_nT=cross_axial,
+                                    cross_axial_covariance_nT2=covariance, **options)
     lines += result_lines(result)
     return result, source
 
@@ -231,8 +233,8 @@ def result_lines(result):
     d = result.diagnostics
     std = result.eps_std_nT
     finite = np.isfinite(result.azimuth_std_deg)
-    lines = [f'{result.method}: eps x, y, z = ' + ', '.join(
-                 f'{v:.1f} +- {s:.1f}' for v, s in zip(result.eps_nT, std)) + ' nT (1 sigma: '
+    eps = [f'{v:.1f} +- {s:.1f}' if s > 0 else f'{v:.1f}' for v, s in zip(result.eps_nT, std)]
+    lines = [f'{result.method}: eps x, y, z = ' + ', '.join(eps) + ' nT (1 sigma: '
              f'the fit and the reference field, {result.reference_std[0]:g} nT and '
              f'{result.reference_std[1]:g} deg)',
              f'V before {result.v_before_nT2:.4g} nT^2, after {result.v_after_nT2:.4g} nT^2 '

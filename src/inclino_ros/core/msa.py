@@ -71,7 +71,7 @@ number and axial sensitivity, ``MsaLimits``): a start at eps = 0 can look
 well posed where the solution is not.
 """
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 import math
 
 from inclino_ros.core import magnetics
@@ -255,7 +255,7 @@ def solve_msa_axial(G, B, reference_total_nT, reference_dip_deg, limits=MsaLimit
 
 def solve_msa_improved(G, B, reference_total_nT, reference_dip_deg, cross_axial_nT=(0.0, 0.0),
                        limits=MsaLimits(), exclude_failing_qc=False,
-                       reference_std=WMM_REFERENCE_STD):
+                       reference_std=WMM_REFERENCE_STD, cross_axial_covariance_nT2=None):
     """
     Return seed 002's improved MSA (§2.2, Eqs. 23-33).
 
@@ -268,18 +268,28 @@ def solve_msa_improved(G, B, reference_total_nT, reference_dip_deg, cross_axial_
     needed.  Refused besides the common reasons when the minimum lies on the
     edge of that search bracket.  Refusals and QC exclusion as in
     ``solve_msa_classic``; ``improved_cross_axial`` says where (eps_x, eps_y)
-    may come from.
+    may come from, and ``cross_axial_covariance_nT2`` (2x2, None: not known)
+    their uncertainty, carried into ``eps_covariance_nT2`` and the stations'.
     """
-    return _solve('improved', G, B, reference_total_nT, reference_dip_deg, limits,
-                  exclude_failing_qc, tuple(float(v) for v in cross_axial_nT), reference_std)
+    result = _solve('improved', G, B, reference_total_nT, reference_dip_deg, limits,
+                    exclude_failing_qc, tuple(float(v) for v in cross_axial_nT), reference_std)
+    if cross_axial_covariance_nT2 is None:
+        return result
+    covariance = result.eps_covariance_nT2.copy()
+    covariance[:2, :2] += cross_axial_covariance_nT2
+    G = as_vectors(G, 'G')
+    return replace(result, eps_covariance_nT2=covariance, azimuth_std_deg=station_azimuth_std_deg(
+        G, result.corrected_nT, covariance, result.residual_std_nT,
+        _gravity_noise(G[result.used])))
 
 
 def improved_cross_axial(G, B, reference_total_nT, reference_dip_deg, given_nT=None,
                          rotation_fitted_at=None, limits=MsaLimits(), exclude_failing_qc=False,
                          reference_std=WMM_REFERENCE_STD):
     """
-    Return ((eps_x, eps_y) [nT], where they come from) for ``solve_msa_improved``.
+    Return ((eps_x, eps_y) [nT], where they come from, their 2x2 covariance or None).
 
+    For ``solve_msa_improved``.
     In order: ``given_nT``; zero when a rotation fit (``rotation_fitted_at``)
     has already removed the cross-axial part from B (seed 002 §2.1); the
     classic solve's, when the toolfaces spread (largest gap at most
@@ -288,15 +298,16 @@ def improved_cross_axial(G, B, reference_total_nT, reference_dip_deg, given_nT=N
     east-west well); the axial method is the one that assumes it.
     """
     if given_nT is not None:
-        return tuple(float(v) for v in given_nT), 'given'
+        return tuple(float(v) for v in given_nT), 'given', None
     if rotation_fitted_at is not None:
-        return (0.0, 0.0), f'removed by the rotation fit of {rotation_fitted_at}'
+        return (0.0, 0.0), f'removed by the rotation fit of {rotation_fitted_at}', None
     gap_deg = toolface_gap_deg(G)
     if gap_deg <= limits.max_toolface_gap_deg:
         classic = solve_msa_classic(G, B, reference_total_nT, reference_dip_deg, limits,
                                     exclude_failing_qc, reference_std)
         return (tuple(float(v) for v in classic.eps_nT[:2]),
-                f'from the classic solve (toolfaces spread, largest gap {gap_deg:.1f} deg)')
+                f'from the classic solve (toolfaces spread, largest gap {gap_deg:.1f} deg)',
+                classic.eps_covariance_nT2[:2, :2])
     raise MsaRefused(
         f'improved needs the cross-axial interference, and there is no rotation fit to take '
         f'it from and the toolfaces do not spread (largest gap {gap_deg:.1f} deg, limit '

@@ -146,12 +146,13 @@ class MagneticServices:
         try:
             source = ''
             if method == 'improved':
-                cross_axial, source = improved_cross_axial(
+                cross_axial, source, covariance = improved_cross_axial(
                     gravity, field, *reference, rotation_fitted_at=stage.rotation_fitted_at,
                     reference_std=reference_std)
                 source = f'; cross-axial ({cross_axial[0]:.1f}, {cross_axial[1]:.1f}) nT {source}'
                 result = solve_msa_improved(gravity, field, *reference, cross_axial_nT=cross_axial,
-                                            reference_std=reference_std)
+                                            reference_std=reference_std,
+                                            cross_axial_covariance_nT2=covariance)
             else:
                 result = SOLVERS[method](gravity, field, *reference, reference_std=reference_std)
             stage = replace(stage, interference_nT=tuple(iscwsa_from_tool(
