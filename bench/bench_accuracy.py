@@ -25,6 +25,7 @@ import math
 
 from inclino_ros.calibration.level_capture import LevelLimits, solve_level_capture
 from inclino_ros.calibration.model import CalibrationModel
+from inclino_ros.core.stillness import StillLimits
 from inclino_ros.pipeline import run, Settings
 from inclino_ros.sim import sensor_model as sm
 from inclino_ros.sim.bench import make_tool
@@ -45,8 +46,8 @@ def trial(rng, sensor, noise_mps2, samples, stations):
     gamma_deg, beta_deg = rng.uniform(-3.0, 3.0, 2)
     tool = make_tool(sensor, gamma_deg, beta_deg, noise_mps2=noise_mps2)
     level = sm.read(tool, np.zeros(samples), 0.0, rng=rng).accel_mps2
-    limits = LevelLimits(max_std_deg=10.0, max_tilt_deg=10.0, gravity_mps2=G,
-                         g_total_tolerance_mps2=1.0)
+    limits = LevelLimits(max_tilt_deg=10.0, gravity_mps2=G, g_total_tolerance_mps2=1.0,
+                         still=StillLimits(max_sem_deg=10.0))
     installation = solve_level_capture(level, 3, limits)
     inclination_deg = rng.uniform(0.0, 90.0, stations)
     toolface_deg = rng.uniform(0.0, 360.0, stations)

@@ -55,7 +55,7 @@ def calibrate(bag_path, calibration_path):
     """Write a calibration from the first 3 s (the level segment) of the bag."""
     level = next(read(bag_path, TOPIC, chunk_size=3000)).linear_acceleration_mps2
     installation = solve_level_capture(level, 3, LevelLimits(
-        max_std_deg=0.1, max_tilt_deg=5.0, gravity_mps2=9.80665, g_total_tolerance_mps2=0.05))
+        max_tilt_deg=5.0, gravity_mps2=9.80665, g_total_tolerance_mps2=0.05))
     save_model(calibration_path, CalibrationModel(accelerometer_axes=3,
                                                   installation=installation))
 

@@ -72,10 +72,14 @@ class NodeProcess:
             return stream.read()
 
 
-def imu_message(index, acceleration, frame_id='inclinometer'):
-    """Return an Imu message whose stamp encodes ``index`` (sec = index)."""
+def imu_message(index, acceleration, frame_id='inclinometer', period_s=None):
+    """Return an Imu message whose stamp encodes ``index`` (sec = index, or index * period_s)."""
     msg = Imu()
-    msg.header.stamp.sec = int(index)
+    if period_s is None:
+        msg.header.stamp.sec = int(index)
+    else:
+        stamp_ns = round(index * period_s * 1e9)
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp_ns, 1_000_000_000)
     msg.header.frame_id = frame_id
     acc = msg.linear_acceleration
     acc.x, acc.y, acc.z = (float(v) for v in acceleration)
@@ -115,6 +119,7 @@ class Probe:
         self.executor = SingleThreadedExecutor()
         self.executor.add_node(self.node)
         self.sent = 0
+        self.stamp_period_s = None  # None: stamp sec = index; else index * period
 
     def spin_for(self, seconds):
         """Process callbacks for ``seconds``."""
@@ -138,7 +143,7 @@ class Probe:
     def publish(self, acceleration):
         """Publish one raw sample; return its index."""
         index = self.sent
-        self.publisher.publish(imu_message(index, acceleration))
+        self.publisher.publish(imu_message(index, acceleration, period_s=self.stamp_period_s))
         self.sent += 1
         return index
 

@@ -9,6 +9,7 @@ errors are Gaussian with standard deviation s = sigma/(g sqrt(N)) rad, and a 4 s
 exceeded with probability 6e-5 (the seeds are fixed, so the runs are reproducible).
 """
 
+from dataclasses import replace
 from datetime import datetime
 import math
 
@@ -19,8 +20,7 @@ import numpy as np
 import pytest
 
 G = 9.80665
-LIMITS = LevelLimits(max_std_deg=0.1, max_tilt_deg=5.0, gravity_mps2=G,
-                     g_total_tolerance_mps2=0.3)
+LIMITS = LevelLimits(max_tilt_deg=5.0, gravity_mps2=G, g_total_tolerance_mps2=0.3)
 
 
 def level_reading(gamma_deg, beta_deg, g=G):
@@ -77,12 +77,13 @@ def test_noisy_capture_error_statistics():
     mean is within 4 s/sqrt(K).
     """
     rng = np.random.default_rng(2012)
-    sigma, n, k = 0.01, 50, 400       # per-sample tilt spread 0.058 deg < max_std_deg
+    sigma, n, k = 0.01, 50, 400       # standard error 0.0083 deg
     gamma_deg, beta_deg = 1.7, -2.2
     base = level_reading(gamma_deg, beta_deg)
+    loose = replace(LIMITS, still=replace(LIMITS.still, max_sem_deg=0.1))
     errors = np.array([
         [(r.gamma_deg - gamma_deg), (r.beta_deg - beta_deg)]
-        for r in (solve_level_capture(base + rng.normal(scale=sigma, size=(n, 3)), 3, LIMITS)
+        for r in (solve_level_capture(base + rng.normal(scale=sigma, size=(n, 3)), 3, loose)
                   for _ in range(k))])
     s_deg = math.degrees(sigma / (G * math.sqrt(n)))
     np.testing.assert_allclose(errors.std(axis=0, ddof=1), s_deg, rtol=0.15)
@@ -90,7 +91,7 @@ def test_noisy_capture_error_statistics():
 
 
 def test_reported_spread_is_per_sample_tilt_std():
-    """std_deg estimates the per-sample tilt spread sigma/g (N = 2000: 1.6 % sampling error)."""
+    """std_deg estimates the per-sample tilt noise sigma/g (N = 2000: 1.6 % sampling error)."""
     rng = np.random.default_rng(5)
     sigma = 0.01
     samples = level_reading(0.5, 0.5) + rng.normal(scale=sigma, size=(2000, 3))
@@ -101,7 +102,7 @@ def test_reported_spread_is_per_sample_tilt_std():
 def test_two_axis_capture_ignores_z_and_uses_configured_gravity():
     """Two axes: z is never read (NaN here); v_g is the configured gravity."""
     reading = level_reading(-1.2, 0.8)
-    samples = np.tile([reading[0], reading[1], math.nan], (5, 1))
+    samples = np.tile([reading[0], reading[1], math.nan], (6, 1))
     result = solve_level_capture(samples, 2, LIMITS)
     assert result.gamma_deg == pytest.approx(-1.2, abs=1e-10)
     assert result.beta_deg == pytest.approx(0.8, abs=1e-10)
@@ -109,38 +110,48 @@ def test_two_axis_capture_ignores_z_and_uses_configured_gravity():
     assert result.std_deg < 1e-12
 
 
-@pytest.mark.parametrize('count', [0, 1])
+@pytest.mark.parametrize('count', [0, 1, 5])
 def test_refuses_too_few_samples(count):
-    """Fewer than two samples: no spread can be measured."""
+    """Fewer than six samples: no still test (three blocks of two) can be made."""
     samples = np.tile(level_reading(0.1, 0.1), (count, 1))
     with pytest.raises(CaptureRefused) as caught:
         solve_level_capture(samples, 3, LIMITS)
-    assert str(caught.value) == f'only {count} sample(s) captured, need at least 2'
+    assert str(caught.value) == f'{count} samples: a still test needs at least 6'
 
 
-def test_refuses_moving_tool():
-    """Samples alternating +-0.5 deg about y: spread a sqrt(N/(N-1)) deg > max_std_deg."""
+def test_noisy_still_tool_is_refused_as_noisy_not_moving():
+    """
+    Samples alternating +-0.5 deg about y have a stable mean: too noisy, not moving.
+
+    Their noise is 0.5 deg (within blocks of two: exactly a sqrt(2)/sqrt(2)), the standard
+    error 0.5 / sqrt(10) deg; 0.01 deg needs 10 (0.5 / sqrt(10) / 0.01)^2 = 2500 samples.
+    """
     a, n = math.radians(0.5), 10
     signs = np.tile([1.0, -1.0], n // 2)
     samples = G * np.column_stack([signs * math.sin(a), np.zeros(n), np.full(n, math.cos(a))])
-    spread_deg = 0.5 * math.sqrt(n / (n - 1))       # sample std (ddof 1) of +-a
     with pytest.raises(CaptureRefused) as caught:
         solve_level_capture(samples, 3, LIMITS)
-    assert str(caught.value) == (
-        f'tool is moving: spread of the axis tilts {spread_deg:.4f} deg exceeds '
-        'level_capture.max_std_deg 0.1 deg')
-    # The same samples pass with a limit just above their spread (mean is level).
-    loose = LevelLimits(max_std_deg=spread_deg + 1e-9, max_tilt_deg=5.0, gravity_mps2=G,
-                        g_total_tolerance_mps2=0.3)
+    assert str(caught.value).startswith('too noisy for the target: 2500 samples needed')
+    assert 'level_capture.max_sem_deg 0.01 deg' in str(caught.value)
+    # The same samples pass with a target above their standard error (the mean is level).
+    loose = replace(LIMITS, still=replace(LIMITS.still, max_sem_deg=0.5 / math.sqrt(n) + 1e-6))
     result = solve_level_capture(samples, 3, loose)
-    assert result.std_deg == pytest.approx(spread_deg, abs=1e-10)
+    assert result.std_deg == pytest.approx(0.5, rel=1e-9)
     assert abs(result.gamma_deg) < 1e-12 and abs(result.beta_deg) < 1e-12
+
+
+def test_refuses_drifting_tool():
+    """A noise-free tilt of 0.1 deg/s at 100 Hz: drift 0.1 deg/s > 0.02, named in deg/s."""
+    times_s = np.arange(50) / 100.0
+    samples = np.array([level_reading(0.1 * t, 0.0) for t in times_s])
+    with pytest.raises(CaptureRefused, match=r'^tool is moving \(drift 0\.1000 deg/s'):
+        solve_level_capture(samples, 3, LIMITS, times_s)
 
 
 @pytest.mark.parametrize('scale', [1.05, 0.95, 9.80665])   # 5 % off, and g-units read as m/s^2
 def test_refuses_implausible_g_total(scale):
     """A mean magnitude off gravity by more than the tolerance is refused (3 axes)."""
-    samples = np.tile(level_reading(0.2, -0.3) * scale, (4, 1))
+    samples = np.tile(level_reading(0.2, -0.3) * scale, (6, 1))
     g_total = G * scale
     with pytest.raises(CaptureRefused) as caught:
         solve_level_capture(samples, 3, LIMITS)
@@ -151,7 +162,7 @@ def test_refuses_implausible_g_total(scale):
 
 def test_accepts_g_total_within_tolerance():
     """0.29 m/s^2 off gravity passes with a 0.3 tolerance, and is reported."""
-    samples = np.tile(level_reading(0.2, -0.3, G + 0.29), (4, 1))
+    samples = np.tile(level_reading(0.2, -0.3, G + 0.29), (6, 1))
     result = solve_level_capture(samples, 3, LIMITS)
     assert result.g_total_mps2 == pytest.approx(G + 0.29, rel=1e-14)
     assert result.gamma_deg == pytest.approx(0.2, abs=1e-10)
@@ -160,7 +171,7 @@ def test_accepts_g_total_within_tolerance():
 def test_refuses_tilted_bench():
     """Gamma = beta = 4 deg: theta = acos(cos^2 4 deg) = 5.655 deg > max_tilt_deg 5."""
     theta_deg = math.degrees(math.acos(math.cos(math.radians(4.0)) ** 2))
-    samples = np.tile(level_reading(4.0, 4.0), (3, 1))
+    samples = np.tile(level_reading(4.0, 4.0), (6, 1))
     with pytest.raises(CaptureRefused) as caught:
         solve_level_capture(samples, 3, LIMITS)
     assert str(caught.value) == (
@@ -168,16 +179,16 @@ def test_refuses_tilted_bench():
         '5.0 deg')
     assert f'{theta_deg:.3f}' == '5.655'
     # 3.5 deg each (theta 4.95 deg) passes.
-    result = solve_level_capture(np.tile(level_reading(3.5, 3.5), (3, 1)), 3, LIMITS)
+    result = solve_level_capture(np.tile(level_reading(3.5, 3.5), (6, 1)), 3, LIMITS)
     assert result.theta_deg == pytest.approx(
         math.degrees(math.acos(math.cos(math.radians(3.5)) ** 2)), abs=1e-9)
 
 
 def test_refusal_order():
     """Moving is reported before G-total, G-total before the tilt."""
-    moving_and_scaled = np.array([level_reading(0.0, 0.0), level_reading(2.0, 0.0)]) * 1.1
+    moving_and_scaled = np.array([level_reading(0.2 * k, 0.0) for k in range(10)]) * 1.1
     with pytest.raises(CaptureRefused, match='^tool is moving'):
         solve_level_capture(moving_and_scaled, 3, LIMITS)
-    scaled_and_tilted = np.tile(level_reading(6.0, 0.0) * 1.1, (3, 1))
+    scaled_and_tilted = np.tile(level_reading(6.0, 0.0) * 1.1, (6, 1))
     with pytest.raises(CaptureRefused, match='^implausible G-total'):
         solve_level_capture(scaled_and_tilted, 3, LIMITS)

@@ -16,6 +16,7 @@ from inclino_ros.calibration.level_capture import LevelLimits, solve_level_captu
 from inclino_ros.calibration.model import CalibrationModel, MagnetometerAlignment
 from inclino_ros.calibration.stand_capture import average_position, solve_positions
 from inclino_ros.core.stand import StandFitRefused
+from inclino_ros.core.stillness import StillLimits
 from inclino_ros.pipeline import MagneticSettings, run, Settings
 from inclino_ros.sim import sensor_model
 import numpy as np
@@ -36,13 +37,14 @@ def noiseless(tool):
                    magnetometer=replace(tool.magnetometer, noise_std=0.0))
 
 
-def stand_positions(tool, rng, positions=POSITIONS_DEG, samples=100, max_std_deg=1.0):
+def stand_positions(tool, rng, positions=POSITIONS_DEG, samples=100):
     """Return the captured Positions of ``tool`` on the stand (100 readings each)."""
     captured = []
     for incl, tf, azim in positions:
         accel, field = shots_sim.read(tool, np.full(samples, incl), np.full(samples, tf),
                                       np.full(samples, azim), rng)
-        captured.append(average_position(accel, incl, tf, max_std_deg, field, azim))
+        captured.append(average_position(accel, incl, tf, StillLimits(max_sem_deg=1.0),
+                                         fields_nT=field, azimuth_deg=azim))
     return captured
 
 
@@ -109,7 +111,7 @@ def test_the_mount_corrects_the_azimuth_too():
     rng = np.random.default_rng(6)
     tool = replace(sensor_model.IDEAL, mount=sensor_model.Mount(gamma_deg=0.8, beta_deg=-1.2))
     level, _ = shots_sim.read(tool, np.zeros(10), np.zeros(10), np.zeros(10), rng)
-    installation = solve_level_capture(level, 3, LevelLimits(0.1, 5.0, 9.80665, 0.05))
+    installation = solve_level_capture(level, 3, LevelLimits(5.0, 9.80665, 0.05))
     free = (0.0, 0.0, 0.0)   # an ideal tool: no drill string either
     azimuth, inclination = errors(tool, CalibrationModel(3, installation=installation), rng,
                                   interference_nT=free)

@@ -50,7 +50,7 @@ def test_apply_and_properties():
     assert not bare.calibrated
     np.testing.assert_array_equal(bare.apply(f), f)
     assert bare.to_dict() == {'format': FORMAT, 'schema_version': SCHEMA_VERSION,
-                              'accelerometer_axes': 3}
+                              'accelerometer_axes': 3, 'sensor_id': None}
 
 
 @pytest.mark.parametrize('model', [MODEL, CalibrationModel(accelerometer_axes=3)])
@@ -180,7 +180,10 @@ BAD_DOCUMENTS = {
     'schema string': (_edit(schema_version='1'), "schema_version '1' is not one of"),
     'no schema': (_edit(schema_version=None), 'schema_version None is not one of'),
     'schema bool': (_edit(schema_version=True), 'schema_version True is not one of'),
-    'stand in version 1': (_edit(schema_version=1, stand={}), "unknown sections ['stand']"),
+    'stand in version 1': (_edit(schema_version=1, stand={}, sensor_id=None),
+                           "unknown sections ['stand']"),
+    'sensor_id in version 2': (_edit(schema_version=2), "unknown sections ['sensor_id']"),
+    'sensor_id number': (_edit(sensor_id=7), 'sensor_id 7 is not a string'),
     'axes float': (_edit(accelerometer_axes=3.0), 'accelerometer_axes 3.0 is not 2 or 3'),
     'axes 4': (_edit(accelerometer_axes=4), 'accelerometer_axes 4 is not 2 or 3'),
     'no axes': (_edit(accelerometer_axes=None), 'accelerometer_axes'),

@@ -6,7 +6,7 @@ import math
 
 from inclino_ros.calibration.model import (
     CalibrationFileError, CalibrationModel, Installation, load_model, Magnetometer,
-    MagnetometerAlignment, save_model, Stand, Temperature, ToolAxis)
+    MagnetometerAlignment, save_model, Stand, Temperature, ToolAxis, VERSION_3_FIELDS)
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
@@ -72,12 +72,26 @@ def test_round_trip_with_every_stage(tmp_path):
 
 
 def test_version_1_file_still_loads(tmp_path):
-    """A version 1 file (installation only) is read."""
+    """A version 1 file (installation only, no temperature recorded) is read."""
     doc = CalibrationModel(3, installation=INSTALLATION).to_dict()
     doc['schema_version'] = 1
+    del doc['sensor_id'], doc['installation']['temperature_c']
     path = tmp_path / 'calibration.json'
     path.write_text(json.dumps(doc))
     assert load_model(path).installation == INSTALLATION
+
+
+def test_version_2_file_still_loads(tmp_path):
+    """A version 2 file (no sensor_id, no stage temperatures, scale-only drift) is read."""
+    doc = MODEL.to_dict()
+    doc['schema_version'] = 2
+    del doc['sensor_id']
+    for section, added in VERSION_3_FIELDS.items():
+        for field in added:
+            doc.get(section, {}).pop(field, None)
+    path = tmp_path / 'calibration.json'
+    path.write_text(json.dumps(doc))
+    assert load_model(path) == MODEL
 
 
 def edited(section, **changes):
@@ -176,6 +190,7 @@ def test_version_2_file_has_no_magnetometer_stage(tmp_path):
     """A version 2 file loads as before; a magnetometer section in it is unknown."""
     doc = MODEL.to_dict()
     doc['schema_version'] = 2
+    del doc['sensor_id']            # a version 3 field
     path = tmp_path / 'calibration.json'
     path.write_text(json.dumps(doc))
     assert load_model(path) == MODEL

@@ -39,6 +39,7 @@ from inclino_ros.core.msa import (
     azimuth_difference_deg, misfit_nT2, MsaLimits, MsaRefused, short_collar, solve_msa_axial,
     solve_msa_classic, solve_msa_improved, toolface_gap_deg)
 from inclino_ros.core.stand import correct_stand
+from inclino_ros.core.stillness import StillLimits
 from inclino_ros.sim import sensor_model as sm
 from inclino_ros.sim.bench import make_tool, tool_stand_truth
 from inclino_ros.sim.well import simulate_well, WELL_TOOL, WellScenario
@@ -146,13 +147,13 @@ def test_classic_and_improved_compared(wells):
     print('\n'.join(lines))
 
 
-def test_improved_interval_holds_the_minimum(wells):
-    """The interval eps_z0 +- d contains the true eps_z and V's minimum is inside, not on it."""
+def test_improved_search_bracket_holds_the_minimum(wells):
+    """The search bracket eps_z0 +- d contains the true eps_z and V's minimum (not its edge)."""
     for well, results in wells.values():
         result = results['improved']
-        low, high = result.interval_nT
+        low, high = result.search_bracket_nT
         assert low < well.interference_iscwsa_nT[2] < high
-        assert not result.diagnostics.at_interval_bound
+        assert low < result.eps_nT[2] < high
         assert result.v_after_nT2 < 1e-3 * result.v_before_nT2
 
 
@@ -373,7 +374,7 @@ def level_bench(tool, rng):
     """
     readings = sm.read(tool, np.zeros(CAPTURE_SAMPLES), 0.0, rng=rng)
     installation = solve_level_capture(readings.accel_mps2, 3, LevelLimits(
-        max_std_deg=0.1, max_tilt_deg=5.0, gravity_mps2=G, g_total_tolerance_mps2=0.05))
+        max_tilt_deg=5.0, gravity_mps2=G, g_total_tolerance_mps2=0.05))
     return CalibrationModel(3, installation=installation)
 
 
@@ -391,8 +392,8 @@ def calibration_stand(tool, rng):
     for incl, toolface, azimuth in STAND_POSITIONS_DEG:
         readings = sm.read(tool, np.full(CAPTURE_SAMPLES, incl), toolface, azimuth,
                            field=sm.Field(*REFERENCE), rng=rng)
-        positions.append(average_position(readings.accel_mps2, incl, toolface, 0.1,
-                                          readings.mag_nT, azimuth))
+        positions.append(average_position(readings.accel_mps2, incl, toolface, StillLimits(),
+                                          fields_nT=readings.mag_nT, azimuth_deg=azimuth))
     stand, field, note = solve_positions(positions, G, 0.05, REFERENCE, 0.1)
     assert note is None, note
     return CalibrationModel(3, stand=stand, magnetometer=field.magnetometer,

@@ -79,7 +79,7 @@ def test_default_improved_corrects_within_target(stations, tmp_path):
     code, out, err = quiet(['msa', stations, '-o', out_csv, *REFERENCE_ARGS,
                             '--declination-deg', '-3.5', '--report', report])
     assert code == 0, err
-    assert 'eps x, y, z' in out and 'interval' in out and 'from the classic solve' in out
+    assert 'eps x, y, z' in out and 'search bracket' in out and 'from the classic solve' in out
     table = read_table(out_csv)
     for column in ('md', 'inclination_deg', 'toolface_deg', 'azimuth_raw_deg', 'azimuth_deg',
                    'azimuth_true_north_deg', 'b_total_ok', 'dip_ok', 'g_total_ok', 'used',
@@ -93,7 +93,7 @@ def test_default_improved_corrects_within_target(stations, tmp_path):
     record = json.loads((tmp_path / 'out.csv.msa.json').read_text())
     assert record['method'] == 'improved'
     assert record['eps_nT'][2] == pytest.approx(2000.0, abs=15.0)
-    assert record['interval_nT'][0] < 2000.0 < record['interval_nT'][1]
+    assert record['search_bracket_nT'][0] < 2000.0 < record['search_bracket_nT'][1]
     assert record['v_after_nT2'] < record['v_before_nT2']
     assert report.stat().st_size > 0
 
@@ -113,7 +113,7 @@ def test_other_methods_run(stations, tmp_path, method):
 
 
 def test_unspread_toolfaces(tmp_path):
-    """One toolface: classic exits 1 with the reason, improved says cross-axial taken as zero."""
+    """One toolface: classic and improved (nothing gives the cross-axial) exit 1 with reasons."""
     path = tmp_path / 'stations.csv'
     write_stations_csv(path, simulate_well(WellScenario(
         toolface_step_deg=0.0, interference_tool_nT=(0.0, 0.0, -2000.0))))
@@ -122,9 +122,12 @@ def test_unspread_toolfaces(tmp_path):
     assert code == 1 and 'toolfaces not spread' in err
     assert not (tmp_path / 'c.csv').exists()
     code, out, err = quiet(['msa', path, '-o', tmp_path / 'i.csv', *REFERENCE_ARGS])
+    assert code == 1 and 'improved needs the cross-axial interference' in err
+    assert not (tmp_path / 'i.csv').exists()
+    code, out, err = quiet(['msa', path, '-o', tmp_path / 'a.csv', *REFERENCE_ARGS,
+                            '--method', 'axial'])
     assert code == 0, err
-    assert 'taken as zero' in out
-    assert np.max(np.abs(read_table(tmp_path / 'i.csv')['azimuth_error_deg'])) <= 0.1
+    assert np.max(np.abs(read_table(tmp_path / 'a.csv')['azimuth_error_deg'])) <= 0.1
     code, out, err = quiet(['msa', path, '-o', tmp_path / 'g.csv', *REFERENCE_ARGS,
                             '--cross-axial-nT', '0', '0'])
     assert code == 0 and 'given' in out

@@ -20,6 +20,8 @@ CAPTURE_SAMPLES = 100
 # 4 sigma bounds the angles; a corrected inclination inherits at most the tilt error.
 ANGLE_TOL_DEG = 4 * math.degrees(NOISE_MPS2 / G / math.sqrt(CAPTURE_SAMPLES))
 STATIONS = ((2.0, 30.0), (0.5, 200.0), (5.0, 300.0), (30.0, 120.0))
+#: The node as these tests use it: level captures of CAPTURE_SAMPLES, its noise NOISE_MPS2.
+NODE = {'level_capture.samples': CAPTURE_SAMPLES, 'accelerometer_noise_std_mps2': NOISE_MPS2}
 
 
 def level_samples(seed=1, scale=1.0):
@@ -63,7 +65,7 @@ def latest_status(probe, suffix):
 @pytest.mark.parametrize('axes', [3, 2])
 def test_calibration_round_trip_corrects_the_stations(start_node, probe, tmp_path, axes):
     """Calibrate through the service, then every station reads its true attitude."""
-    node = start_node(accelerometer_axes=axes)
+    node = start_node(**NODE, accelerometer_axes=axes)
     probe.wait_for_node()
     raw = survey_of(probe, 2.0, 30.0)
     # Uncalibrated: the misaligned reading's own inclination, 0.39 deg off the truth.
@@ -115,14 +117,18 @@ def test_calibration_round_trip_corrects_the_stations(start_node, probe, tmp_pat
 
 def test_refused_captures_keep_the_previous_calibration(start_node, probe, tmp_path):
     """Each refusal names its reason and leaves file and correction untouched."""
-    start_node(**{'level_capture.timeout_s': 5.0})
+    start_node(**NODE, **{'level_capture.timeout_s': 5.0})
     probe.wait_for_node()
     assert probe.calibrate(level_samples()).success
     path = tmp_path / 'calibration.json'
     before = path.read_text()
     rng = np.random.default_rng(7)
     refusals = {
-        'tool is moving': lambda i: tilted_reading(
+        # stamps 1 s apart: 0.05 deg a sample is 0.05 deg/s, beyond 0.02 deg/s.
+        'tool is moving (drift 0.0500 deg/s': lambda i: tilted_reading(
+            0.05 * i, 90.0, GAMMA_DEG, BETA_DEG),
+        # a stable mean, but 0.3 deg of noise per sample: 0.03 deg from 100 samples.
+        'too noisy for the target': lambda i: tilted_reading(
             rng.uniform(0.0, 1.0), 90.0, GAMMA_DEG, BETA_DEG),
         'bench is not level': lambda i: tilted_reading(8.0, 45.0, GAMMA_DEG, BETA_DEG),
         'implausible G-total': level_samples(scale=1.1),
@@ -146,11 +152,11 @@ def test_refused_captures_keep_the_previous_calibration(start_node, probe, tmp_p
 
 def test_calibration_persists_across_a_restart(start_node, probe, tmp_path):
     """A restarted node loads the file and corrects without a new capture."""
-    node = start_node()
+    node = start_node(**NODE)
     probe.wait_for_node()
     assert probe.calibrate(level_samples()).success
     assert node.stop() == 0
-    restarted = start_node()
+    restarted = start_node(**NODE)
     probe.wait_for_node()
     assert survey_of(probe, 4.0, 250.0).x == pytest.approx(4.0, abs=2 * ANGLE_TOL_DEG)
     assert f'loaded {tmp_path / "calibration.json"}' in restarted.log()
@@ -207,7 +213,7 @@ def test_an_unwritable_calibration_file_refuses_and_keeps_the_correction(start_n
     """When the file cannot be written the capture is refused and nothing is applied."""
     # /proc takes no new folders, even from root: the file is missing and cannot be made.
     path = '/proc/inclino-ros-test/calibration.json'
-    start_node(calibration_file=path)
+    start_node(**NODE, calibration_file=path)
     probe.wait_for_node()
     response = probe.calibrate(level_samples())
     assert not response.success

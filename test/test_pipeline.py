@@ -26,6 +26,7 @@ from inclino_ros.calibration.model import (
 from inclino_ros.calibration.stand_capture import average_position, solve_positions
 from inclino_ros.core.installation import installation_matrix
 from inclino_ros.core.screening import ACCEPTED, REASONS
+from inclino_ros.core.stillness import StillLimits
 from inclino_ros.pipeline import MagneticSettings, run, Settings
 from inclino_ros.sim import sensor_model as sm
 from inclino_ros.sim.bench import STAND_POSITIONS_DEG
@@ -67,9 +68,8 @@ def reading(sensor, incl_deg, tf_deg, azimuth_deg=0.0):
 
 def calibrate(gamma_deg, beta_deg, axes, g, roll_deg=0.0, check=True):
     """Run a noise-free level capture of a sensor mounted with (gamma, beta); return the model."""
-    level, _ = reading(tool(gamma_deg, beta_deg, axes, g, roll_deg), [0.0, 0.0], 0.0)
-    limits = LevelLimits(max_std_deg=0.1, max_tilt_deg=5.0, gravity_mps2=g,
-                         g_total_tolerance_mps2=0.3)
+    level, _ = reading(tool(gamma_deg, beta_deg, axes, g, roll_deg), np.zeros(6), 0.0)
+    limits = LevelLimits(max_tilt_deg=5.0, gravity_mps2=g, g_total_tolerance_mps2=0.3)
     installation = solve_level_capture(level, axes, limits)
     if check:   # the capture recovers the mounting (asin of arguments <= 0.05: round-off)
         assert installation.gamma_deg == pytest.approx(gamma_deg, abs=1e-12)
@@ -85,7 +85,8 @@ def test_three_axis_chain_recovers_truth(gamma_deg, beta_deg, incl_deg, tf_deg, 
     model = calibrate(gamma_deg, beta_deg, 3, g)
     truth = truth_force(incl_deg, tf_deg, g)
     raw, _ = reading(tool(gamma_deg, beta_deg, g=g), incl_deg, tf_deg)
-    survey = run(raw, model, Settings(gravity_mps2=g, accelerometer_range_mps2=2.0 * g))
+    survey = run(raw, model, Settings(gravity_mps2=g, noise_std_mps2=1e-6,
+                                      accelerometer_range_mps2=2.0 * g))
     assert survey.codes.tolist() == [ACCEPTED]
     np.testing.assert_allclose(survey.corrected_mps2[0], truth, rtol=0, atol=1e-12 * g)
     assert survey.inclination_deg[0] == pytest.approx(incl_deg, abs=EPS_DEG)
@@ -104,7 +105,8 @@ def test_two_axis_chain_recovers_truth(gamma_deg, beta_deg, incl_deg, tf_deg):
     model = calibrate(gamma_deg, beta_deg, 2, G)
     raw, _ = reading(tool(gamma_deg, beta_deg, axes=2), incl_deg, tf_deg)
     assert raw[0, 2] == 0.0                               # the driver has no z
-    survey = run(raw, model, Settings(accelerometer_axes=2))
+    survey = run(raw, model, Settings(accelerometer_axes=2, noise_std_mps2=1e-6,
+                                      two_axis_max_inclination_deg=80.0))
     assert survey.codes.tolist() == [ACCEPTED]
     assert survey.inclination_deg[0] == pytest.approx(incl_deg, abs=EPS_DEG)
     if incl_deg >= 0.1:
@@ -117,7 +119,8 @@ def test_iscwsa_convention_in_chain(gamma_deg, beta_deg, incl_deg, tf_deg):
     """The ISCWSA high-side convention reports the seed-000 toolface + 90 deg."""
     model = calibrate(gamma_deg, beta_deg, 3, G)
     raw, _ = reading(tool(gamma_deg, beta_deg), incl_deg, tf_deg)
-    survey = run(raw, model, Settings(toolface_convention='iscwsa_highside'))
+    survey = run(raw, model, Settings(toolface_convention='iscwsa_highside',
+                                      noise_std_mps2=1e-6))
     assert abs(angle_diff_deg(survey.toolface_deg[0], tf_deg + 90.0)) < EPS_DEG
 
 
@@ -141,8 +144,8 @@ def stand_calibrate(sensor, g=G):
     """
     positions = []
     for incl_deg, tf_deg in STAND_POSITIONS_DEG:
-        readings, _ = reading(sensor, [incl_deg] * 2, tf_deg)
-        positions.append(average_position(readings, incl_deg, tf_deg, max_std_deg=0.1))
+        readings, _ = reading(sensor, [incl_deg] * 6, tf_deg)
+        positions.append(average_position(readings, incl_deg, tf_deg, StillLimits()))
     stand, _, _ = solve_positions(positions, g, max_rms_deg=0.05)
     return CalibrationModel(accelerometer_axes=3, stand=stand)
 
@@ -239,7 +242,7 @@ def test_paper_installation_vertical_tool():
     corrected = run(vertical, CalibrationModel(accelerometer_axes=3, installation=installation),
                     Settings())
     assert corrected.inclination_deg[0] < 1e-12
-    assert np.isnan(corrected.toolface_deg[0])       # below toolface_min_inclination_deg
+    assert np.isnan(corrected.toolface_deg[0])       # vertical: its 1 sigma is unbounded
 
 
 def test_dropped_samples_give_no_rows_and_keep_order():
@@ -271,21 +274,28 @@ def test_two_axis_drops_over_g_and_ignores_z():
     np.testing.assert_allclose(survey.inclination_deg, [5.0, 20.0], rtol=0, atol=1e-10)
 
 
-def test_toolface_nan_below_minimum_inclination():
-    """Toolface is NaN strictly below toolface_min_inclination_deg, defined at/above it."""
-    raw = np.array([truth_force(i, 77.0) for i in (0.0, 0.005, 0.02, 0.5, 1.5)])
+def test_toolface_nan_where_its_sigma_exceeds_the_limit():
+    """
+    Toolface is NaN where its 1 sigma, noise / (g sin I) rad (no calibration), is above the limit.
+
+    Default noise 0.01 m/s^2: 0.0584 / sin I deg, i.e. 669, 167, 6.7 and 2.2 deg at
+    0.005, 0.02, 0.5 and 1.5 deg; the default limit 5 deg keeps only the last.
+    """
+    inclinations_deg = np.array([0.0, 0.005, 0.02, 0.5, 1.5])
+    raw = np.array([truth_force(i, 77.0) for i in inclinations_deg])
     model = CalibrationModel(accelerometer_axes=3)
-    survey = run(raw, model, Settings())           # default minimum 0.01 deg
-    assert np.isnan(survey.toolface_deg[:2]).all()
-    # At 0.02 deg the cross-axial part is g sin(0.02 deg) = 3.4e-3: toolface to ~1e-10 deg.
-    np.testing.assert_allclose(survey.toolface_deg[2:], 77.0, rtol=0, atol=1e-9)
-    np.testing.assert_allclose(survey.inclination_deg, [0.0, 0.005, 0.02, 0.5, 1.5],
-                               rtol=0, atol=1e-12)
-    wide = run(raw, model, Settings(toolface_min_inclination_deg=1.0))
-    assert np.isnan(wide.toolface_deg[:4]).all()
-    assert wide.toolface_deg[4] == pytest.approx(77.0, abs=1e-9)
-    # A minimum equal to a sample's own computed inclination: that sample keeps its toolface.
-    at = run(raw, model, Settings(toolface_min_inclination_deg=survey.inclination_deg[3]))
+    survey = run(raw, model, Settings())
+    expected_deg = np.degrees(0.01 / (G * np.sin(np.radians(inclinations_deg[1:]))))
+    np.testing.assert_allclose(survey.toolface_std_deg[1:], expected_deg, rtol=1e-9)
+    assert survey.toolface_std_deg[0] == math.inf
+    assert np.isnan(survey.toolface_deg[:4]).all()
+    assert survey.toolface_deg[4] == pytest.approx(77.0, abs=1e-9)
+    np.testing.assert_allclose(survey.inclination_deg, inclinations_deg, rtol=0, atol=1e-12)
+    quiet = run(raw, model, Settings(noise_std_mps2=1e-4))     # 100x less noise
+    assert np.isnan(quiet.toolface_deg[:2]).all()
+    np.testing.assert_allclose(quiet.toolface_deg[2:], 77.0, rtol=0, atol=1e-9)
+    # A limit equal to a sample's own sigma: that sample keeps its toolface.
+    at = run(raw, model, Settings(toolface_max_std_deg=survey.toolface_std_deg[3]))
     assert np.isnan(at.toolface_deg[:3]).all()
     np.testing.assert_allclose(at.toolface_deg[3:], 77.0, rtol=0, atol=1e-9)
 
@@ -318,19 +328,27 @@ def test_settings_refuse_bad_values(kwargs, message):
 
 
 def test_settings_defaults():
-    """The defaults: 3 axes, standard gravity, 2 g range, seed-000 toolface, 0.01 deg."""
+    """The defaults are the node's parameters' (node.parameters)."""
+    from inclino_ros.node.parameters import PARAMETERS
+    defaults = {p.name: p.default for p in PARAMETERS}
     s = Settings()
     assert (s.accelerometer_axes, s.gravity_mps2, s.accelerometer_range_mps2,
-            s.toolface_convention, s.toolface_min_inclination_deg) == \
-        (3, 9.80665, 2.0 * 9.80665, 'seed000', 0.01)
+            s.toolface_convention, s.noise_std_mps2, s.toolface_max_std_deg,
+            s.g_total_tolerance_mps2, s.two_axis_max_inclination_deg) == tuple(
+        defaults[name] for name in (
+            'accelerometer_axes', 'gravity_mps2', 'accelerometer_range_mps2',
+            'toolface_convention', 'accelerometer_noise_std_mps2', 'toolface_max_std_deg',
+            'g_total_tolerance_mps2', 'two_axis_max_inclination_deg'))
+    m = MagneticSettings()
+    assert (m.noise_std_nT, m.azimuth_max_std_deg) == (
+        defaults['magnetometer_noise_std_nT'], defaults['magnetic.azimuth_max_std_deg'])
     assert Settings(accelerometer_axes=2, toolface_convention='iscwsa_highside')
 
 
 def test_azimuth_is_not_trusted_near_vertical_or_without_a_field():
     """A vertical tool or a dead magnetometer gives a NaN azimuth, never a number."""
     from inclino_ros.core.magnetics import forward, iscwsa_from_tool
-    from inclino_ros.pipeline import MagneticSettings
-    settings = MagneticSettings(min_inclination_deg=0.5)
+    settings = MagneticSettings()   # 0.2 deg: 1 sigma ~16 deg at the default noise
     rows = []
     for inclination_deg in (0.2, 30.0):
         gravity, field = forward(inclination_deg, 100.0, 40.0, G, 50000.0, 60.0)

@@ -23,8 +23,8 @@ def code(reason):
 
 
 def test_reason_table():
-    """The reasons are the four documented ones, in the documented order."""
-    assert REASONS == ('non_finite', 'saturated', 'zero', 'over_g')
+    """The reasons are the six documented ones, in the documented order."""
+    assert REASONS == ('non_finite', 'saturated', 'zero', 'over_g', 'dynamic', 'two_axis_range')
     assert ACCEPTED == -1
 
 
@@ -91,7 +91,8 @@ def test_first_reason_wins():
 def test_count_reasons():
     """Counts have every reason as a key and add up to the rejected samples."""
     codes = np.array([ACCEPTED, 0, 0, 1, 3, ACCEPTED, 0, 2], dtype=np.int8)
-    assert count_reasons(codes) == {'non_finite': 3, 'saturated': 1, 'zero': 1, 'over_g': 1}
+    assert count_reasons(codes) == {'non_finite': 3, 'saturated': 1, 'zero': 1, 'over_g': 1,
+                                    'dynamic': 0, 'two_axis_range': 0}
     assert count_reasons(np.full(4, ACCEPTED, dtype=np.int8)) == dict.fromkeys(REASONS, 0)
     assert count_reasons(np.array([], dtype=np.int8)) == dict.fromkeys(REASONS, 0)
 

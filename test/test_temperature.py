@@ -68,7 +68,7 @@ def test_noise_free_fit_is_exact():
     np.testing.assert_allclose(fit.scale_factor([25.0]), [[1.0, 1.0, 1.0]], rtol=0, atol=1e-15)
     np.testing.assert_allclose(fit.scale_factor(STEPS_C), true_scale(STEPS_C), atol=EXACT)
     assert (fit.t_min_c, fit.t_max_c, fit.reference_temperature_c) == (20.0, 100.0, 25.0)
-    assert fit.rms_residual_mps2.max() < EXACT
+    assert fit.rms_residual.max() < EXACT
     np.testing.assert_allclose(compensate_temperature(readings, STEPS_C, fit),
                                np.tile(FIT_ATTITUDE, (9, 1)), rtol=0, atol=EXACT)
 

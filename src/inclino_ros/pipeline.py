@@ -2,9 +2,11 @@
 The processing chain shared by the node and the command line.
 
 raw specific force -> screening -> (two-axis completion) -> calibration model
--> inclination, gravity toolface, orientation (and, with magnetometer
-readings, the azimuth and its QC).  One batch of N samples at a time: the
-node passes what one executor wake-up finds queued, the command line 10 000.
+-> screening of what cannot be gravity -> inclination, gravity toolface,
+orientation, each with its 1 sigma (and, with magnetometer readings, the
+azimuth, its 1 sigma and its QC).  A toolface or azimuth whose 1 sigma
+exceeds its limit is NaN.  One batch of N samples at a time: the node passes
+what one executor wake-up finds queued, the command line 10 000.
 """
 
 from dataclasses import dataclass
@@ -15,24 +17,42 @@ from inclino_ros.core.attitude import (
 from inclino_ros.core.magnetics import (
     azimuth_deg, b_total_nT, dip_deg, gravity_from_specific_force, iscwsa_from_tool, QcLimits,
     survey_qc, SurveyQc, true_azimuth_deg)
-from inclino_ros.core.screening import ACCEPTED, screen
+from inclino_ros.core.screening import ACCEPTED, screen, screen_corrected
+from inclino_ros.core.uncertainty import (
+    azimuth_std_rad, dip_std_rad, inclination_std_rad, roll_pitch_covariance,
+    specific_force_covariance, toolface_std_rad)
 import numpy as np
 
 #: Smallest field [nT] taken for the Earth's (which is 22000-67000 nT at the surface).
 MIN_FIELD_NT = 1000.0
 #: Variance of a yaw that nothing observes: uniform on [-pi, pi).
 UNOBSERVED_YAW_VARIANCE = math.pi ** 2 / 3.0
+#: Per-sample QC limits are the station limits widened by this many sigma of the
+#: sample's own noise (the station limits are themselves 3 sigma, formulas.md).
+QC_SIGMA = 3.0
 
 
 @dataclass(frozen=True)
 class Settings:
-    """Sensor and output settings of the chain (the node's parameters)."""
+    """
+    Sensor and output settings of the chain (the node's parameters).
+
+    ``noise_std_mps2``: the accelerometer's per-sample noise, 1 sigma per
+    axis; ``toolface_max_std_deg``: a toolface of larger 1 sigma is NaN;
+    ``g_total_tolerance_mps2``: a three-axis sample whose corrected G-total is
+    further from g is not gravity (dropped, ``dynamic``);
+    ``two_axis_max_inclination_deg``: a two-axis sample steeper than this is
+    dropped (``two_axis_range``): it may be a tool past 90 deg folded back.
+    """
 
     accelerometer_axes: int = 3
     gravity_mps2: float = 9.80665
     accelerometer_range_mps2: float = 2.0 * 9.80665
     toolface_convention: str = 'seed000'
-    toolface_min_inclination_deg: float = 0.01
+    noise_std_mps2: float = 0.01
+    toolface_max_std_deg: float = 5.0
+    g_total_tolerance_mps2: float = 3.0
+    two_axis_max_inclination_deg: float = 60.0
 
     def __post_init__(self):
         """Refuse settings the chain cannot honour."""
@@ -45,13 +65,21 @@ class Settings:
 
 @dataclass(frozen=True)
 class MagneticSettings:
-    """The reference field and QC limits of the azimuth (the node's magnetic.* parameters)."""
+    """
+    The reference field and limits of the azimuth (the node's magnetic.* parameters).
+
+    ``limits`` are the station QC limits (a per-sample QC widens them by the
+    sample's own noise, ``QC_SIGMA``); ``noise_std_nT`` the magnetometer's
+    per-sample noise per axis; ``azimuth_max_std_deg``: an azimuth of larger
+    1 sigma is NaN (near vertical it is undefined and its sigma unbounded).
+    """
 
     reference_total_nT: float = 0.0   # 0: no reference known, QC not checked
     reference_dip_deg: float = 0.0
     declination_deg: float = 0.0
     limits: QcLimits = QcLimits()
-    min_inclination_deg: float = 0.5  # the azimuth of a vertical tool is undefined
+    noise_std_nT: float = 100.0
+    azimuth_max_std_deg: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -63,8 +91,15 @@ class AzimuthSurvey:
     b_total_nT: np.ndarray        # (M,) of the corrected field
     dip_deg: np.ndarray           # (M,)
     qc: SurveyQc                  # None without a reference field
-    trusted: np.ndarray           # (M,) paired, finite and passing QC
+    trusted: np.ndarray           # (M,) paired, finite, precise enough and passing QC
+    azimuth_std_deg: np.ndarray   # (M,) 1 sigma of the azimuth (NaN where undefined)
+    precise: np.ndarray           # (M,) azimuth_std_deg within the limit
     defined_azimuth_deg: np.ndarray = None  # (M,) wherever defined, QC or not
+
+    @property
+    def imprecise(self):
+        """Return where a usable field gave an azimuth whose 1 sigma exceeds the limit."""
+        return (self.b_total_nT >= MIN_FIELD_NT) & ~self.precise
 
 
 @dataclass(frozen=True)
@@ -74,10 +109,19 @@ class Survey:
     codes: np.ndarray            # (N,) screening code per input sample
     corrected_mps2: np.ndarray   # (M, 3) corrected specific force, tool frame
     inclination_deg: np.ndarray  # (M,)
-    toolface_deg: np.ndarray     # (M,), NaN below the minimum inclination
+    toolface_deg: np.ndarray     # (M,), NaN where its 1 sigma exceeds the limit
     orientation_wxyz: np.ndarray  # (M, 4)
     g_total_mps2: np.ndarray     # (M,)
+    covariance_mps2: np.ndarray  # (M, 3, 3) of corrected_mps2 (sensor noise), read-only
+    tilt_var_rad2: float         # variance of the tilt from the calibration itself
+    toolface_std_deg: np.ndarray     # (M,) 1 sigma (inf for a vertical tool)
     magnetic: AzimuthSurvey = None  # when magnetometer readings were given
+
+    @property
+    def inclination_std_deg(self):
+        """Return the 1 sigma of each inclination [deg] (``uncertainty.inclination_std_rad``)."""
+        return np.degrees(inclination_std_rad(self.corrected_mps2, self.covariance_mps2,
+                                              self.tilt_var_rad2))
 
     @property
     def accepted(self):
@@ -93,32 +137,52 @@ def sensor_vectors(raw, settings):
     return raw
 
 
-def resolve_azimuth(corrected_mps2, field_nT, model, settings, magnetic_settings):
+def resolve_azimuth(corrected_mps2, field_nT, model, settings, magnetic_settings,
+                    covariance_mps2, tilt_var_rad2, temperature_c=None, averaged=1):
     """
     Return the AzimuthSurvey of corrected accelerometer and raw magnetometer readings.
 
     Both in the z-up tool frame, (M, 3); a NaN field row (no paired reading)
     gives a NaN azimuth.  The field is corrected by the model's magnetometer
-    stages (its own, the shared mount, seed 002's) and turned into the ISCWSA
-    frame with the gravity vector (``magnetics.gravity_from_specific_force``)
-    for the azimuth of seed 001
-    Eq. 4; a sample failing QC against the reference, or below the minimum
-    inclination (where the azimuth is undefined), is not trusted.
+    stages (at ``temperature_c``: its temperature stage, its own, the shared
+    mount, seed 002's) and turned into the ISCWSA frame with the gravity
+    vector (``magnetics.gravity_from_specific_force``) for the azimuth of seed
+    001 Eq. 4.  Its 1 sigma (``uncertainty.azimuth_std_rad``) takes the
+    accelerometer's covariance and calibration tilt, the magnetometer's noise
+    (over ``averaged`` samples) and the MSA interference's own 1 sigma (which
+    holds the reference field's uncertainty).  Defined (``defined_azimuth_deg``):
+    a finite azimuth of a field above MIN_FIELD_NT whose sigma is within
+    ``azimuth_max_std_deg`` (near vertical the azimuth is undefined).  Trusted:
+    defined and passing QC against the reference (limits widened by QC_SIGMA of
+    the sample's own noise).
     """
     gravity = gravity_from_specific_force(corrected_mps2)
-    field = iscwsa_from_tool(model.apply_magnetic(field_nT))
+    field = iscwsa_from_tool(model.apply_magnetic(field_nT, temperature_c))
     azimuth = azimuth_deg(gravity, field)
     field_total_nT = b_total_nT(field)
+    flip = np.diag([-1.0, 1.0, 1.0])          # G = (-f_x, f_y, f_z)
+    noise_nT = magnetic_settings.noise_std_nT / math.sqrt(averaged)
+    field_covariance = noise_nT ** 2 * np.eye(3)
+    stage = model.magnetic
+    if stage is not None and stage.interference_std_nT is not None:
+        field_covariance = field_covariance + np.diag(np.square(stage.interference_std_nT))
+    std_deg = np.degrees(azimuth_std_rad(gravity, field, flip @ covariance_mps2 @ flip,
+                                         field_covariance, tilt_var_rad2))
+    precise = std_deg <= magnetic_settings.azimuth_max_std_deg   # NaN: False
     # Below MIN_FIELD_NT there is no Earth field in the reading (a dead magnetometer).
-    steep_enough = (inclination(corrected_mps2)
-                    >= math.radians(magnetic_settings.min_inclination_deg))
-    defined = np.isfinite(azimuth) & (field_total_nT >= MIN_FIELD_NT) & steep_enough
+    defined = np.isfinite(azimuth) & (field_total_nT >= MIN_FIELD_NT) & precise
     trusted = defined.copy()
     qc = None
     if magnetic_settings.reference_total_nT > 0:
+        g_std = settings.noise_std_mps2 / math.sqrt(averaged)
+        limits = magnetic_settings.limits
+        widened = QcLimits(
+            b_total_tolerance_nT=math.hypot(limits.b_total_tolerance_nT, QC_SIGMA * noise_nT),
+            dip_tolerance_deg=np.hypot(limits.dip_tolerance_deg, QC_SIGMA * np.degrees(
+                dip_std_rad(gravity, field, g_std, noise_nT))),
+            g_total_tolerance=math.hypot(limits.g_total_tolerance, QC_SIGMA * g_std))
         qc = survey_qc(gravity, field, magnetic_settings.reference_total_nT,
-                       magnetic_settings.reference_dip_deg, settings.gravity_mps2,
-                       magnetic_settings.limits)
+                       magnetic_settings.reference_dip_deg, settings.gravity_mps2, widened)
         trusted &= qc.ok
     defined_azimuth = np.where(defined, azimuth, math.nan)
     azimuth = np.where(trusted, azimuth, math.nan)
@@ -126,61 +190,72 @@ def resolve_azimuth(corrected_mps2, field_nT, model, settings, magnetic_settings
         azimuth_deg=azimuth, defined_azimuth_deg=defined_azimuth,
         true_azimuth_deg=true_azimuth_deg(azimuth, magnetic_settings.declination_deg),
         b_total_nT=field_total_nT, dip_deg=dip_deg(gravity, field), qc=qc,
-        trusted=trusted)
+        trusted=trusted, azimuth_std_deg=std_deg, precise=precise)
 
 
 def run(raw, model, settings, temperature_c=None, field_nT=None,
-        magnetic_settings=MagneticSettings()):
+        magnetic_settings=MagneticSettings(), averaged=1):
     """
     Screen, correct and resolve a batch of raw readings (N x 3, m/s^2).
 
-    ``temperature_c`` (scalar or (N,)) feeds the model's temperature stage;
+    ``temperature_c`` (scalar or (N,)) feeds the model's temperature stages;
     None compensates at the reference temperature.  ``field_nT`` (N x 3,
     tool frame, NaN rows where no reading is paired) adds the azimuth.
+    ``averaged``: each row is the mean of that many samples (a station): its
+    noise is the per-sample noise / sqrt(averaged).  Samples are dropped
+    before the correction (``screening.screen``) and after it
+    (``screening.screen_corrected``: not gravity, two-axis out of range).
     """
     raw = np.asarray(raw, dtype=float).reshape(-1, 3)
     codes = screen(raw, settings.accelerometer_axes,
                    settings.accelerometer_range_mps2, settings.gravity_mps2)
-    accepted = codes == ACCEPTED
-    if not accepted.all():
-        raw = raw[accepted]
-        if np.ndim(temperature_c) == 1:
-            temperature_c = np.asarray(temperature_c)[accepted]
-        if field_nT is not None:
-            field_nT = np.asarray(field_nT, dtype=float).reshape(-1, 3)[accepted]
-    corrected = model.apply(sensor_vectors(raw, settings), temperature_c)
+    if field_nT is not None:
+        field_nT = np.asarray(field_nT, dtype=float).reshape(-1, 3)
+    kept = np.flatnonzero(codes == ACCEPTED)
+    sensor = sensor_vectors(raw[kept], settings)
+    temperatures = (np.asarray(temperature_c)[kept] if np.ndim(temperature_c) == 1
+                    else temperature_c)
+    corrected = model.apply(sensor, temperatures)
+    late = screen_corrected(corrected, settings.accelerometer_axes, settings.gravity_mps2,
+                            settings.g_total_tolerance_mps2,
+                            settings.two_axis_max_inclination_deg)
+    codes[kept] = late
+    good = late == ACCEPTED
+    kept, sensor, corrected = kept[good], sensor[good], corrected[good]
+    if np.ndim(temperatures) == 1:
+        temperatures = temperatures[good]
+    noise_mps2 = settings.noise_std_mps2 / math.sqrt(averaged)
+    covariance = specific_force_covariance(sensor, noise_mps2, settings.accelerometer_axes,
+                                           model.linear_map)
+    tilt_var = model.tilt_std_rad ** 2
     incl_deg = np.degrees(inclination(corrected))
     toolface_deg = np.degrees(TOOLFACE_CONVENTIONS[settings.toolface_convention](corrected))
-    toolface_deg[incl_deg < settings.toolface_min_inclination_deg] = math.nan
+    toolface_std_deg = np.degrees(toolface_std_rad(corrected, covariance, tilt_var))
+    toolface_deg[~(toolface_std_deg <= settings.toolface_max_std_deg)] = math.nan
     return Survey(codes=codes, corrected_mps2=corrected, inclination_deg=incl_deg,
                   toolface_deg=toolface_deg,
                   orientation_wxyz=orientation_quaternion(corrected),
                   g_total_mps2=np.sqrt(np.einsum('ij,ij->i', corrected, corrected)),
+                  covariance_mps2=covariance, tilt_var_rad2=tilt_var,
+                  toolface_std_deg=toolface_std_deg,
                   magnetic=None if field_nT is None else resolve_azimuth(
-                      corrected, np.asarray(field_nT, dtype=float).reshape(-1, 3), model,
-                      settings, magnetic_settings))
+                      corrected, field_nT[kept], model, settings, magnetic_settings,
+                      covariance, tilt_var, temperatures, averaged))
 
 
-def imu_covariances(survey, model, settings, noise_std_mps2):
+def imu_covariances(survey):
     """
     Return the covariances of the corrected Imu: (linear_acceleration, orientation).
 
     Both are (M, 9) row-major 3x3 per accepted sample.  Acceleration: the
-    sensor noise variance per axis; for a two-axis sensor z = sqrt(g^2 - x^2 -
-    y^2), so first-order propagation gives var_z = var (x^2 + y^2) / z^2.
-    Roll and pitch: var / |f|^2 plus the variance of the calibration's mean
-    tilt (std_deg^2 / sample_count); yaw is unobserved.
+    propagated sensor noise (two-axis completion and calibration matrices
+    included, ``uncertainty.specific_force_covariance``).  Roll and pitch:
+    the same through ``uncertainty.roll_pitch_covariance``, plus the
+    calibration's own tilt variance; yaw is unobserved.
     """
-    f = survey.corrected_mps2
-    var = noise_std_mps2 ** 2
-    acceleration = np.zeros((f.shape[0], 9))
-    acceleration[:, 0] = acceleration[:, 4] = acceleration[:, 8] = var
-    if settings.accelerometer_axes == 2:
-        acceleration[:, 8] = var * (f[:, 0] ** 2 + f[:, 1] ** 2) / np.maximum(f[:, 2] ** 2, 1e-12)
-    installation = model.installation
-    calibration_var = (0.0 if installation is None else
-                       math.radians(installation.std_deg) ** 2 / installation.sample_count)
-    orientation = np.zeros((f.shape[0], 9))
-    orientation[:, 0] = orientation[:, 4] = var / survey.g_total_mps2 ** 2 + calibration_var
-    orientation[:, 8] = UNOBSERVED_YAW_VARIANCE
-    return acceleration, orientation
+    count = survey.corrected_mps2.shape[0]
+    orientation = np.zeros((count, 3, 3))
+    orientation[:, :2, :2] = roll_pitch_covariance(survey.corrected_mps2,
+                                                   survey.covariance_mps2, survey.tilt_var_rad2)
+    orientation[:, 2, 2] = UNOBSERVED_YAW_VARIANCE
+    return np.reshape(survey.covariance_mps2, (count, 9)), orientation.reshape(count, 9)

@@ -11,49 +11,48 @@ from dataclasses import dataclass
 import math
 
 from inclino_ros.calibration.model import Installation, utc_now_iso
+from inclino_ros.calibration.still_capture import CaptureRefused, require_still
 from inclino_ros.core.installation import (
     installation_angles, level_axis_angles, pseudo_inclination)
+from inclino_ros.core.stillness import StillLimits
 import numpy as np
 
-
-class CaptureRefused(Exception):
-    """A capture whose samples cannot give a trustworthy calibration."""
+__all__ = ('CaptureRefused', 'LevelLimits', 'solve_level_capture')
 
 
 @dataclass(frozen=True)
 class LevelLimits:
-    """Acceptance limits of a level capture."""
+    """Acceptance limits of a level capture (``still``: motion and precision)."""
 
-    max_std_deg: float
     max_tilt_deg: float
     gravity_mps2: float
     g_total_tolerance_mps2: float
+    still: StillLimits = StillLimits(drift_name='still.max_drift_deg_per_s',
+                                     sem_name='level_capture.max_sem_deg')
 
 
-def solve_level_capture(samples, axes, limits):
+def solve_level_capture(samples, axes, limits, times_s=None, temperature_c=None):
     """
     Return the Installation of a level capture, or raise CaptureRefused.
 
     ``samples`` are accepted raw readings, shape (N, 3), m/s^2 (for a
     two-axis sensor the z column is ignored and ``v_g`` is the configured
-    gravity).  Checks, in order: enough samples; the tool is still (standard
-    deviation of the per-sample axis tilts of Eqs. 11-12 at most
-    ``max_std_deg``); G-total within tolerance (three axes); the bench level
-    (false tilt theta of Eq. 4 at most ``max_tilt_deg``).
+    gravity); ``times_s`` their times (None: in sample order);
+    ``temperature_c`` the temperature their readings stand for (None:
+    unknown), recorded in the stage.  Checks, in order: the tool is still and
+    the mean precise enough (``still_capture.require_still`` of the
+    per-sample axis tilts of Eqs. 11-12); G-total within tolerance (three
+    axes); the bench level (false tilt theta of Eq. 4 at most
+    ``max_tilt_deg``).  ``std_deg`` of the stage is the per-sample noise of
+    one tilt, so ``std_deg / sqrt(sample_count)`` is the angles' 1 sigma.
     """
     samples = np.asarray(samples, dtype=float)
-    if samples.shape[0] < 2:
-        raise CaptureRefused(f'only {samples.shape[0]} sample(s) captured, need at least 2')
     if axes == 3:
         g_per_sample = np.linalg.norm(samples, axis=1)
     else:
         g_per_sample = np.full(samples.shape[0], limits.gravity_mps2)
     tilt_x, tilt_y = level_axis_angles(samples, g_per_sample)
-    std_deg = math.degrees(max(np.std(tilt_x, ddof=1), np.std(tilt_y, ddof=1)))
-    if std_deg > limits.max_std_deg:
-        raise CaptureRefused(
-            f'tool is moving: spread of the axis tilts {std_deg:.4f} deg exceeds '
-            f'level_capture.max_std_deg {limits.max_std_deg} deg')
+    stillness = require_still(np.column_stack([tilt_x, tilt_y]), times_s, limits.still)
     mean = samples.mean(axis=0)
     g_total = float(np.linalg.norm(mean)) if axes == 3 else limits.gravity_mps2
     if abs(g_total - limits.gravity_mps2) > limits.g_total_tolerance_mps2:
@@ -69,4 +68,4 @@ def solve_level_capture(samples, axes, limits):
     return Installation(
         gamma_deg=math.degrees(float(gamma)), beta_deg=math.degrees(float(beta)),
         captured_at=utc_now_iso(), sample_count=int(samples.shape[0]),
-        std_deg=std_deg, g_total_mps2=g_total)
+        std_deg=stillness.noise_deg, g_total_mps2=g_total, temperature_c=temperature_c)

@@ -5,8 +5,8 @@ A model is an ordered set of correction stages.  Each triad has its own, and
 both share the mount.  Raw specific force (three-axis sensors; a two-axis
 sensor has the mount stages only) goes through:
 
-1. ``temperature``: seed 001 Eqs. 5-7, each axis divided by its scale factor
-   K_T(T), with T clamped to the fitted range;
+1. ``temperature``: seed 001 Eqs. 5-7 with a bias drift, each axis
+   ``(A - B_T(T)) / K_T(T)``, with T clamped to the fitted range;
 2. ``stand``: seed 001 Eqs. 10-11, ``K^-1 (A - b)`` from a multi-position
    stand (or the reference-free sphere fit); its output is the
    accelerometer frame;
@@ -29,6 +29,11 @@ accelerometer frame, then the same mount, then seed 002's corrections:
 3. ``installation``, ``tool_axis``: the shared mount, as above;
 4. ``magnetic``: seed 002's cross-axial correction and interference.
 
+The magnetometer has its own: ``magnetometer_temperature`` (the same
+temperature model in nT) and ``magnetic`` (seed 002).  Every stage records
+the temperature its readings stood for (``temperature_c``; None: unknown);
+the file names the sensor it belongs to (``sensor_id``).
+
 The file is JSON, versioned, written atomically (temporary file, fsync,
 rename) and validated on load; any defect raises ``CalibrationFileError``
 naming the file, never a silent zero correction.
@@ -49,21 +54,34 @@ from inclino_ros.core.stand import correct_stand, MAX_CONDITION_NUMBER, rotation
 from inclino_ros.core.temperature import compensate_temperature, TemperatureFit
 import numpy as np
 
+#: Gravity [m/s^2] against which a temperature residual becomes an angle.
+STANDARD_GRAVITY_MPS2 = 9.80665
+
 FORMAT = 'inclino_ros.calibration'
 SCHEMA_VERSION = 3
 #: Versions load_model reads: version 1 files hold the installation stage only,
-#: version 2 files no magnetometer or tool-axis stage.
+#: version 2 files no magnetometer, tool-axis or magnetometer temperature stage and lack
+#: the fields version 3 added to theirs (``VERSION_3_FIELDS``).
 READABLE_VERSIONS = (1, 2, 3)
 #: The accelerometer's stages, in the order they are applied.
 STAGES = ('temperature', 'stand', 'installation', 'tool_axis')
 #: The stages both triads share: the mount.
 MOUNT_STAGES = ('installation', 'tool_axis')
 #: The magnetometer's stages, in the order they are applied (the mount included).
-MAGNETOMETER_STAGES = ('magnetometer', 'magnetometer_alignment') + MOUNT_STAGES + ('magnetic',)
+MAGNETOMETER_STAGES = ('magnetometer_temperature', 'magnetometer',
+                       'magnetometer_alignment') + MOUNT_STAGES + ('magnetic',)
 #: Sections of each readable schema version.
 SECTIONS = {1: ('installation',),
             2: ('temperature', 'stand', 'installation', 'magnetic'),
-            3: STAGES + ('magnetometer', 'magnetometer_alignment', 'magnetic')}
+            3: STAGES + ('magnetometer_temperature', 'magnetometer', 'magnetometer_alignment',
+                         'magnetic')}
+#: Fields version 3 added, with the value an older file's section gets.
+VERSION_3_FIELDS = {
+    'installation': {'temperature_c': None},
+    'stand': {'temperature_c': None},
+    'temperature': {'bias_coefficients_mps2': None, 'attitudes': 1},
+    'magnetic': {'interference_std_nT': None, 'rotation_temperature_c': None},
+}
 
 
 class CalibrationFileError(Exception):
@@ -103,8 +121,14 @@ class Installation(_SeedZeroRotation):
     beta_deg: float
     captured_at: str
     sample_count: int
-    std_deg: float
+    std_deg: float             # per-sample noise of one axis tilt; std / sqrt(N): 1 sigma
     g_total_mps2: float
+    temperature_c: float = None  # what the captured readings stood for; None: unknown
+
+    @property
+    def tilt_std_rad(self):
+        """Return the 1 sigma of the captured tilt: the standard error of its mean [rad]."""
+        return math.radians(self.std_deg) / math.sqrt(self.sample_count)
 
 
 @dataclass(frozen=True)
@@ -138,6 +162,12 @@ class Stand:
     rms_inclination_deg: float  # residual at the stand positions; None for 'sphere'
     positions: int             # positions (stand) or readings (sphere) fitted
     fitted_at: str
+    temperature_c: float = None  # what the captured readings stood for; None: unknown
+
+    @property
+    def tilt_std_rad(self):
+        """Return the fit's own inclination residual as the stage's tilt 1 sigma [rad]."""
+        return math.radians(self.rms_inclination_deg or 0.0)
 
     def apply(self, f, temperature_c=None):
         """Return ``K^-1 (f - b)`` (seed 001 Eq. 11) for ``f`` of shape (N, 3)."""
@@ -222,9 +252,49 @@ class MagnetometerAlignment:
                                                     -1.0, 1.0))))
 
 
+class _TemperatureStage:
+    """
+    What the temperature stages of both triads do (seed 001 Eqs. 5-7 with a bias drift).
+
+    ``A = (A_T - B_T(T)) / K_T(T)`` per axis, T clamped to the fitted range;
+    readings then stand for ``reference_temperature_c``.
+    """
+
+    @cached_property
+    def fit(self):
+        """Return the TemperatureFit of this stage (built once)."""
+        bias = self._bias_coefficients
+        return TemperatureFit(
+            coefficients=np.array(self.coefficients), t_min_c=self.t_min_c,
+            t_max_c=self.t_max_c, reference_temperature_c=self.reference_temperature_c,
+            rms_residual=np.array(self._rms_residual),
+            bias_coefficients=None if bias is None else np.array(bias),
+            attitudes=self.attitudes)
+
+    def clamp(self, temperature_c):
+        """Return the temperatures clamped to the fitted range."""
+        return np.clip(np.asarray(temperature_c, dtype=float), self.t_min_c, self.t_max_c)
+
+    def apply(self, f, temperature_c=None):
+        """
+        Return ``(A_T - B_T(T)) / K_T(T)`` per axis (seed 001 Eq. 6), T clamped to the range.
+
+        Without a temperature, the reference temperature is used (no change).
+        """
+        f = np.asarray(f, dtype=float)
+        if temperature_c is None:
+            temperature_c = self.reference_temperature_c
+        temperature_c = np.broadcast_to(self.clamp(temperature_c), f.shape[:1])
+        return compensate_temperature(f, temperature_c, self.fit)
+
+    def residual_angle_rad(self, magnitude):
+        """Return the fit's RMS residual as an angle against a vector of ``magnitude``."""
+        return float(np.sqrt(np.mean(np.square(self._rms_residual)))) / magnitude
+
+
 @dataclass(frozen=True)
-class Temperature:
-    """Seed 001 per-axis scale factor K_T(T), 1 at the reference temperature."""
+class Temperature(_TemperatureStage):
+    """Accelerometer temperature drift: K_T(T) per axis (1 at the reference) and B_T(T)."""
 
     coefficients: tuple          # 3 rows of a0..an, T in deg C (Eq. 7)
     t_min_c: float               # fitted range; T is clamped to it
@@ -233,30 +303,39 @@ class Temperature:
     rms_residual_mps2: tuple     # per axis
     samples: int
     fitted_at: str
+    bias_coefficients_mps2: tuple = None  # 3 rows of b0..bn, 0 at the reference; None: none
+    attitudes: int = 1           # 1: scale only (seed 001); >= 2: bias and scale
 
-    @cached_property
-    def fit(self):
-        """Return the TemperatureFit of this stage (built once)."""
-        return TemperatureFit(
-            coefficients=np.array(self.coefficients), t_min_c=self.t_min_c,
-            t_max_c=self.t_max_c, reference_temperature_c=self.reference_temperature_c,
-            rms_residual_mps2=np.array(self.rms_residual_mps2))
+    @property
+    def _bias_coefficients(self):
+        return self.bias_coefficients_mps2
 
-    def clamp(self, temperature_c):
-        """Return the temperatures clamped to the fitted range."""
-        return np.clip(np.asarray(temperature_c, dtype=float), self.t_min_c, self.t_max_c)
+    @property
+    def _rms_residual(self):
+        return self.rms_residual_mps2
 
-    def apply(self, f, temperature_c=None):
-        """
-        Return ``A_T / K_T(T)`` per axis (seed 001 Eq. 6), T clamped to the fitted range.
 
-        Without a temperature, the reference temperature is used (K_T = 1).
-        """
-        f = np.asarray(f, dtype=float)
-        if temperature_c is None:
-            temperature_c = self.reference_temperature_c
-        temperature_c = np.broadcast_to(self.clamp(temperature_c), f.shape[:1])
-        return compensate_temperature(f, temperature_c, self.fit)
+@dataclass(frozen=True)
+class MagnetometerTemperature(_TemperatureStage):
+    """Magnetometer temperature drift, the same model in nT (seed 001 §3.2)."""
+
+    coefficients: tuple
+    t_min_c: float
+    t_max_c: float
+    reference_temperature_c: float
+    rms_residual_nT: tuple
+    samples: int
+    fitted_at: str
+    bias_coefficients_nT: tuple = None
+    attitudes: int = 1
+
+    @property
+    def _bias_coefficients(self):
+        return self.bias_coefficients_nT
+
+    @property
+    def _rms_residual(self):
+        return self.rms_residual_nT
 
 
 @dataclass(frozen=True)
@@ -279,6 +358,8 @@ class Magnetic:
     msa_reference_total_nT: float
     msa_reference_dip_deg: float
     msa_fitted_at: str
+    interference_std_nT: tuple = None  # 1 sigma of the MSA interference (tool axes), None
+    rotation_temperature_c: float = None  # what the rotation's readings stood for
 
     @property
     def offset_nT(self):
@@ -307,6 +388,8 @@ class CalibrationModel:
     tool_axis: ToolAxis = None
     magnetometer: Magnetometer = None
     magnetometer_alignment: MagnetometerAlignment = None
+    magnetometer_temperature: MagnetometerTemperature = None
+    sensor_id: str = None     # the sensor this calibration belongs to; None: not named
 
     @property
     def stages(self):
@@ -353,13 +436,14 @@ class CalibrationModel:
                 f = stage.apply(f, temperature_c)
         return f
 
-    def apply_magnetic(self, b_nT, before=None):
+    def apply_magnetic(self, b_nT, temperature_c=None, before=None):
         """
         Return corrected magnetometer readings (N, 3) [nT, tool frame].
 
-        Stages run in the order of MAGNETOMETER_STAGES; ``before`` names one
-        to stop at (``before='magnetic'``: the input of seed 002's fits).
-        The alignment's rotation is applied with the accelerometer's
+        Stages run in the order of MAGNETOMETER_STAGES, the temperature stage
+        at ``temperature_c`` (None: its reference); ``before`` names one to
+        stop at (``before='magnetic'``: the input of seed 002's fits).  The
+        alignment's rotation is applied with the accelerometer's
         (``magnetometer_rotation``) even without an alignment stage.
         """
         b_nT = np.asarray(b_nT, dtype=float)
@@ -371,14 +455,49 @@ class CalibrationModel:
                     b_nT = to_tool_frame(b_nT, self.magnetometer_rotation)
                 continue
             stage = getattr(self, name)
-            if stage is not None:
+            if stage is None:
+                continue
+            if name == 'magnetometer_temperature':
+                b_nT = stage.apply(b_nT.reshape(-1, 3), temperature_c).reshape(b_nT.shape)
+            else:
                 b_nT = stage.apply(b_nT)
         return b_nT
+
+    @cached_property
+    def linear_map(self):
+        """
+        Return the 3x3 matrix the stand and mount stages apply (C^-1 K^-1), built once.
+
+        What turns the sensor's noise into the corrected reading's (the
+        temperature stage's scale, within a few percent of 1, is left out).
+        """
+        matrix = np.eye(3)
+        if self.stand is not None:
+            matrix = np.linalg.inv(self.stand.arrays[0]) @ matrix
+        for stage in (self.installation, self.tool_axis):
+            if stage is not None:
+                matrix = stage.inverse_matrix @ matrix
+        return matrix
+
+    @property
+    def tilt_std_rad(self):
+        """
+        Return the 1 sigma of the corrected tilt from the calibration itself [rad].
+
+        The stages' own uncertainties, independent, added in quadrature: the
+        installation capture's standard error, the stand fit's inclination
+        residual, the temperature fit's residual as an angle against g.
+        """
+        variance = sum(stage.tilt_std_rad ** 2 for stage in (self.installation, self.stand)
+                       if stage is not None)
+        if self.temperature is not None:
+            variance += self.temperature.residual_angle_rad(STANDARD_GRAVITY_MPS2) ** 2
+        return math.sqrt(variance)
 
     def to_dict(self):
         """Return the JSON-ready document of this model."""
         doc = {'format': FORMAT, 'schema_version': SCHEMA_VERSION,
-               'accelerometer_axes': self.accelerometer_axes}
+               'accelerometer_axes': self.accelerometer_axes, 'sensor_id': self.sensor_id}
         for name in SECTIONS[SCHEMA_VERSION]:
             stage = getattr(self, name)
             if stage is not None:
@@ -469,18 +588,150 @@ def model_from_dict(doc):
     if not is_int(axes) or axes not in (2, 3):
         raise ValueError(f'accelerometer_axes {axes!r} is not 2 or 3')
     stages = SECTIONS[version]
-    unknown = set(doc) - {'format', 'schema_version', 'accelerometer_axes', *stages}
+    top = {'format', 'schema_version', 'accelerometer_axes'} | (
+        {'sensor_id'} if version >= 3 else set())
+    unknown = set(doc) - top - set(stages)
     if unknown:
         raise ValueError(f'unknown sections {sorted(unknown)} in a version {version} file')
+    sensor_id = doc.get('sensor_id') if version >= 3 else None
+    if sensor_id is not None and not isinstance(sensor_id, str):
+        raise ValueError(f'sensor_id {sensor_id!r} is not a string')
     readers = {'installation': installation_from_dict, 'stand': stand_from_dict,
                'temperature': temperature_from_dict, 'magnetic': magnetic_from_dict,
                'tool_axis': tool_axis_from_dict, 'magnetometer': magnetometer_from_dict,
-               'magnetometer_alignment': alignment_from_dict}
-    model = CalibrationModel(accelerometer_axes=axes, **{
-        name: readers[name](doc[name]) for name in stages if doc.get(name) is not None})
+               'magnetometer_alignment': alignment_from_dict,
+               'magnetometer_temperature': magnetometer_temperature_from_dict}
+    sections = {name: _upgraded(doc[name], name, version)
+                for name in stages if doc.get(name) is not None}
+    model = CalibrationModel(accelerometer_axes=axes, sensor_id=sensor_id, **{
+        name: readers[name](section) for name, section in sections.items()})
     if axes == 2 and (model.stand or model.temperature):
         raise ValueError('stand and temperature stages need a three-axis accelerometer')
     return model
+
+
+def _upgraded(section, name, version):
+    """Return a section of an older file with the fields version 3 added (``VERSION_3_FIELDS``)."""
+    if version >= 3 or not isinstance(section, dict):
+        return section
+    return {**VERSION_3_FIELDS.get(name, {}), **section}
+
+
+def check_sensor(model, sensor_id, path):
+    """
+    Raise CalibrationFileError when ``model`` belongs to another sensor than ``sensor_id``.
+
+    A file that names no sensor (older files) matches any; a node or command
+    that names none matches only such a file.
+    """
+    if model.sensor_id is not None and model.sensor_id != (sensor_id or None):
+        wanted = repr(sensor_id) if sensor_id else 'an unnamed one (no sensor_id given)'
+        raise CalibrationFileError(
+            path, f'belongs to sensor {model.sensor_id!r}, not to {wanted}: the calibration '
+            'of another tool (set sensor_id / --sensor-id, or use the file of this tool)')
+
+
+#: Stages with a time, the field holding it, and which age limit applies: the drill
+#: string's interference (MSA) has its own, shorter one.
+STAGE_TIMES = (('temperature', 'fitted_at', 'calibration'),
+               ('stand', 'fitted_at', 'calibration'),
+               ('installation', 'captured_at', 'calibration'),
+               ('tool_axis', 'fitted_at', 'calibration'),
+               ('magnetometer_temperature', 'fitted_at', 'calibration'),
+               ('magnetometer', 'fitted_at', 'calibration'),
+               ('magnetometer_alignment', 'fitted_at', 'calibration'),
+               ('magnetic', 'rotation_fitted_at', 'calibration'),
+               ('magnetic', 'msa_fitted_at', 'interference'))
+
+
+def stage_ages_s(model, now=None):
+    """Return ``[(stage name, age [s], limit kind)]`` of every dated stage of ``model``."""
+    ages = []
+    for name, field, kind in STAGE_TIMES:
+        stage = getattr(model, name)
+        when = None if stage is None else getattr(stage, field)
+        if when is not None:
+            label = 'msa' if field == 'msa_fitted_at' else (
+                'rotation' if field == 'rotation_fitted_at' else name)
+            ages.append((label, age_seconds(when, now), kind))
+    return ages
+
+
+def stale_stages(model, max_age_s, interference_max_age_s, now=None):
+    """Return ``[(stage, age [s], limit [s])]`` of the stages older than their limit."""
+    limits = {'calibration': max_age_s, 'interference': interference_max_age_s}
+    return [(name, age, limits[kind]) for name, age, kind in stage_ages_s(model, now)
+            if age > limits[kind]]
+
+
+def readings_temperature_c(temperature_stage, measured_c):
+    """
+    Return the temperature [deg C] corrected readings stand for.
+
+    Through a temperature stage: its reference; without: the temperature they
+    were measured at (``measured_c``, None when unknown).
+    """
+    return measured_c if temperature_stage is None else temperature_stage.reference_temperature_c
+
+
+#: The field of a stage that records the temperature its readings stood for.
+TEMPERATURE_FIELDS = {'magnetic': 'rotation_temperature_c'}
+
+
+def stage_temperatures(model, names=('stand', 'installation')):
+    """Return ``{name: temperature_c}`` of the stages ``names`` present that record one."""
+    found = {name: getattr(getattr(model, name), TEMPERATURE_FIELDS.get(name, 'temperature_c'),
+                           None) for name in names if getattr(model, name) is not None}
+    return {name: value for name, value in found.items() if value is not None}
+
+
+def temperature_conflict(model, temperature_c, tolerance_c, names=('stand', 'installation')):
+    """
+    Return why a new stage standing for ``temperature_c`` disagrees with ``names``, or None.
+
+    Stages whose readings stood for temperatures more than ``tolerance_c``
+    apart do not fit together without a temperature stage to bring their
+    readings to one temperature (``temperature_c`` None: nothing to compare).
+    """
+    if temperature_c is None:
+        return None
+    for name, other_c in stage_temperatures(model, names).items():
+        if abs(other_c - temperature_c) > tolerance_c:
+            return (f'this capture stands for {temperature_c:.1f} C but the {name} stage for '
+                    f'{other_c:.1f} C (more than {tolerance_c:g} C apart): without a temperature '
+                    'stage the drift between them is not corrected; fit the temperature stage '
+                    f'(inclino fit-temperature) or capture at {other_c:.1f} C')
+    return None
+
+
+def common_stage_temperature(model, tolerance_c, names=('stand', 'installation')):
+    """
+    Return the one temperature the stages ``names`` stand for (their mean), None if none is known.
+
+    A new temperature stage must compensate to it.  ValueError (the reason)
+    when they lie more than ``tolerance_c`` apart: no one compensation suits
+    them all.
+    """
+    known = stage_temperatures(model, names)
+    if not known:
+        return None
+    values = np.array(list(known.values()))
+    if np.ptp(values) > tolerance_c:
+        raise ValueError(
+            'the stages were captured at different temperatures ('
+            + ', '.join(f'{name} {value:.1f} C' for name, value in known.items())
+            + f', more than {tolerance_c:g} C apart): no one temperature compensation suits '
+            'them; capture them again after the temperature fit')
+    return float(values.mean())
+
+
+def _optional_temperature(section, name):
+    """Raise ValueError unless ``section['temperature_c']`` is None or a plausible deg C."""
+    value = section['temperature_c']
+    if value is not None:
+        (value,) = _finite(section, name, 'temperature_c')
+        if not -273.15 < value < 1000.0:
+            raise ValueError(f'{name}.temperature_c = {value} is not a temperature')
 
 
 def _check_fields(section, kind, name):
@@ -531,6 +782,7 @@ def installation_from_dict(section):
     if section['std_deg'] < 0 or section['g_total_mps2'] <= 0:
         raise ValueError('installation.std_deg must be >= 0 and g_total_mps2 > 0')
     _time(section, 'installation', 'captured_at')
+    _optional_temperature(section, 'installation')
     return Installation(**section)
 
 
@@ -608,33 +860,53 @@ def stand_from_dict(section):
     _plausible_matrix(k, 'stand')
     _count(section, 'stand', 'positions')
     _time(section, 'stand', 'fitted_at')
+    _optional_temperature(section, 'stand')
     return Stand(**dict(section, scale_matrix=tuple(map(tuple, k.tolist())),
                         bias_mps2=tuple(section['bias_mps2'])))
 
 
 def temperature_from_dict(section):
-    """Return a validated Temperature from its file section."""
-    _check_fields(section, Temperature, 'temperature')
+    """Return a validated (accelerometer) Temperature from its file section."""
+    return _temperature_stage(section, Temperature, 'temperature', 'mps2')
+
+
+def magnetometer_temperature_from_dict(section):
+    """Return a validated MagnetometerTemperature from its file section."""
+    return _temperature_stage(section, MagnetometerTemperature, 'magnetometer_temperature', 'nT')
+
+
+def _temperature_stage(section, kind, name, unit):
+    """Return a validated temperature stage ``kind``; its unit-named fields end in ``unit``."""
+    _check_fields(section, kind, name)
     coefficients = np.asarray(section['coefficients'], dtype=object)
     if coefficients.ndim != 2 or coefficients.shape[0] != 3 or coefficients.shape[1] < 1:
-        raise ValueError('temperature.coefficients must be 3 rows of a0..an')
-    _finite(section, 'temperature', 'coefficients', shape=coefficients.shape)
-    t_min, t_max, t_ref = _finite(section, 'temperature', 't_min_c', 't_max_c',
+        raise ValueError(f'{name}.coefficients must be 3 rows of a0..an')
+    _finite(section, name, 'coefficients', shape=coefficients.shape)
+    bias_key, rms_key = f'bias_coefficients_{unit}', f'rms_residual_{unit}'
+    if section[bias_key] is not None:
+        _finite(section, name, bias_key, shape=coefficients.shape)
+    t_min, t_max, t_ref = _finite(section, name, 't_min_c', 't_max_c',
                                   'reference_temperature_c')
-    _finite(section, 'temperature', 'rms_residual_mps2', shape=(3,))
+    _finite(section, name, rms_key, shape=(3,))
     if not t_min <= t_ref <= t_max or t_min == t_max:
-        raise ValueError(f'temperature range [{t_min}, {t_max}] C is empty or does not '
+        raise ValueError(f'{name} range [{t_min}, {t_max}] C is empty or does not '
                          f'contain the reference {t_ref} C')
-    _count(section, 'temperature', 'samples')
-    _time(section, 'temperature', 'fitted_at')
-    stage = Temperature(**dict(section, coefficients=tuple(map(tuple, section['coefficients'])),
-                               rms_residual_mps2=tuple(section['rms_residual_mps2'])))
+    _count(section, name, 'samples')
+    _count(section, name, 'attitudes')
+    _time(section, name, 'fitted_at')
+    bias = section[bias_key]
+    stage = kind(**dict(section, coefficients=tuple(map(tuple, section['coefficients'])),
+                        **{rms_key: tuple(section[rms_key]),
+                           bias_key: None if bias is None else tuple(map(tuple, bias))}))
     scale = stage.fit.scale_factor(np.linspace(t_min, t_max, 101))
     if np.any(scale <= 0.5) or np.any(scale >= 1.5):
-        raise ValueError('temperature.coefficients give a scale factor outside 0.5..1.5 '
+        raise ValueError(f'{name}.coefficients give a scale factor outside 0.5..1.5 '
                          'in the fitted range')
     if np.max(np.abs(stage.fit.scale_factor([t_ref]) - 1.0)) > 1e-6:
-        raise ValueError('temperature.coefficients are not 1 at the reference temperature')
+        raise ValueError(f'{name}.coefficients are not 1 at the reference temperature')
+    if bias is not None and np.max(np.abs(stage.fit.bias([t_ref]))) > 1e-6 * max(
+            1.0, np.max(np.abs(np.asarray(bias, dtype=float)))):
+        raise ValueError(f'{name}.{bias_key} are not 0 at the reference temperature')
     return stage
 
 
@@ -656,9 +928,18 @@ def magnetic_from_dict(section):
             raise ValueError(f'magnetic.msa_method = {section["msa_method"]!r} is unknown')
         _count(section, 'magnetic', 'msa_stations')
         _finite(section, 'magnetic', 'msa_reference_total_nT', 'msa_reference_dip_deg')
+    std = section['interference_std_nT']
+    if std is not None:
+        (std,) = _finite(section, 'magnetic', 'interference_std_nT', shape=(3,))
+        if np.any(std < 0):
+            raise ValueError('magnetic.interference_std_nT must be >= 0')
+        std = tuple(std.tolist())
+    _optional_temperature({'temperature_c': section['rotation_temperature_c']},
+                          'magnetic.rotation')
     return Magnetic(**dict(section, hard_iron_nT=tuple(section['hard_iron_nT']),
                            soft_iron=tuple(map(tuple, section['soft_iron'])),
-                           interference_nT=tuple(section['interference_nT'])))
+                           interference_nT=tuple(section['interference_nT']),
+                           interference_std_nT=std))
 
 
 #: A magnetic stage that changes nothing, to build the first correction on.

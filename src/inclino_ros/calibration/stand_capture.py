@@ -14,13 +14,15 @@ magnetometer's K_m and bias (Eq. 12, ``magnetometer.fit_field_stand``).
 from dataclasses import dataclass
 import math
 
-from inclino_ros.calibration.level_capture import CaptureRefused
 from inclino_ros.calibration.magnetometer import fit_field_stand, merge_repeated_attitudes
 from inclino_ros.calibration.model import Stand, utc_now_iso
+from inclino_ros.calibration.still_capture import (
+    CaptureRefused, require_still, require_still_vectors)
 from inclino_ros.core.attitude import angle_between
 from inclino_ros.core.magnetics import expected_field_tool_nT
 from inclino_ros.core.stand import (
     fit_stand, MIN_SEPARATION_DEG, stand_specific_force, StandFitRefused)
+from inclino_ros.core.stillness import tangent_angles
 import numpy as np
 
 
@@ -31,17 +33,12 @@ class Position:
     inclination_deg: float
     toolface_deg: float
     reading_mps2: tuple  # mean of the temperature-compensated readings
-    std_deg: float       # RMS angle of the samples about their mean direction
+    std_deg: float       # per-sample noise of the direction, one component (still test)
     samples: int
     azimuth_deg: float = 0.0   # magnetic azimuth of the hole direction (as survey.z)
     field_nT: tuple = None     # mean raw magnetometer reading, None when not captured
-    field_std_deg: float = None
-
-
-def direction_spread_deg(samples):
-    """Return the RMS angle [deg] of the sample directions about their mean direction."""
-    samples = np.asarray(samples, dtype=float)
-    return math.degrees(math.sqrt(np.mean(angle_between(samples, samples.mean(axis=0)) ** 2)))
+    field_std_deg: float = None  # per-sample noise of the field's direction
+    temperature_c: float = None  # what the readings stood for; None: unknown
 
 
 def check_new_attitude(positions, inclination_deg, toolface_deg, azimuth_deg=0.0,
@@ -71,41 +68,42 @@ def check_new_attitude(positions, inclination_deg, toolface_deg, azimuth_deg=0.0
                 'stand.azimuth_deg to the next stand attitude')
 
 
-def average_position(samples, inclination_deg, toolface_deg, max_std_deg, fields_nT=None,
-                     azimuth_deg=0.0):
+def average_position(samples, inclination_deg, toolface_deg, limits, times_s=None,
+                     temperature_c=None, fields_nT=None, azimuth_deg=0.0):
     """
-    Return the Position of a still capture, or raise CaptureRefused if it moved.
+    Return the Position of a still capture; CaptureRefused if it moved or is too noisy.
 
+    ``limits`` (``stillness.StillLimits``) as ``still_capture.require_still``
+    applies them to the directions of the samples; ``times_s`` their times.
     ``fields_nT``: the paired magnetometer readings (NaN rows unpaired) when
     the magnetometer is captured; fewer than two paired leave the position
-    without a field.  The field must be as still as the accelerometer: a turn
-    about the vertical (the azimuth axis of a stand) shows in it alone.
+    without a field.  The field must not move either: a turn about the
+    vertical (the azimuth axis of a stand) shows in it alone.
     """
     samples = np.asarray(samples, dtype=float)
-    if samples.shape[0] < 2:
-        raise CaptureRefused(f'only {samples.shape[0]} sample(s) captured, need at least 2')
-    std_deg = direction_spread_deg(samples)
-    if std_deg > max_std_deg:
-        raise CaptureRefused(f'tool is moving: spread {std_deg:.4f} deg exceeds '
-                             f'stand.max_std_deg {max_std_deg} deg')
+    stillness = require_still_vectors(samples, times_s, limits)
     field, field_std_deg = None, None
     if fields_nT is not None:
         fields_nT = np.asarray(fields_nT, dtype=float).reshape(-1, 3)
-        fields_nT = fields_nT[np.isfinite(fields_nT).all(axis=1)]
-        if fields_nT.shape[0] >= 2:
-            field_std_deg = direction_spread_deg(fields_nT)
-            if field_std_deg > max_std_deg:
-                raise CaptureRefused(f'tool is moving: magnetometer spread {field_std_deg:.4f} '
-                                     f'deg exceeds stand.max_std_deg {max_std_deg} deg')
-            field = tuple(fields_nT.mean(axis=0).tolist())
+        paired = np.isfinite(fields_nT).all(axis=1)
+        if np.count_nonzero(paired) >= 2:
+            times = None if times_s is None else np.asarray(times_s, dtype=float)[paired]
+            try:
+                field_still = require_still(tangent_angles(fields_nT[paired]), times, limits,
+                                            precision=False)
+            except CaptureRefused as err:
+                raise CaptureRefused(f'magnetometer: {err}') from None
+            field = tuple(fields_nT[paired].mean(axis=0).tolist())
+            field_std_deg = field_still.noise_deg
     return Position(inclination_deg=float(inclination_deg), toolface_deg=float(toolface_deg),
-                    reading_mps2=tuple(samples.mean(axis=0).tolist()), std_deg=std_deg,
-                    samples=int(samples.shape[0]), azimuth_deg=float(azimuth_deg),
-                    field_nT=field, field_std_deg=field_std_deg)
+                    reading_mps2=tuple(samples.mean(axis=0).tolist()),
+                    std_deg=stillness.noise_deg, samples=int(samples.shape[0]),
+                    azimuth_deg=float(azimuth_deg), field_nT=field, field_std_deg=field_std_deg,
+                    temperature_c=temperature_c)
 
 
 def solve_positions(positions, gravity_mps2, max_rms_deg, reference=None,
-                    max_field_rms_deg=None):
+                    max_field_rms_deg=None, max_temperature_difference_c=None):
     """
     Return (Stand stage, FieldStandFit or None, note) of ``positions``, or raise StandFitRefused.
 
@@ -117,7 +115,20 @@ def solve_positions(positions, gravity_mps2, max_rms_deg, reference=None,
     ``reference`` (total nT, dip deg) and a field at every position the
     magnetometer is fitted too (``magnetometer.fit_field_stand``, refused
     beyond ``max_field_rms_deg``); the note says why it was not otherwise.
+    Refused too when the positions stand for temperatures more than
+    ``max_temperature_difference_c`` apart (a drift between them the stand
+    would take for K); the stage records their mean temperature (None when
+    any is unknown).
     """
+    temperatures_c = [p.temperature_c for p in positions]
+    known = None not in temperatures_c and bool(temperatures_c)
+    if known and max_temperature_difference_c is not None \
+            and np.ptp(temperatures_c) > max_temperature_difference_c:
+        raise StandFitRefused(
+            f'the positions were captured {np.ptp(temperatures_c):.1f} C apart '
+            f'({min(temperatures_c):.1f} .. {max(temperatures_c):.1f} C, more than '
+            f'{max_temperature_difference_c:g} C): without a temperature stage the drift is '
+            'taken for K; fit the temperature stage first or capture at one temperature')
     readings = np.array([p.reading_mps2 for p in positions]).reshape(-1, 3)
     attitudes = np.array([(p.inclination_deg, p.toolface_deg, p.azimuth_deg)
                           for p in positions]).reshape(-1, 3)
@@ -135,7 +146,8 @@ def solve_positions(positions, gravity_mps2, max_rms_deg, reference=None,
         bias_mps2=tuple(fit.bias_mps2.tolist()), method='stand',
         condition_number=float(fit.condition_number),
         rms_inclination_deg=float(fit.rms_inclination_deg), positions=len(readings),
-        fitted_at=utc_now_iso())
+        fitted_at=utc_now_iso(),
+        temperature_c=float(np.mean(temperatures_c)) if known else None)
     without = [number for number, p in enumerate(positions, start=1) if p.field_nT is None]
     if reference is None:
         return stand, None, 'magnetometer not fitted: no reference field'

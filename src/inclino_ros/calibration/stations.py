@@ -40,6 +40,7 @@ class Station:
     field_nT: tuple             # raw magnetometer, tool frame
     samples: int
     captured_at: str
+    temperature_c: float = None  # mean sensor temperature of the station; None: unknown
 
 
 def msa_inputs(stations, model):
@@ -47,13 +48,20 @@ def msa_inputs(stations, model):
     Return (G, B) of ``stations`` in the ISCWSA frame for the MSA solvers.
 
     B goes through the ``model``'s magnetometer stages before seed 002's (its
-    own, the shared mount) and the cross-axial correction of its magnetic
-    stage (W and c of a rotation fit), but keeps its interference: that is
-    what MSA solves.
+    temperature stage at each station's temperature, its reference where
+    unknown; its own; the shared mount) and the cross-axial correction of its
+    magnetic stage (W and c of a rotation fit), but keeps its interference:
+    that is what MSA solves.
     """
     force = np.array([s.specific_force_mps2 for s in stations], dtype=float).reshape(-1, 3)
+    temperatures_c = None
+    if model.magnetometer_temperature is not None:
+        reference_c = model.magnetometer_temperature.reference_temperature_c
+        temperatures_c = [reference_c if s.temperature_c is None else s.temperature_c
+                          for s in stations]
     field = model.apply_magnetic(
-        np.array([s.field_nT for s in stations], dtype=float).reshape(-1, 3), before='magnetic')
+        np.array([s.field_nT for s in stations], dtype=float).reshape(-1, 3), temperatures_c,
+        before='magnetic')
     if model.magnetic is not None:
         field = apply_cross_axial(field, model.magnetic)
     return gravity_from_specific_force(force), iscwsa_from_tool(field)
@@ -94,6 +102,10 @@ def _stations_from_dict(doc):
             raise ValueError(f'station {number} needs 3 + 3 finite numbers')
         if not isinstance(station.samples, int) or station.samples < 1:
             raise ValueError(f'station {number} has no samples')
+        if station.temperature_c is not None and not (
+                isinstance(station.temperature_c, (int, float))
+                and math.isfinite(station.temperature_c)):
+            raise ValueError(f'station {number} has a temperature that is not a number')
         stations.append(Station(tuple(station.specific_force_mps2), tuple(station.field_nT),
-                                station.samples, station.captured_at))
+                                station.samples, station.captured_at, station.temperature_c))
     return stations

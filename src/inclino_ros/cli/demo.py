@@ -42,12 +42,13 @@ def isolate_dds(log_dir):
     os.environ['ROS_LOG_DIR'] = log_dir
 
 
-def start_node(calibration_file, log_path):
-    """Start ``inclinometer_node`` (the console script beside this Python)."""
+def start_node(calibration_file, log_path, noise_std_mps2):
+    """Start ``inclinometer_node`` (the console script beside this Python), told the noise."""
     executable = os.path.join(os.path.dirname(sys.executable), 'inclinometer_node')
     log = open(log_path, 'w')
     return subprocess.Popen(
-        [executable, '--ros-args', '-p', f'calibration_file:={calibration_file}'],
+        [executable, '--ros-args', '-p', f'calibration_file:={calibration_file}',
+         '-p', f'accelerometer_noise_std_mps2:={noise_std_mps2}'],
         stdout=log, stderr=subprocess.STDOUT)
 
 
@@ -224,7 +225,8 @@ def run(args):
     stations = segment(series, seg > 0)
 
     print(f'== 2. start inclinometer_node (ROS_DOMAIN_ID={os.environ["ROS_DOMAIN_ID"]})')
-    node = start_node(calibration_file, os.path.join(out, 'node.log'))
+    node = start_node(calibration_file, os.path.join(out, 'node.log'),
+                      truth['noise_std_mps2'])
     session = LiveSession()
     try:
         session.wait_for_node()
@@ -246,7 +248,8 @@ def run(args):
     if os.path.exists(processed):
         import shutil
         shutil.rmtree(processed)
-    inclino(['process', bag_path, processed, '--calibration', calibration_file])
+    inclino(['process', bag_path, processed, '--calibration', calibration_file,
+             '--noise-mps2', str(truth['noise_std_mps2'])])
     offline_series = concatenate(read(processed, '/survey'))
     offline_by_stamp = dict(zip(offline_series.stamps_ns.tolist(),
                                 map(tuple, offline_series.vector[:, :2])))

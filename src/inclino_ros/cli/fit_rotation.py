@@ -79,7 +79,7 @@ def load_readings(args):
 
 def fit(args, lines):
     """Fit the rotation of ``args.input`` into ``args.calibration``; see ``run_fit``."""
-    existing = load_existing(args.calibration)
+    existing = load_existing(args.calibration, args.sensor_id)
     # Fitted in the tool frame: after the magnetometer's own stages and the shared mount.
     readings = existing.apply_magnetic(load_readings(args), before='magnetic')
     try:

@@ -31,35 +31,44 @@ contains the mounting misalignment, and after a sphere fit the level bench
 must be measured again on the stand-corrected readings.
 
 Refused (exit 1, the calibration file untouched): a fit ``stand`` refuses
-(too few positions, repeated attitudes, an ill-posed set), a position whose
-samples spread more than ``--max-std-deg`` (the tool moved), an RMS
+(too few positions, repeated attitudes, an ill-posed set), a position where
+the tool moved (its mean drifts faster than ``--max-drift-deg-per-s``
+against its own noise, or is not steady) or whose mean misses
+``--max-sem-deg`` (``still_capture``: positions of fewer than 6 samples, e.g.
+averaged CSV rows, are not tested; CSV times from an optional ``time_s``
+column), positions whose temperatures lie more than
+``--max-temperature-difference-c`` apart without a temperature stage, an RMS
 inclination residual above ``--max-rms-deg`` (for a sphere fit: the RMS of
-``|G| - g`` over g, as an angle).
+``|G| - g`` over g, as an angle).  The stage records the temperature its
+readings stood for (the temperature stage's reference, else their mean
+temperature).
 """
 
 from dataclasses import replace
 from functools import partial
 
 from inclino_ros.calibration.magnetometer import fit_field_stand, merge_repeated_attitudes
-from inclino_ros.calibration.model import CalibrationModel, Stand, utc_now_iso
+from inclino_ros.calibration.model import (
+    CalibrationModel, readings_temperature_c, Stand, utc_now_iso)
+from inclino_ros.calibration.still_capture import CaptureRefused, require_still_vectors
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_common_arguments, AXIS_COLUMNS, finish_figure, has_topic, is_bag, load_existing,
-    matrix_lines, new_figure, read_csv, read_topic, Refused, report_paths, run_fit,
-    sample_temperatures, save, write_text)
-from inclino_ros.cli.process import NODE_DEFAULTS
+    matrix_lines, new_figure, NODE_DEFAULTS, node_option, read_csv, read_topic, Refused,
+    report_paths, run_fit, sample_temperatures, save, write_text)
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
-from inclino_ros.core.attitude import angle_between, inclination
+from inclino_ros.core.attitude import inclination
 from inclino_ros.core.stand import (
     fit_sphere, fit_stand, MIN_SEPARATION_DEG, stand_specific_force, StandFitRefused)
+from inclino_ros.core.stillness import MIN_SAMPLES, StillLimits
 from inclino_ros.io.timing import pair_nearest
 import numpy as np
 
 ATTITUDE_TOPIC = '/stand/attitude'
 ATTITUDE_COLUMNS = ('inclination_deg', 'toolface_deg')
+REPORT_NAME = 'fit_stand'
 AZIMUTH_COLUMN = 'azimuth_deg'
 FIELD_COLUMNS = ('bx', 'by', 'bz')
-REPORT_NAME = 'fit_stand'
 
 
 def register(subparsers):
@@ -74,9 +83,13 @@ def register(subparsers):
     parser.add_argument('--max-rms-deg', type=float, default=0.05,
                         help='largest RMS inclination residual accepted [deg] (default: '
                              '%(default)s)')
-    parser.add_argument('--max-std-deg', type=float, default=0.1,
-                        help='largest spread (RMS angle to their mean) of the samples of one '
-                             'position [deg]: more means the tool moved (default: %(default)s)')
+    node_option(parser, '--max-sem-deg', 'stand.max_sem_deg',
+                'largest standard error of the mean direction of one position [deg]')
+    node_option(parser, '--max-drift-deg-per-s', 'still.max_drift_deg_per_s',
+                'a position whose mean drifts faster [deg/s], beyond 5 sigma of its noise, moved')
+    node_option(parser, '--max-temperature-difference-c', 'temperature.max_stage_difference_c',
+                'without a temperature stage, positions further apart in temperature [deg C] '
+                'are refused')
     parser.add_argument('--attitude-topic', default=ATTITUDE_TOPIC,
                         help='Vector3Stamped stand attitude topic of a bag (default: '
                              '%(default)s)')
@@ -100,8 +113,17 @@ def run(args):
 
 def fit(args, lines):
     """Fit the stand stage of ``args.input`` into ``args.calibration``; see ``run_fit``."""
-    existing = load_existing(args.calibration)
-    readings, attitude_deg, temperature_c, fields = load_input(args)
+    existing = load_existing(args.calibration, args.sensor_id)
+    readings, attitude_deg, temperature_c, times_s, fields = load_input(args)
+    stood_for_c = readings_temperature_c(
+        existing.temperature, None if temperature_c is None else float(np.mean(temperature_c)))
+    if existing.temperature is None and temperature_c is not None \
+            and np.ptp(temperature_c) > args.max_temperature_difference_c:
+        raise Refused(
+            f'the readings span {np.min(temperature_c):.1f} .. {np.max(temperature_c):.1f} C '
+            f'(more than --max-temperature-difference-c {args.max_temperature_difference_c:g} '
+            'C) and the file has no temperature stage: the drift would be taken for K; fit '
+            'the temperature stage first or capture at one temperature')
     if existing.temperature is not None:
         readings = CalibrationModel(3, temperature=existing.temperature).apply(
             readings, temperature_c)
@@ -110,11 +132,15 @@ def fit(args, lines):
                         'no temperatures in the input: at its reference temperature)'))
     magnetometer = {}
     if args.method == 'stand':
-        stage, refusal, draw = fit_positions(args, readings, attitude_deg, lines)
+        stage, refusal, draw = fit_positions(args, readings, attitude_deg, times_s, lines)
         if not refusal:
-            magnetometer = fit_magnetometer(args, existing, fields, attitude_deg, stage, lines)
+            magnetometer = fit_magnetometer(args, existing, fields, attitude_deg, times_s,
+                                            temperature_c, stage, lines)
     else:
         stage, refusal, draw = fit_readings(args, readings, lines)
+    stage = replace(stage, temperature_c=stood_for_c)
+    lines.append('the readings stood for ' + ('an unknown temperature' if stood_for_c is None
+                                              else f'{stood_for_c:.2f} C'))
     # A refused fit reports beside, not over, the report of the fit in the file.
     png, txt = report_paths(args, REPORT_NAME + ('_refused' if refusal else ''))
     draw(png)
@@ -140,28 +166,31 @@ def fit(args, lines):
 
 def load_input(args):
     """
-    Return (readings (N, 3), attitude_deg (N, 3) or None, temperature_c or None, fields or None).
+    Return (readings (N, 3), attitude_deg (N, 3) or None, temperature_c, times_s, fields).
 
     The attitude (inclination, toolface, azimuth: 0 without the column) is
-    required for ``--method stand`` only; fields (N, 3) [nT] are the paired
-    magnetometer readings, when the input has them.
+    required for ``--method stand`` only; ``temperature_c`` (N,) or None;
+    ``times_s`` (N,) or None (a CSV without ``time_s``); ``fields`` (N, 3)
+    [nT] the paired magnetometer readings when the input has them, else None.
     """
     need_attitude = args.method == 'stand'
     if not is_bag(args.input):
         table = read_csv(args.input, (ATTITUDE_COLUMNS if need_attitude else ()) + AXIS_COLUMNS,
-                         optional=('temperature_c', AZIMUTH_COLUMN) + FIELD_COLUMNS)
+                         optional=('temperature_c', 'time_s', AZIMUTH_COLUMN) + FIELD_COLUMNS)
         readings = np.column_stack([table[name] for name in AXIS_COLUMNS])
         attitude_deg = (np.column_stack(
             [table[name] for name in ATTITUDE_COLUMNS]
             + [table.get(AZIMUTH_COLUMN, np.zeros(len(readings)))]) if need_attitude else None)
         fields = (np.column_stack([table[name] for name in FIELD_COLUMNS])
                   if all(name in table for name in FIELD_COLUMNS) else None)
-        return readings, attitude_deg, table.get('temperature_c'), fields
+        return (readings, attitude_deg, table.get('temperature_c'), table.get('time_s'),
+                fields)
     imu = read_topic(args.input, args.raw_topic)
     temperature_c = (sample_temperatures(imu, args.input, args.temperature_topic)[0]
                      if has_topic(args.input, args.temperature_topic) else None)
+    times_s = imu.stamps_ns * 1e-9
     if not need_attitude:
-        return imu.linear_acceleration_mps2, None, temperature_c, None
+        return imu.linear_acceleration_mps2, None, temperature_c, times_s, None
     fields = None
     if has_topic(args.input, args.mag_topic):
         mag = read_topic(args.input, args.mag_topic)
@@ -177,16 +206,16 @@ def load_input(args):
     attitude_deg = attitude.vector[order[latest[held]]]
     attitude_deg[~np.isfinite(attitude_deg[:, 2]), 2] = 0.0   # z NaN: no azimuth known
     return (imu.linear_acceleration_mps2[held], attitude_deg,
-            None if temperature_c is None else temperature_c[held],
+            None if temperature_c is None else temperature_c[held], times_s[held],
             None if fields is None else fields[held])
 
 
 def group_positions(readings, attitude_deg):
     """
-    Return the positions: (attitudes (P, 2), mean readings (P, 3), samples, spread_deg).
+    Return the positions: (attitudes (P, 2), mean readings (P, 3), samples, position (N,)).
 
     Samples of equal attitude form one position, in the order of first
-    appearance; spread_deg is the RMS angle of its samples to their mean.
+    appearance; ``position`` is the number of each sample's position.
     """
     unique, first, inverse = np.unique(attitude_deg, axis=0, return_index=True,
                                        return_inverse=True)
@@ -197,23 +226,41 @@ def group_positions(readings, attitude_deg):
     counts = np.bincount(position)
     means = np.stack([np.bincount(position, weights=readings[:, axis]) for axis in range(3)],
                      axis=1) / counts[:, None]
-    spread_deg = np.degrees(np.sqrt(np.bincount(
-        position, weights=angle_between(readings, means[position]) ** 2) / counts))
-    return unique[order], means, counts, spread_deg
+    return unique[order], means, counts, position
 
 
-def fit_positions(args, readings, attitude_deg, lines):
+def position_noise_deg(args, readings, times_s, position, count, what=''):
+    """
+    Return each position's per-sample noise [deg] (NaN: too few samples to test).
+
+    Refused (``Refused``) at the first position that moved or misses
+    ``--max-sem-deg`` (``still_capture.require_still_vectors``); ``what``
+    names the triad in the reason.
+    """
+    limits = StillLimits(max_drift_deg_per_s=args.max_drift_deg_per_s,
+                         max_sem_deg=args.max_sem_deg, drift_name='--max-drift-deg-per-s',
+                         sem_name='--max-sem-deg')
+    noise_deg = np.full(count, np.nan)
+    for number in range(count):
+        mine = position == number
+        if mine.sum() < MIN_SAMPLES:
+            continue
+        try:
+            noise_deg[number] = require_still_vectors(
+                readings[mine], None if times_s is None else times_s[mine], limits).noise_deg
+        except CaptureRefused as err:
+            raise Refused(f'position {number + 1}{what}: {err}') from None
+    return noise_deg
+
+
+def fit_positions(args, readings, attitude_deg, times_s, lines):
     """
     Return (Stand stage, refusal reason or None, draw) of a known-attitude stand fit.
 
     ``draw(path)`` plots the report.
     """
-    attitudes, means, counts, spread_deg = group_positions(readings, attitude_deg)
-    moving = np.flatnonzero(spread_deg > args.max_std_deg)
-    if moving.size:
-        raise Refused(
-            f'tool moving at position(s) {(moving + 1).tolist()}: spread of the samples up to '
-            f'{spread_deg.max():.4f} deg exceeds --max-std-deg {args.max_std_deg} deg')
+    attitudes, means, counts, position = group_positions(readings, attitude_deg)
+    spread_deg = position_noise_deg(args, readings, times_s, position, len(means))
     means, attitudes = merge_repeated_attitudes(means, attitudes, MIN_SEPARATION_DEG)
     truth = stand_specific_force(attitudes[:, 0], attitudes[:, 1], args.gravity_mps2)
     try:
@@ -223,7 +270,7 @@ def fit_positions(args, readings, attitude_deg, lines):
     raw_deg = np.degrees(inclination(means)) - attitudes[:, 0]
     after_deg = result.inclination_residual_deg
     lines += geometry_lines(result)
-    lines.append(f'{"pos":>3} {"incl_deg":>9} {"tf_deg":>8} {"samples":>7} {"spread_deg":>10} '
+    lines.append(f'{"pos":>3} {"incl_deg":>9} {"tf_deg":>8} {"samples":>7} {"noise_deg":>10} '
                  f'{"raw_err_deg":>11} {"residual_deg":>12}')
     lines += [f'{k + 1:>3} {incl:9.3f} {tf:8.3f} {n:>7} {s:10.4f} {before:11.4f} {after:12.6f}'
               for k, ((incl, tf), n, s, before, after) in enumerate(
@@ -239,7 +286,8 @@ def fit_positions(args, readings, attitude_deg, lines):
                     rms_deg=result.rms_inclination_deg))
 
 
-def fit_magnetometer(args, existing, fields, attitude_deg, stand, lines):
+def fit_magnetometer(args, existing, fields, attitude_deg, times_s, temperature_c, stand,
+                     lines):
     """
     Return the magnetometer stages (a dict for ``replace``) of the stand positions, or {}.
 
@@ -257,13 +305,12 @@ def fit_magnetometer(args, existing, fields, attitude_deg, stand, lines):
             'no reference field (--reference-total-nT and --reference-dip-deg, or --site)'))
         return {}
     paired = np.isfinite(fields).all(axis=1)
-    fields = existing.apply_magnetic(fields, before='magnetometer')
-    positions, means, _, spread_deg = group_positions(fields[paired], attitude_deg[paired])
-    moving = np.flatnonzero(spread_deg > args.max_std_deg)
-    if moving.size:
-        raise Refused(f'tool moving at position(s) {(moving + 1).tolist()}: spread of the '
-                      f'magnetometer up to {spread_deg.max():.4f} deg exceeds --max-std-deg '
-                      f'{args.max_std_deg} deg')
+    fields = existing.apply_magnetic(
+        fields[paired], None if temperature_c is None else temperature_c[paired],
+        before='magnetometer')
+    positions, means, _, position = group_positions(fields, attitude_deg[paired])
+    position_noise_deg(args, fields, None if times_s is None else times_s[paired], position,
+                       len(means), ' (magnetometer)')
     try:
         fit = fit_field_stand(means, positions, total_nT, dip_deg, stand,
                               args.max_field_rms_deg)

@@ -1,58 +1,88 @@
 """
-``inclino fit-temperature``: seed 001's temperature drift K_T(T) into the calibration file.
+``inclino fit-temperature``: a triad's temperature drift into the calibration file (seed 001).
 
-Input: a CSV with the columns ``temperature_c, ax, ay, az`` and optionally
-``ref_ax, ref_ay, ref_az`` (m/s^2), or a bag with the raw sensor on
-``/imu/data_raw`` and sensor_msgs/Temperature on ``/imu/temperature``, the
-temperature interpolated linearly to each Imu stamp (samples outside the
-span of the temperature messages are left out): what ``inclino simulate
---heating`` writes.  The tool is held still, at one attitude (or, with the
-ref columns, any), while it heats.
+Input: a CSV with the columns ``temperature_c, ax, ay, az`` (m/s^2; with
+``--triad magnetometer``: ``bx, by, bz`` in nT) and optionally ``attitude``
+(a label per row: rows of one label share one attitude) or the reference
+columns ``ref_ax, ref_ay, ref_az`` (``ref_bx, ...``); or a bag with the raw
+sensor on ``/imu/data_raw`` (``--mag-topic`` /imu/mag for the magnetometer)
+and sensor_msgs/Temperature on ``/imu/temperature``, the temperature
+interpolated linearly to each stamp (samples outside the span of the
+temperature messages are left out), the attitudes told apart by the
+direction of the readings (``--attitude-separation-deg``).  The tool is held
+still at each attitude while it heats.
 
-The reference of each reading is its ref columns, the reading of the same
-attitude at 25 deg C; without them it is the mean reading within
-``--reference-window-c`` (1 deg C) of 25 deg C, and a run that has none
-there is refused.  Each axis is fitted as ``A_i = K_T,i(T) ref_i`` with a
-polynomial of ``--order`` (``temperature.fit_temperature``, K_T = 1 at
-25 deg C).  The new temperature stage replaces the old one; the stand and
-installation stages are kept (K_T is a ratio of readings, independent of
-them).
+Heated at two or more attitudes (where every axis reads differently), each
+axis gets a bias AND a scale drift, ``A_T = K_T(T) A + B_T(T)``
+(``temperature.fit_temperature_drift``, seed 001 Eqs. 5-7 generalised).  At
+one attitude (or with ref columns) only seed 001's scale factor K_T is
+fitted (``temperature.fit_temperature``) and the report says what it cannot
+see: a bias drift, absorbed into K_T at that attitude and wrong at every
+other.  The reference of a one-attitude fit is its ref columns, else the mean
+reading within ``--reference-window-c`` of 25 deg C.
+
+The stage compensates the readings to the temperature the later stages'
+readings stood for (stand and installation; for the magnetometer the rotation
+fit), when they record one: a stand captured at 35 deg C keeps working.
+The new stage replaces the old one of its triad; the other stages are kept.
 
 Refused (exit 1, the calibration file untouched): no reading near 25 deg C
-and no ref columns, or a fit ``temperature`` refuses (too few distinct
-temperatures for the order, 25 deg C outside the data, an axis that sees no
-gravity at the attitude).
+for a one-attitude fit without ref columns, a fit ``temperature`` refuses
+(too few distinct temperatures for the order, 25 deg C outside the data, an
+axis that sees no gravity / cannot be told apart), later stages captured at
+different temperatures, or their temperature outside the heated range.
 """
 
 from dataclasses import replace
 
-from inclino_ros.calibration.model import Temperature, utc_now_iso
+from inclino_ros.calibration.model import (
+    common_stage_temperature, MagnetometerTemperature, Temperature, utc_now_iso)
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
-    add_common_arguments, AXIS_COLUMNS, finish_figure, is_bag, load_existing, matrix_lines,
-    new_figure, read_csv, read_topic, Refused, report_paths, run_fit, sample_temperatures, save,
-    write_text)
-from inclino_ros.core.attitude import inclination
+    add_common_arguments, finish_figure, is_bag, load_existing, matrix_lines, new_figure,
+    node_option, read_csv, read_topic, Refused, report_paths, run_fit, sample_temperatures,
+    save, write_text)
+from inclino_ros.core.attitude import angle_between, inclination
 from inclino_ros.core.temperature import (
-    AXES, fit_temperature, REFERENCE_TEMPERATURE_C, TemperatureFitRefused)
+    AXES, fit_temperature, fit_temperature_drift, REFERENCE_TEMPERATURE_C,
+    TemperatureFitRefused)
 import numpy as np
 
-REFERENCE_COLUMNS = ('ref_ax', 'ref_ay', 'ref_az')
 REPORT_NAME = 'fit_temperature'
+MAG_TOPIC = '/imu/mag'
+#: Per triad: CSV columns, reference columns, unit, calibration section, later stages.
+TRIADS = {
+    'accelerometer': (('ax', 'ay', 'az'), ('ref_ax', 'ref_ay', 'ref_az'), 'm/s^2',
+                      'temperature', ('stand', 'installation')),
+    'magnetometer': (('bx', 'by', 'bz'), ('ref_bx', 'ref_by', 'ref_bz'), 'nT',
+                     'magnetometer_temperature', ('magnetic',)),
+}
 
 
 def register(subparsers):
     """Add the ``fit-temperature`` subcommand."""
     parser = subparsers.add_parser(
         'fit-temperature',
-        help='fit the temperature drift K_T(T) (seed 001) into a calibration file',
+        help='fit the temperature drift (bias and K_T(T), seed 001) into a calibration file',
         description=__doc__.split('\n\n', 1)[1])
     add_common_arguments(parser)
+    parser.add_argument('--triad', choices=sorted(TRIADS), default='accelerometer',
+                        help='which sensor triad (default: %(default)s)')
+    parser.add_argument('--mag-topic', default=MAG_TOPIC,
+                        help='sensor_msgs/MagneticField topic of a bag, --triad magnetometer '
+                             '(default: %(default)s)')
     parser.add_argument('--order', type=int, default=2,
-                        help='polynomial order of K_T(T) (default: %(default)s)')
+                        help='polynomial order of K_T(T) and B_T(T) (default: %(default)s)')
     parser.add_argument('--reference-window-c', type=float, default=1.0,
-                        help='readings within this many deg C of 25 deg C give the reference '
-                             'when the input has no ref columns (default: %(default)s)')
+                        help='one attitude: readings within this many deg C of 25 deg C give '
+                             'the reference when the input has no ref columns (default: '
+                             '%(default)s)')
+    parser.add_argument('--attitude-separation-deg', type=float, default=20.0,
+                        help='bag: readings further apart in direction belong to different '
+                             'attitudes (default: %(default)s)')
+    node_option(parser, '--max-temperature-difference-c', 'temperature.max_stage_difference_c',
+                'later stages whose temperatures differ by more [deg C] cannot share one '
+                'compensation: refused')
     parser.set_defaults(func=run)
 
 
@@ -65,8 +95,59 @@ def fit(args, lines):
     """Fit the temperature stage of ``args.input`` into ``args.calibration``; see ``run_fit``."""
     if args.order < 1:
         raise CommandError('--order must be at least 1')
-    existing = load_existing(args.calibration)
-    temperature_c, readings, reference = load_input(args)
+    _, _, unit, section, later = TRIADS[args.triad]
+    existing = load_existing(args.calibration, args.sensor_id)
+    temperature_c, readings, reference, attitude = load_input(args)
+    heated = heated_attitudes(temperature_c, attitude, args.order)
+    try:
+        if reference is None and heated >= 2:
+            result = fit_temperature_drift(temperature_c, readings, attitude, args.order)
+            lines.append(f'{result.attitudes} attitudes heated: bias and scale drift per axis '
+                         '(A_T = K_T(T) A + B_T(T))')
+        else:
+            result = one_attitude_fit(args, temperature_c, readings, reference, lines)
+        target_c = later_stages_temperature(args, existing, later, result)
+    except TemperatureFitRefused as err:
+        raise Refused(err.reason) from None
+    if target_c is not None:
+        result = result.referenced_to(target_c)
+    elif any(getattr(existing, name) is not None for name in later):
+        lines.append(f'WARNING: the {" and ".join(n for n in later if getattr(existing, n))} '
+                     'stage(s) record no temperature: compensating to '
+                     f'{result.reference_temperature_c:g} C assumes they were captured there')
+    stage = stage_of(args.triad, result, temperature_c.size)
+    model = replace(existing, **{section: stage})
+    previous = replace(existing, **{section: None})
+    lines += fit_lines(result, unit)
+    png, txt = report_paths(args, REPORT_NAME)
+    if args.triad == 'accelerometer':
+        before, after, what = inclination_errors(previous, model, readings, temperature_c,
+                                                 attitude)
+    else:
+        before, after, what = direction_errors(previous, model, readings, temperature_c,
+                                               attitude)
+    lines.append(f'{what} over the run (vs each attitude at the stage reference): largest '
+                 f'{np.abs(before).max():.4f} deg uncompensated, {np.abs(after).max():.4f} deg '
+                 'compensated')
+    plot(png, temperature_c, result, before, after, what)
+    lines.append(f'report: {png}')
+    save(args.calibration, model)
+    kept = [name for name in later if getattr(model, name) is not None]
+    lines.append(f'wrote {args.calibration}: {section} stage (order {args.order}, '
+                 f'{result.attitudes} attitude(s), compensating to '
+                 f'{result.reference_temperature_c:g} C)'
+                 + (f', {" and ".join(kept)} stage kept' if kept else ''))
+    write_text(txt, lines)
+
+
+def heated_attitudes(temperature_c, attitude, order):
+    """Return how many attitudes were heated through ``order + 1`` distinct temperatures."""
+    return sum(np.unique(np.round(temperature_c[attitude == a], 1)).size >= order + 1
+               for a in np.unique(attitude))
+
+
+def one_attitude_fit(args, temperature_c, readings, reference, lines):
+    """Return seed 001's scale-only fit (reference: ref columns or the 25 deg C reading)."""
     if reference is None:
         near = np.abs(temperature_c - REFERENCE_TEMPERATURE_C) <= args.reference_window_c
         if not near.any():
@@ -74,88 +155,161 @@ def fit(args, lines):
                 f'no reading within {args.reference_window_c} deg C of '
                 f'{REFERENCE_TEMPERATURE_C} deg C (data {temperature_c.min():.2f} .. '
                 f'{temperature_c.max():.2f} deg C) to take the reference from; heat through '
-                '25 deg C or give ref_ax, ref_ay, ref_az columns')
+                '25 deg C or give the ref columns')
         reference = readings[near].mean(axis=0)
         lines.append(f'reference: mean of {near.sum()} readings within '
                      f'{args.reference_window_c} deg C of {REFERENCE_TEMPERATURE_C} deg C: '
-                     + ' '.join(f'{v:.6f}' for v in reference) + ' m/s^2')
-    try:
-        result = fit_temperature(temperature_c, readings, reference, args.order)
-    except TemperatureFitRefused as err:
-        raise Refused(err.reason) from None
-    stage = Temperature(
-        coefficients=tuple(map(tuple, result.coefficients.tolist())),
-        t_min_c=result.t_min_c, t_max_c=result.t_max_c,
-        reference_temperature_c=result.reference_temperature_c,
-        rms_residual_mps2=tuple(result.rms_residual_mps2.tolist()),
-        samples=int(temperature_c.size), fitted_at=utc_now_iso())
-    model = replace(existing, temperature=stage)
-    uncompensated = replace(existing, temperature=None)
-    baseline_deg = np.degrees(inclination(uncompensated.apply(
-        np.broadcast_to(reference, readings.shape))))
-    before_deg = np.degrees(inclination(uncompensated.apply(readings))) - baseline_deg
-    after_deg = np.degrees(inclination(model.apply(readings, temperature_c))) - baseline_deg
+                     + ' '.join(f'{v:.6f}' for v in reference))
+    lines.append('ONE attitude (or given references): scale factor K_T(T) only (seed 001). A '
+                 'bias drift cannot be seen here: it is absorbed into K_T, exactly at this '
+                 'attitude (the residual stays at the noise) and wrongly at every other; heat '
+                 'the tool at a second attitude where each axis reads differently to fit it')
+    return fit_temperature(temperature_c, readings, reference, args.order)
 
-    lines += matrix_lines(f'K_T(T) = a0 + a1 T + ... (rows {", ".join(AXES)}; a0 a1 ...)',
-                          result.coefficients, '14.6e')
+
+def later_stages_temperature(args, model, later, result):
+    """
+    Return the temperature the stage must compensate to, None for its reference.
+
+    The later stages' common temperature (``model.common_stage_temperature``)
+    when they record one; TemperatureFitRefused when they disagree or it lies
+    outside the heated range.
+    """
+    try:
+        target_c = common_stage_temperature(model, args.max_temperature_difference_c, later)
+    except ValueError as err:
+        raise TemperatureFitRefused(str(err)) from None
+    if target_c is not None and not result.t_min_c <= target_c <= result.t_max_c:
+        raise TemperatureFitRefused(
+            f'the later stages stand for {target_c:.1f} C, outside the heated range '
+            f'{result.t_min_c:.1f} .. {result.t_max_c:.1f} C: heat through it')
+    return target_c
+
+
+def stage_of(triad, result, samples):
+    """Return the Temperature or MagnetometerTemperature stage of a fit."""
+    bias = (None if result.bias_coefficients is None
+            else tuple(map(tuple, result.bias_coefficients.tolist())))
+    common = {'coefficients': tuple(map(tuple, result.coefficients.tolist())),
+              't_min_c': result.t_min_c, 't_max_c': result.t_max_c,
+              'reference_temperature_c': result.reference_temperature_c,
+              'samples': int(samples), 'fitted_at': utc_now_iso(),
+              'attitudes': result.attitudes}
+    rms = tuple(result.rms_residual.tolist())
+    if triad == 'accelerometer':
+        return Temperature(**common, rms_residual_mps2=rms, bias_coefficients_mps2=bias)
+    return MagnetometerTemperature(**common, rms_residual_nT=rms, bias_coefficients_nT=bias)
+
+
+def fit_lines(result, unit):
+    """Return the report lines of a fit: coefficients, values at the range's ends, residuals."""
+    lines = matrix_lines(f'K_T(T) = a0 + a1 T + ... (rows {", ".join(AXES)}; a0 a1 ...)',
+                         result.coefficients, '14.6e')
+    if result.bias_coefficients is not None:
+        lines += matrix_lines(f'B_T(T) = b0 + b1 T + ... [{unit}]', result.bias_coefficients,
+                              '14.6e')
     ends_c = (result.t_min_c, result.reference_temperature_c, result.t_max_c)
-    lines += [f'K_T at {", ".join(f"{t:.1f}" for t in ends_c)} deg C:'] + [
-        f'  {axis}: ' + ' '.join(f'{v:.6f}' for v in values)
-        for axis, values in zip(AXES, result.scale_factor(ends_c).T)]
-    lines += [f'fitted {result.t_min_c:.2f} .. {result.t_max_c:.2f} deg C, '
-              f'{temperature_c.size} readings; RMS residual per axis: '
-              + ' '.join(f'{v:.3g}' for v in result.rms_residual_mps2) + ' m/s^2',
-              f'inclination error over the run (vs the reference): largest '
-              f'{np.abs(before_deg).max():.4f} deg uncompensated, '
-              f'{np.abs(after_deg).max():.4f} deg compensated']
-    png, txt = report_paths(args, REPORT_NAME)
-    plot(png, temperature_c, readings / reference, result, before_deg, after_deg)
-    lines.append(f'report: {png}')
-    save(args.calibration, model)
-    kept = [name for name in ('stand', 'installation') if getattr(model, name) is not None]
-    lines.append(f'wrote {args.calibration}: temperature stage (order {args.order})'
-                 + (f', {" and ".join(kept)} stage kept' if kept else ''))
-    write_text(txt, lines)
+    lines += [f'K_T and B_T at {", ".join(f"{t:.1f}" for t in ends_c)} deg C:'] + [
+        f'  {axis}: ' + ' '.join(f'{v:.6f}' for v in scale) + ' | '
+        + ' '.join(f'{v:.6g}' for v in bias)
+        for axis, scale, bias in zip(AXES, result.scale_factor(ends_c).T,
+                                     result.bias(ends_c).T)]
+    return lines + [f'fitted {result.t_min_c:.2f} .. {result.t_max_c:.2f} deg C; RMS '
+                    f'residual per axis: ' + ' '.join(f'{v:.3g}' for v in result.rms_residual)
+                    + f' {unit}']
+
+
+def _per_attitude_reference(values, attitude, temperature_c, reference_c):
+    """Return each sample's attitude value nearest ``reference_c`` (the run's own baseline)."""
+    baseline = np.empty_like(values)
+    for label in np.unique(attitude):
+        mine = attitude == label
+        nearest = np.argmin(np.abs(temperature_c[mine] - reference_c))
+        baseline[mine] = values[mine][nearest]
+    return baseline
+
+
+def inclination_errors(previous, model, readings, temperature_c, attitude):
+    """Return (before, after, name): inclination change over the run per attitude [deg]."""
+    reference_c = model.temperature.reference_temperature_c
+    before = np.degrees(inclination(previous.apply(readings)))
+    after = np.degrees(inclination(model.apply(readings, temperature_c)))
+    baseline = _per_attitude_reference(after, attitude, temperature_c, reference_c)
+    return before - baseline, after - baseline, 'inclination error'
+
+
+def direction_errors(previous, model, readings, temperature_c, attitude):
+    """Return (before, after, name): field direction change over the run per attitude [deg]."""
+    reference_c = model.magnetometer_temperature.reference_temperature_c
+    before = previous.apply_magnetic(readings)
+    after = model.apply_magnetic(readings, temperature_c)
+    baseline = _per_attitude_reference(after, attitude, temperature_c, reference_c)
+    return (np.degrees(angle_between(before, baseline)),
+            np.degrees(angle_between(after, baseline)), 'field direction error')
 
 
 def load_input(args):
-    """Return (temperature_c (N,), readings (N, 3), reference (N, 3) or None)."""
+    """Return (temperature_c (N,), readings (N, 3), reference (N, 3) or None, attitude (N,))."""
+    columns, reference_columns, _, _, _ = TRIADS[args.triad]
     if not is_bag(args.input):
-        table = read_csv(args.input, ('temperature_c',) + AXIS_COLUMNS,
-                         optional=REFERENCE_COLUMNS)
-        given = [name for name in REFERENCE_COLUMNS if name in table]
+        table = read_csv(args.input, ('temperature_c',) + columns,
+                         optional=reference_columns + ('attitude',))
+        given = [name for name in reference_columns if name in table]
         if given and len(given) != 3:
             raise CommandError(f'{args.input} has {", ".join(given)}: give all of '
-                               f'{", ".join(REFERENCE_COLUMNS)} or none')
-        readings = np.column_stack([table[name] for name in AXIS_COLUMNS])
-        reference = (np.column_stack([table[name] for name in REFERENCE_COLUMNS])
+                               f'{", ".join(reference_columns)} or none')
+        readings = np.column_stack([table[name] for name in columns])
+        reference = (np.column_stack([table[name] for name in reference_columns])
                      if given else None)
-        return table['temperature_c'], readings, reference
-    imu = read_topic(args.input, args.raw_topic)
-    temperature_c, inside = sample_temperatures(imu, args.input, args.temperature_topic)
+        attitude = table.get('attitude', np.zeros(readings.shape[0]))
+        return table['temperature_c'], readings, reference, attitude
+    if args.triad == 'accelerometer':
+        series = read_topic(args.input, args.raw_topic)
+        readings = series.linear_acceleration_mps2
+    else:
+        series = read_topic(args.input, args.mag_topic)
+        readings = series.field_nT
+    temperature_c, inside = sample_temperatures(series, args.input, args.temperature_topic)
     if not inside.any():
-        raise CommandError(f'no sample of {args.raw_topic} lies within the time span of '
+        raise CommandError(f'no sample of the {args.triad} lies within the time span of '
                            f'{args.temperature_topic}')
-    return temperature_c[inside], imu.linear_acceleration_mps2[inside], None
+    readings = readings[inside]
+    return (temperature_c[inside], readings, None,
+            label_attitudes(readings, args.attitude_separation_deg))
 
 
-def plot(path, temperature_c, ratio, result, before_deg, after_deg):
-    """Plot K_T points and curves per axis, and the inclination error before/after."""
-    pyplot, fig, axes = new_figure(2, 'inclino fit-temperature: scale factor drift K_T(T)')
+def label_attitudes(readings, separation_deg):
+    """
+    Return an attitude label per reading: directions within ``separation_deg`` share one.
+
+    Greedy: the first unlabelled reading opens an attitude that takes every
+    unlabelled reading within ``separation_deg`` of its direction.
+    """
+    labels = np.full(readings.shape[0], -1)
+    label = 0
+    while (labels < 0).any():
+        first = np.flatnonzero(labels < 0)[0]
+        near = np.degrees(angle_between(readings, readings[first])) <= separation_deg
+        labels[(labels < 0) & near] = label
+        label += 1
+    return labels
+
+
+def plot(path, temperature_c, result, before, after, what):
+    """Plot K_T and B_T per axis, and the error over the run before/after."""
+    pyplot, fig, axes = new_figure(3, 'inclino fit-temperature: scale factor and bias drift')
     grid_c = np.linspace(result.t_min_c, result.t_max_c, 200)
-    fitted = result.scale_factor(temperature_c)
-    # The points A/ref are K_T up to a constant per axis (1 at 25 deg C only for a
-    # 25 deg C reference): scale them onto the curve by least squares.
-    points = ratio / (np.sum(ratio * fitted, axis=0) / np.sum(fitted * fitted, axis=0))
     for axis, color in zip(range(3), ('tab:red', 'tab:green', 'tab:blue')):
-        axes[0].plot(temperature_c, points[:, axis], '.', color=color, markersize=2, alpha=0.4)
         axes[0].plot(grid_c, result.scale_factor(grid_c)[:, axis], color=color,
-                     label=f'{AXES[axis]}: K_T fit (points: A / ref)')
+                     label=f'{AXES[axis]}: K_T(T)')
+        axes[1].plot(grid_c, result.bias(grid_c)[:, axis], color=color,
+                     label=f'{AXES[axis]}: B_T(T)')
     axes[0].set_ylabel('K_T [1]')
-    axes[1].plot(temperature_c, before_deg, '.', color='tab:red', markersize=2,
-                 label=f'uncompensated, largest {np.abs(before_deg).max():.3f} deg')
-    axes[1].plot(temperature_c, after_deg, '.', color='tab:green', markersize=2,
-                 label=f'compensated A / K_T(T), largest {np.abs(after_deg).max():.4f} deg')
-    axes[1].set_ylabel('inclination error [deg]')
-    axes[1].set_xlabel('temperature [deg C]')
+    axes[1].set_ylabel('B_T [unit of the readings]')
+    axes[2].plot(temperature_c, before, '.', color='tab:red', markersize=2,
+                 label=f'uncompensated, largest {np.abs(before).max():.3f} deg')
+    axes[2].plot(temperature_c, after, '.', color='tab:green', markersize=2,
+                 label=f'compensated, largest {np.abs(after).max():.4f} deg')
+    axes[2].set_ylabel(f'{what} [deg]')
+    axes[2].set_xlabel('temperature [deg C]')
     finish_figure(pyplot, fig, axes, path)

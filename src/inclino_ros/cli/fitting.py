@@ -10,18 +10,22 @@ Exit codes: 0 written, 1 refused (the reason printed, the file untouched),
 2 an input that cannot be used (``CommandError``).
 """
 
+from dataclasses import replace
 import os
 import sys
 
 from inclino_ros.calibration.model import (
-    CalibrationFileError, CalibrationModel, load_model, save_model)
+    CalibrationFileError, CalibrationModel, check_sensor, load_model, save_model)
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.io import tables
 from inclino_ros.io.bag import BagError, concatenate, read, topic_info
+from inclino_ros.node.parameters import PARAMETERS
 
 RAW_TOPIC = '/imu/data_raw'
 TEMPERATURE_TOPIC = '/imu/temperature'
 AXIS_COLUMNS = ('ax', 'ay', 'az')
+#: The node's parameter defaults: the commands' options default to the same values.
+NODE_DEFAULTS = {parameter.name: parameter.default for parameter in PARAMETERS}
 
 
 class Refused(Exception):
@@ -29,11 +33,12 @@ class Refused(Exception):
 
 
 def add_file_arguments(parser, csv_help='CSV file with a header row'):
-    """Add the input, --calibration and --report-dir options."""
+    """Add the input, --calibration, --sensor-id and --report-dir options."""
     parser.add_argument('input', metavar='BAG_OR_CSV',
                         help=f'bag directory (mcap or sqlite3) or {csv_help}')
     parser.add_argument('--calibration', required=True, metavar='FILE',
                         help='calibration file to update (created if missing)')
+    add_sensor_argument(parser)
     parser.add_argument('--report-dir', metavar='DIR',
                         help='folder of the PNG and text report (default: that of FILE)')
 
@@ -93,14 +98,34 @@ def sample_temperatures(imu, path, topic):
     return series.at(imu.stamps_ns), inside
 
 
-def load_existing(path):
-    """Return the model in ``path``, a new three-axis one if there is none."""
+def node_option(parser, flag, parameter, help_text, **kwargs):
+    """Add the float option ``flag`` defaulting to the node's ``parameter`` (said in its help)."""
+    parser.add_argument(flag, type=float, default=NODE_DEFAULTS[parameter],
+                        help=f'{help_text} (default: %(default)s, as {parameter})', **kwargs)
+
+
+def add_sensor_argument(parser):
+    """Add --sensor-id: the sensor the calibration file must belong to (and is stamped with)."""
+    parser.add_argument('--sensor-id', metavar='ID',
+                        help='the sensor the calibration belongs to: a file of another sensor is '
+                             'refused; a new or unnamed file is stamped with it (default: none)')
+
+
+def load_existing(path, sensor_id=None):
+    """
+    Return the model in ``path``, a new three-axis one if there is none.
+
+    A file of another sensor than ``sensor_id`` is a CommandError
+    (``model.check_sensor``); the model returned names ``sensor_id`` (if given).
+    """
     try:
         model = load_model(path)
+        check_sensor(model, sensor_id, path)
     except FileNotFoundError:
-        return CalibrationModel(accelerometer_axes=3)
+        return CalibrationModel(accelerometer_axes=3, sensor_id=sensor_id or None)
     except (CalibrationFileError, OSError) as err:
         raise CommandError(str(err)) from None
+    model = replace(model, sensor_id=sensor_id or model.sensor_id)
     if model.accelerometer_axes != 3:
         raise CommandError(f'{path} is for a {model.accelerometer_axes}-axis accelerometer; '
                            'stand and temperature stages need three axes')

@@ -8,21 +8,33 @@ in the ISCWSA survey frame (x, y cross-axial, z toward the bit); optional
 of a simulation: the report then plots the error).
 
 Methods (``inclino_ros.core.msa``): ``improved`` (default, seed 002 Eqs. 23-33:
-the cross-axial part first, then eps_z0 at the mean station, its interval
-and the bounded minimum of V); ``classic`` (Brooks: eps_x, eps_y, eps_z
-together); ``axial`` (eps_z only); ``short-collar`` (each station alone,
-Bx and By assumed right; NaN azimuth near east/west).  For ``improved`` the
-cross-axial (eps_x, eps_y) comes from ``--cross-axial-nT`` (a per-rotation
-circle fit, seed 002 §2.1), else from the classic solve when the toolfaces
-spread (largest gap <= 100 deg), else it is taken as zero (said so).
+the cross-axial part first, then eps_z0 at the mean station, its search
+bracket and the bounded minimum of V; a minimum on the bracket's edge is
+refused); ``classic`` (Brooks: eps_x, eps_y, eps_z together); ``axial``
+(eps_z only, the cross-axial part taken as zero); ``short-collar`` (each
+station alone, Bx and By assumed right; NaN azimuth near east/west).  For
+``improved`` the cross-axial (eps_x, eps_y) comes from ``--cross-axial-nT``,
+from the calibration's rotation fit (seed 002 §2.1), else from the classic
+solve when the toolfaces spread (largest gap <= 100 deg); otherwise it is
+refused (``msa.improved_cross_axial``).  The geometry is judged at the
+converged solution too.
+
+How well it solved: the 1 sigma of eps from the fit AND from the reference
+field's own uncertainty (``--reference-total-std-nT``,
+``--reference-dip-std-deg``: WMM 2025 by default, smaller for IFR), and
+each station's azimuth 1 sigma (that, plus the station's noise); an azimuth
+whose 1 sigma exceeds ``--azimuth-max-std-deg`` and a toolface whose 1 sigma
+(the stations' G noise over sin I) exceeds ``--toolface-max-std-deg`` are
+NaN (a vertical station has neither).
 
 Output: OUT (CSV, one row per station: ``md`` if given, ``inclination_deg,
-toolface_deg, azimuth_raw_deg, azimuth_deg``, ``azimuth_true_north_deg``
-with ``--declination-deg``, the QC of the corrected survey: B-total and dip
-deltas and ``b_total_ok, dip_ok, g_total_ok, used``, plus ``eps_z_nT,
-east_west`` for short-collar and ``true_azimuth_deg, azimuth_error_deg``
-when the input has the truth) and OUT.msa.json (the corrections, V
-before/after, the interval, the diagnostics).
+toolface_deg, azimuth_raw_deg, azimuth_deg, azimuth_std_deg``,
+``azimuth_true_north_deg`` with ``--declination-deg``, the QC of the
+corrected survey: B-total and dip deltas and ``b_total_ok, dip_ok,
+g_total_ok, used``, plus ``eps_z_nT, east_west`` for short-collar and
+``true_azimuth_deg, azimuth_error_deg`` when the input has the truth) and
+OUT.msa.json (the corrections and their 1 sigma, V before/after, the search
+bracket, the diagnostics).
 
 The reference field is ``--reference-total-nT`` and ``--reference-dip-deg``,
 or the World Magnetic Model at ``--site LAT LON ALT_M DATE`` (explicit values
@@ -33,7 +45,8 @@ before the file's magnetic stage: its cross-axial correction (hard and soft
 iron of ``inclino fit-rotation``) is applied to them first (turned into the
 ISCWSA axes), and for ``improved`` the cross-axial interference is then
 taken as removed.  The solved eps, turned into the tool frame
-(``magnetics.iscwsa_from_tool``), replaces the stage's ``interference_nT``,
+(``magnetics.iscwsa_from_tool``), replaces the stage's ``interference_nT``
+(its 1 sigma ``interference_std_nT``: the live azimuth's quality takes it),
 with ``msa_method, msa_stations, msa_reference_*`` and ``msa_fitted_at``;
 its hard and soft iron and every other stage are kept, the file written
 atomically.  ``short-collar`` (one correction per station) cannot be stored.
@@ -48,13 +61,16 @@ import sys
 
 from inclino_ros.calibration.model import NO_MAGNETIC_CORRECTION, utc_now_iso
 from inclino_ros.cli.errors import CommandError
-from inclino_ros.cli.fitting import finish_figure, load_existing, new_figure, read_csv, save
+from inclino_ros.cli.fitting import (
+    add_sensor_argument, finish_figure, load_existing, new_figure, read_csv, save)
+from inclino_ros.cli.process import add_limit_arguments
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core import magnetics
 from inclino_ros.core.cross_axial import apply_cross_axial
 from inclino_ros.core.msa import (
-    azimuth_difference_deg, MAX_INTERFERENCE_NT, misfit_nT2, MsaLimits, MsaRefused, short_collar,
-    solve_msa_axial, solve_msa_classic, solve_msa_improved, toolface_gap_deg)
+    azimuth_difference_deg, improved_cross_axial, MAX_INTERFERENCE_NT, misfit_nT2, MsaRefused,
+    short_collar, solve_msa_axial, solve_msa_classic, solve_msa_improved, WMM_REFERENCE_STD)
+from inclino_ros.core.uncertainty import toolface_std_rad
 import numpy as np
 
 GRAVITY_COLUMNS = ('gx', 'gy', 'gz')
@@ -77,10 +93,18 @@ def register(subparsers):
     parser.add_argument('--calibration', metavar='FILE',
                         help='calibration file: its cross-axial correction is applied first, '
                              'the solved interference stored in its magnetic stage')
+    add_sensor_argument(parser)
     parser.add_argument('--method', choices=METHODS, default='improved',
                         help='correction method (default: %(default)s)')
     parser.add_argument('--cross-axial-nT', type=float, nargs=2, metavar=('EX', 'EY'),
                         help='improved: known cross-axial interference [nT] (rotation fit)')
+    parser.add_argument('--reference-total-std-nT', type=float, default=WMM_REFERENCE_STD[0],
+                        help='1 sigma of the reference total field [nT] (default: WMM 2025, '
+                             '%(default)s; an IFR model ~half)')
+    parser.add_argument('--reference-dip-std-deg', type=float, default=WMM_REFERENCE_STD[1],
+                        help='1 sigma of the reference dip [deg] (default: WMM 2025, '
+                             '%(default)s)')
+    add_limit_arguments(parser)
     parser.add_argument('--exclude-failing', action='store_true',
                         help='leave stations failing QC out of the solve (named) instead of '
                              'refusing')
@@ -152,7 +176,7 @@ def calibrated_field(args, table, lines):
     ISCWSA and tool axes differ by a turn about x (``magnetics.iscwsa_from_tool``,
     its own inverse): B is turned into the tool frame, corrected and turned back.
     """
-    model = load_existing(args.calibration)
+    model = load_existing(args.calibration, args.sensor_id)
     before = model.magnetometer_stages[:model.magnetometer_stages.index('magnetic')] \
         if model.magnetic is not None else model.magnetometer_stages
     if before or model.stand is not None:
@@ -173,7 +197,9 @@ def store(args, model, result, lines):
     """Write the solved eps into the magnetic stage of ``args.calibration`` (tool frame)."""
     eps_tool_nT = magnetics.iscwsa_from_tool(result.eps_nT)
     stage = replace(model.magnetic or NO_MAGNETIC_CORRECTION,
-                    interference_nT=tuple(eps_tool_nT.tolist()), msa_method=result.method,
+                    interference_nT=tuple(eps_tool_nT.tolist()),
+                    interference_std_nT=tuple(result.eps_std_nT.tolist()),
+                    msa_method=result.method,
                     msa_stations=int(result.diagnostics.stations_used),
                     msa_reference_total_nT=float(args.reference_total_nT),
                     msa_reference_dip_deg=float(args.reference_dip_deg),
@@ -193,52 +219,43 @@ def correct(args, table, lines):
                      f'{np.nanmax(result.eps_z_nT):.1f} nT; {int(result.east_west.sum())} '
                      'station(s) near east/west flagged (azimuth NaN)')
         return result, None
-    options = {'exclude_failing_qc': args.exclude_failing}
+    options = {'exclude_failing_qc': args.exclude_failing,
+               'reference_std': (args.reference_total_std_nT, args.reference_dip_std_deg)}
     source = None
     if args.method == 'classic':
         result = solve_msa_classic(G, B, *reference, **options)
     elif args.method == 'axial':
         result = solve_msa_axial(G, B, *reference, **options)
     else:
-        cross_axial, source = cross_axial_of(args, G, B, reference, options,
-                                             table.get('rotation_fitted_at'))
-        lines.append(f'cross-axial {cross_axial[0]:.1f}, {cross_axial[1]:.1f} nT: {source}')
-        result = solve_msa_improved(G, B, *reference, cross_axial_nT=cross_axial, **options)
+        cross_axial, source, covariance = improved_cross_axial(
+            G, B, *reference, given_nT=args.cross_axial_nT,
+            rotation_fitted_at=table.get('rotation_fitted_at'), **options)
+        lines.append(f'cross-axial {cross_axial[0]:.1f}, {cross_axial[1]:.1f} nT: {source}'
+                     + ('' if covariance is not None else ' (its uncertainty not included)'))
+        result = solve_msa_improved(G, B, *reference, cross_axial_nT=cross_axial,
+                                    cross_axial_covariance_nT2=covariance, **options)
     lines += result_lines(result)
     return result, source
-
-
-def cross_axial_of(args, G, B, reference, options, rotation_fitted_at=None):
-    """
-    Return ((eps_x, eps_y) [nT], where they come from) for the improved method.
-
-    ``rotation_fitted_at``: when the calibration's rotation fit was applied to B.
-    """
-    if args.cross_axial_nT:
-        return tuple(args.cross_axial_nT), 'given (--cross-axial-nT)'
-    if rotation_fitted_at is not None:
-        return (0.0, 0.0), (f'removed by the rotation fit of {args.calibration} '
-                            f'({rotation_fitted_at})')
-    gap_deg = toolface_gap_deg(G)
-    if gap_deg <= MsaLimits().max_toolface_gap_deg:
-        classic = solve_msa_classic(G, B, *reference, **options)
-        return tuple(classic.eps_nT[:2]), (f'from the classic solve (toolfaces spread, '
-                                           f'largest gap {gap_deg:.1f} deg)')
-    return (0.0, 0.0), (f'taken as zero: toolfaces not spread (largest gap {gap_deg:.1f} deg) '
-                        'and no --cross-axial-nT')
 
 
 def result_lines(result):
     """Return the summary lines of an MsaResult."""
     d = result.diagnostics
-    lines = [f'{result.method}: eps x, y, z = ' + ', '.join(f'{v:.1f}' for v in result.eps_nT)
-             + ' nT',
+    std = result.eps_std_nT
+    finite = np.isfinite(result.azimuth_std_deg)
+    eps = [f'{v:.1f} +- {s:.1f}' if s > 0 else f'{v:.1f}' for v, s in zip(result.eps_nT, std)]
+    lines = [f'{result.method}: eps x, y, z = ' + ', '.join(eps) + ' nT (1 sigma: '
+             f'the fit and the reference field, {result.reference_std[0]:g} nT and '
+             f'{result.reference_std[1]:g} deg)',
              f'V before {result.v_before_nT2:.4g} nT^2, after {result.v_after_nT2:.4g} nT^2 '
-             f'({result.iterations} iterations)']
-    if result.interval_nT is not None:
-        lines.append(f'eps_z0 (mean station) {result.eps_z0_nT:.1f} nT, interval '
-                     f'[{result.interval_nT[0]:.1f}, {result.interval_nT[1]:.1f}] nT'
-                     + (' (minimum ON ITS EDGE)' if d.at_interval_bound else ''))
+             f'({result.iterations} iterations, residual {result.residual_std_nT:.2f} nT rms)',
+             'station azimuth 1 sigma: ' + (
+                 f'{result.azimuth_std_deg[finite].min():.3f} .. '
+                 f'{result.azimuth_std_deg[finite].max():.3f} deg' if finite.any() else 'none')]
+    if result.search_bracket_nT is not None:
+        lines.append(f'eps_z0 (mean station) {result.eps_z0_nT:.1f} nT, search bracket '
+                     f'[{result.search_bracket_nT[0]:.1f}, {result.search_bracket_nT[1]:.1f}] '
+                     'nT (a search range, not a confidence interval)')
     lines.append(f'{d.stations_used} stations used, largest toolface gap '
                  f'{d.toolface_gap_deg:.1f} deg, inclination {d.inclination_range_deg[0]:.1f}'
                  f'..{d.inclination_range_deg[1]:.1f} deg, axial sensitivity '
@@ -257,8 +274,12 @@ def write_outputs(args, table, output, lines):
     if 'md' in table:
         columns['md'] = table['md']
     columns.update(inclination_deg=magnetics.inclination_deg(G),
-                   toolface_deg=magnetics.gravity_toolface_deg(G),
+                   toolface_deg=station_toolface_deg(G, args.toolface_max_std_deg),
                    azimuth_raw_deg=result.azimuth_raw_deg, azimuth_deg=result.azimuth_deg)
+    if not hasattr(result, 'east_west'):
+        precise = result.azimuth_std_deg <= args.azimuth_max_std_deg
+        columns.update(azimuth_deg=np.where(precise, result.azimuth_deg, np.nan),
+                       azimuth_std_deg=result.azimuth_std_deg)
     if args.declination_deg is not None:
         columns['azimuth_true_north_deg'] = magnetics.true_azimuth_deg(
             result.azimuth_deg, args.declination_deg)
@@ -284,6 +305,20 @@ def write_outputs(args, table, output, lines):
         lines.append(f'report: {args.report}')
 
 
+def station_toolface_deg(G, max_std_deg):
+    """
+    Return the stations' gravity toolface [deg], NaN where its 1 sigma exceeds ``max_std_deg``.
+
+    The 1 sigma is ``sigma_G / (|G| sin I)`` (``uncertainty.toolface_std_rad``)
+    with sigma_G the scatter of the stations' |G|; a vertical station has none.
+    """
+    noise = np.std(magnetics.g_total(G), ddof=1) if G.shape[0] > 1 else 0.0
+    f = magnetics.specific_force_from_gravity(G)
+    std_deg = np.degrees(toolface_std_rad(f, noise ** 2 * np.broadcast_to(np.eye(3), (len(f), 3,
+                                                                                      3))))
+    return np.where(std_deg <= max_std_deg, magnetics.gravity_toolface_deg(G), np.nan)
+
+
 def write_table(path, columns):
     """Write ``{name: values}`` as CSV; booleans as 0/1, floats in full precision."""
     rows = np.column_stack([np.asarray(values, dtype=float) for values in columns.values()])
@@ -307,14 +342,19 @@ def summary(args, result, source):
                       east_west_stations=(np.flatnonzero(result.east_west) + 1).tolist())
         return record
     d = result.diagnostics
+    bracket = result.search_bracket_nT
     record.update(
-        eps_nT=result.eps_nT.tolist(), iterations=result.iterations,
-        excluded_stations=[i + 1 for i in result.excluded],
-        eps_z0_nT=None if result.interval_nT is None else result.eps_z0_nT,
-        interval_nT=None if result.interval_nT is None else list(result.interval_nT),
+        eps_nT=result.eps_nT.tolist(), eps_std_nT=result.eps_std_nT.tolist(),
+        eps_covariance_nT2=result.eps_covariance_nT2.tolist(),
+        reference_total_std_nT=result.reference_std[0],
+        reference_dip_std_deg=result.reference_std[1],
+        residual_std_nT=result.residual_std_nT,
+        azimuth_std_deg=[None if np.isnan(v) else v for v in result.azimuth_std_deg.tolist()],
+        iterations=result.iterations, excluded_stations=[i + 1 for i in result.excluded],
+        eps_z0_nT=None if bracket is None else result.eps_z0_nT,
+        search_bracket_nT=None if bracket is None else list(bracket),
         cross_axial_source=source,
-        diagnostics=dict(asdict(d), inclination_range_deg=list(d.inclination_range_deg),
-                         at_interval_bound=bool(d.at_interval_bound)))
+        diagnostics=dict(asdict(d), inclination_range_deg=list(d.inclination_range_deg)))
     return record
 
 
@@ -324,7 +364,9 @@ def plot_report(args, table, result):
     pyplot, fig, axes = new_figure(3 + has_truth, f'inclino msa --method {args.method}')
     station = table.get('md', np.arange(1, table['G'].shape[0] + 1))
     axes[0].plot(station, result.azimuth_raw_deg, 'o-', color='tab:red', label='raw')
-    axes[0].plot(station, result.azimuth_deg, 'o-', color='tab:green', label='corrected')
+    std = getattr(result, 'azimuth_std_deg', None)
+    axes[0].errorbar(station, result.azimuth_deg, yerr=std, fmt='o-', color='tab:green',
+                     capsize=2, label='corrected' + ('' if std is None else ' (+- 1 sigma)'))
     axes[0].set_ylabel('magnetic azimuth [deg]')
     if has_truth:
         truth = table[TRUTH_COLUMN]
@@ -335,6 +377,9 @@ def plot_report(args, table, result):
             usable = np.isfinite(error)
             axes[1].plot(station, error, 'o-', color=colour, label=f'{name}: max |error| ' + (
                 f'{np.max(np.abs(error[usable])):.3f} deg' if usable.any() else 'none usable'))
+        if std is not None:
+            axes[1].fill_between(station, -std, std, color='tab:green', alpha=0.2,
+                                 label='+- 1 sigma (noise, eps, reference field)')
         axes[1].set_ylabel('azimuth - truth [deg]')
     axes[has_truth].set_xlabel('md' if 'md' in table else 'station')
     if hasattr(result, 'east_west'):
@@ -348,20 +393,23 @@ def plot_misfit(axes, args, table, result):
     """Plot V(eps_z), eps_x and eps_y solved: over +-10000 nT (Fig. 5) and zoomed (Fig. 6)."""
     G, B = table['G'][result.used], table['B'][result.used]
     eps = result.eps_nT
-    if result.interval_nT is None:
+    bracket = result.search_bracket_nT
+    if bracket is None:
         zoom = (eps[2] - 100.0, eps[2] + 100.0)
     else:
-        half = result.interval_nT[1] - result.interval_nT[0]
-        zoom = (result.interval_nT[0] - half, result.interval_nT[1] + half)
+        half = bracket[1] - bracket[0]
+        zoom = (bracket[0] - half, bracket[1] + half)
     for ax, span in zip(axes, ((-MAX_INTERFERENCE_NT, MAX_INTERFERENCE_NT), zoom)):
         eps_z = np.linspace(*span, CURVE_POINTS)
         misfit = [misfit_nT2(G, B, args.reference_total_nT, args.reference_dip_deg,
                              (eps[0], eps[1], z)) for z in eps_z]
         ax.plot(eps_z, misfit, color='tab:blue', label='V(eps_z) (seed 002 Eq. 10)')
         ax.axvline(eps[2], color='tab:green', label=f'eps_z = {eps[2]:.1f} nT')
-        if result.interval_nT is not None:
-            ax.axvspan(*result.interval_nT, color='tab:orange', alpha=0.2,
-                       label='interval eps_z0 +- d (Eq. 28)')
+        ax.axvspan(eps[2] - result.eps_std_nT[2], eps[2] + result.eps_std_nT[2],
+                   color='tab:green', alpha=0.3, label='eps_z +- 1 sigma')
+        if bracket is not None:
+            ax.axvspan(*bracket, color='tab:orange', alpha=0.15,
+                       label='search bracket eps_z0 +- d (Eq. 28)')
             ax.axvline(result.eps_z0_nT, color='tab:orange', linestyle='--',
                        label=f'eps_z0 = {result.eps_z0_nT:.1f} nT (Eq. 27)')
         ax.set_yscale('log')

@@ -6,7 +6,15 @@ samples and writes, for every accepted sample and with its stamp and
 frame_id, ``/survey`` (Vector3Stamped: x inclination_deg, y toolface_deg,
 z azimuth_deg, NaN without ``--mag-topic``) and ``/imu/data`` (corrected
 specific force, roll/pitch orientation and the node's covariances).
-Dropped samples produce no output.  With ``--temperature-topic`` the
+Dropped samples produce no output: before the correction non-finite,
+saturated, zero (and two-axis over-g) samples, after it samples whose
+G-total is off g by more than ``--g-total-tolerance-mps2`` (``dynamic``: not
+gravity) and two-axis samples steeper than ``--two-axis-max-inclination-deg``
+(``two_axis_range``).  When most samples are dropped the command says so on
+stderr and exits 1 (the accepted ones are still written).  A toolface or
+azimuth whose 1 sigma (``--noise-mps2``, ``--mag-noise-nT`` and the
+calibration's own uncertainty) exceeds ``--toolface-max-std-deg`` /
+``--azimuth-max-std-deg`` is NaN, counted.  With ``--temperature-topic`` the
 calibration's temperature stage gets the temperature of each sample
 (sensor_msgs/Temperature interpolated linearly to its stamp, the first or
 last value held outside their span); without it the stage compensates at
@@ -29,8 +37,9 @@ from dataclasses import dataclass
 import math
 import sys
 
-from inclino_ros.calibration.model import CalibrationFileError, load_model
+from inclino_ros.calibration.model import CalibrationFileError, check_sensor, load_model
 from inclino_ros.cli.errors import CommandError
+from inclino_ros.cli.fitting import add_sensor_argument, NODE_DEFAULTS, node_option
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core.screening import count_reasons, REASONS
 from inclino_ros.io.bag import (
@@ -38,7 +47,6 @@ from inclino_ros.io.bag import (
     not_measured_covariance, read, STORAGES, TEMPERATURE, topic_info, VECTOR3_STAMPED,
     Vector3Series)
 from inclino_ros.io.timing import pair_nearest
-from inclino_ros.node.parameters import PARAMETERS
 from inclino_ros.pipeline import (
     imu_covariances, MagneticSettings, run as run_pipeline, Settings)
 import numpy as np
@@ -46,10 +54,19 @@ from tqdm import tqdm
 
 SURVEY_TOPIC = '/survey'
 IMU_TOPIC = '/imu/data'
-NODE_DEFAULTS = {parameter.name: parameter.default for parameter in PARAMETERS}
 #: Azimuth counts of the summary (accepted samples only).
 MAGNETIC_COUNTS = ('mag_paired', 'mag_unpaired', 'azimuth_trusted', 'azimuth_untrusted',
-                   'qc_failed', 'qc_failed_b_total', 'qc_failed_dip', 'qc_failed_g_total')
+                   'azimuth_imprecise', 'qc_failed', 'qc_failed_b_total', 'qc_failed_dip',
+                   'qc_failed_g_total')
+#: What each reason for dropping a sample means, for the loud message of a bad run.
+DROP_MEANINGS = {
+    'non_finite': 'NaN or Inf readings', 'saturated': 'readings at the sensor range',
+    'zero': 'readings of zero magnitude (dead sensor, free fall)',
+    'over_g': 'two-axis readings above g',
+    'dynamic': 'G-total off gravity by more than --g-total-tolerance-mps2: not gravity (a '
+               'driver that removes gravity? wrong unit?)',
+    'two_axis_range': 'two-axis readings beyond --two-axis-max-inclination-deg (tool past '
+                      '90 deg?)'}
 
 
 @dataclass(frozen=True)
@@ -84,12 +101,23 @@ class Summary:
         self._inclination_sum_deg = 0.0
         self._g_offset_sum = 0.0
         self._g_offset_sum_sq = 0.0
+        self.toolface_imprecise = 0
         self.magnetic = None
 
     @property
     def accepted(self):
         """Return the number of samples that produced output."""
         return self.samples_in - sum(self.dropped.values())
+
+    def mostly_dropped(self):
+        """Return the loud message of a run where most samples were dropped, else None."""
+        dropped = sum(self.dropped.values())
+        if dropped * 2 <= self.samples_in:
+            return None
+        reason = max(self.dropped, key=self.dropped.get)
+        return (f'{dropped} of {self.samples_in} samples dropped, most '
+                f'({self.dropped[reason]}) as {reason}: {DROP_MEANINGS[reason]}; no angle was '
+                'computed from them')
 
     def add(self, survey):
         """Count one processed batch (a ``pipeline.Survey``)."""
@@ -102,6 +130,8 @@ class Summary:
             self.inclination_max_deg = max(self.inclination_max_deg,
                                            float(survey.inclination_deg.max()))
             self._inclination_sum_deg += float(survey.inclination_deg.sum())
+            # The pipeline makes a toolface NaN where its 1 sigma exceeds the limit.
+            self.toolface_imprecise += int(np.isnan(survey.toolface_deg).sum())
             offset = survey.g_total_mps2 - self.gravity_mps2
             self._g_offset_sum += float(offset.sum())
             self._g_offset_sum_sq += float(offset @ offset)
@@ -120,6 +150,7 @@ class Summary:
         counts['mag_unpaired'] += int((~paired).sum())
         counts['azimuth_trusted'] += int(azimuth.trusted.sum())
         counts['azimuth_untrusted'] += int((~azimuth.trusted).sum())
+        counts['azimuth_imprecise'] += int(azimuth.imprecise.sum())
         qc = azimuth.qc
         for name, ok in (('qc_failed', qc.ok), ('qc_failed_b_total', qc.b_total_ok),
                          ('qc_failed_dip', qc.dip_ok), ('qc_failed_g_total', qc.g_total_ok)):
@@ -131,6 +162,7 @@ class Summary:
         n = self.accepted
         lines = [f'samples_in: {self.samples_in}', f'accepted: {n}']
         lines += [f'dropped_{reason}: {count}' for reason, count in self.dropped.items()]
+        lines.append(f'toolface_imprecise: {self.toolface_imprecise}')
         if self.magnetic is not None:
             lines += [f'{name}: {count}' for name, count in self.magnetic.items()]
         if n == 0:
@@ -153,6 +185,7 @@ def register(subparsers):
     parser.add_argument('output', metavar='OUT', help='output bag to create')
     parser.add_argument('--calibration', required=True, metavar='FILE',
                         help='calibration file (as written by the node or inclino calibrate)')
+    add_sensor_argument(parser)
     parser.add_argument('--topic', default='/imu/data_raw',
                         help='sensor_msgs/Imu topic to read (default: %(default)s)')
     parser.add_argument('--temperature-topic', metavar='TOPIC',
@@ -171,10 +204,15 @@ def register(subparsers):
                         default=NODE_DEFAULTS['accelerometer_range_mps2'],
                         help='sensor full scale [m/s^2]; samples at or beyond are dropped '
                              '(default: %(default)s)')
-    parser.add_argument('--noise-mps2', dest='noise_std_mps2', metavar='NOISE_MPS2', type=float,
-                        default=NODE_DEFAULTS['accelerometer_noise_std_mps2'],
-                        help='accelerometer noise, 1 sigma [m/s^2], for the /imu/data '
-                             'covariances (default: %(default)s)')
+    node_option(parser, '--noise-mps2', 'accelerometer_noise_std_mps2',
+                'accelerometer noise per sample, 1 sigma [m/s^2]: the 1 sigma of the angles and '
+                'the /imu/data covariances', dest='noise_std_mps2', metavar='NOISE_MPS2')
+    add_limit_arguments(parser)
+    node_option(parser, '--g-total-tolerance-mps2', 'g_total_tolerance_mps2',
+                'three axes: a sample whose corrected G-total is further from g is not gravity '
+                'and dropped')
+    node_option(parser, '--two-axis-max-inclination-deg', 'two_axis_max_inclination_deg',
+                'two axes: a steeper sample is dropped')
     parser.add_argument('--chunk-size', type=int, default=CHUNK_SIZE,
                         help='samples processed per batch (default: %(default)s)')
     magnetic = parser.add_argument_group('magnetic azimuth (seed 002)')
@@ -184,25 +222,38 @@ def register(subparsers):
     magnetic.add_argument('--max-pairing-s', type=float, default=0.05, metavar='S',
                           help='largest time between an Imu sample and its magnetometer '
                                'message [s]; beyond it the azimuth is NaN (default: %(default)s)')
+    node_option(magnetic, '--mag-noise-nT', 'magnetometer_noise_std_nT',
+                'magnetometer noise per sample, 1 sigma [nT]')
     add_reference_arguments(magnetic)
     parser.set_defaults(func=run)
 
 
+def add_limit_arguments(parser):
+    """Add --toolface-max-std-deg and --azimuth-max-std-deg (``process`` and ``msa``)."""
+    node_option(parser, '--toolface-max-std-deg', 'toolface_max_std_deg',
+                'a toolface of larger 1 sigma is NaN')
+    node_option(parser, '--azimuth-max-std-deg', 'magnetic.azimuth_max_std_deg',
+                'an azimuth of larger 1 sigma is NaN')
+
+
 def run(args):
-    """Process IN into OUT; return 0, 1 if no sample was accepted, 2 on an error."""
+    """Process IN into OUT; return 0, 1 if most samples dropped or none accepted, 2 on an error."""
     try:
         model, settings, count, temperature = _prepare(args)
         magnetometer = _magnetometer(args, model)
         with BagWriter(args.output, args.storage) as out:
             summary = process(args.input, args.topic, out, model, settings,
-                              args.noise_std_mps2, args.chunk_size, count, temperature,
-                              magnetometer)
+                              args.chunk_size, count, temperature, magnetometer)
     except (CommandError, BagError) as err:
         print(f'inclino process: error: {err}', file=sys.stderr)
         return 2
     print(f'wrote {args.output} ({args.storage}): {summary.accepted} messages on each of '
           f'{SURVEY_TOPIC} and {IMU_TOPIC}')
     print('\n'.join(summary.lines()))
+    loud = summary.mostly_dropped()
+    if loud is not None:
+        print(f'inclino process: ERROR: {loud}', file=sys.stderr)
+        return 1
     if summary.accepted == 0:
         print(f'inclino process: no sample of {args.topic} was accepted', file=sys.stderr)
         return 1
@@ -213,6 +264,7 @@ def _prepare(args):
     """Return (model, settings, message count, TemperatureSeries or None) or raise CommandError."""
     try:
         model = load_model(args.calibration)
+        check_sensor(model, args.sensor_id, args.calibration)
     except FileNotFoundError:
         raise CommandError(f'no calibration file {args.calibration}') from None
     except (CalibrationFileError, OSError) as err:
@@ -230,8 +282,10 @@ def _prepare(args):
         settings = Settings(
             accelerometer_axes=axes, gravity_mps2=args.gravity_mps2,
             accelerometer_range_mps2=args.range_mps2,
-            toolface_convention=args.toolface_convention,
-            toolface_min_inclination_deg=NODE_DEFAULTS['toolface_min_inclination_deg'])
+            toolface_convention=args.toolface_convention, noise_std_mps2=args.noise_std_mps2,
+            toolface_max_std_deg=args.toolface_max_std_deg,
+            g_total_tolerance_mps2=args.g_total_tolerance_mps2,
+            two_axis_max_inclination_deg=args.two_axis_max_inclination_deg)
     except ValueError as err:
         raise CommandError(str(err)) from None
     msgtype, count = topic_info(args.input, args.topic)
@@ -279,13 +333,14 @@ def _magnetometer(args, model):
           f'{declination_deg:.3f} deg ({source}); /survey z is the magnetic azimuth',
           file=sys.stderr)
     settings = MagneticSettings(reference_total_nT=total_nT, reference_dip_deg=dip_deg,
-                                declination_deg=declination_deg)
+                                declination_deg=declination_deg, noise_std_nT=args.mag_noise_nT,
+                                azimuth_max_std_deg=args.azimuth_max_std_deg)
     return Magnetometer.from_series(concatenate(read(args.input, args.mag_topic)),
                                     args.max_pairing_s, settings)
 
 
-def process(in_path, topic, out, model, settings, noise_std_mps2, chunk_size, count=None,
-            temperature=None, magnetometer=None):
+def process(in_path, topic, out, model, settings, chunk_size, count=None, temperature=None,
+            magnetometer=None):
     """
     Correct ``topic`` of the bag ``in_path`` into the open BagWriter ``out``.
 
@@ -308,17 +363,17 @@ def process(in_path, topic, out, model, settings, noise_std_mps2, chunk_size, co
                                       temperature_c, field_nT, magnetometer.settings)
                 summary.add_magnetic(survey, paired)
             summary.add(survey)
-            out.write_series(_outputs(batch, survey, model, settings, noise_std_mps2))
+            out.write_series(_outputs(batch, survey))
             progress.update(batch.stamps_ns.size)
     return summary
 
 
-def _outputs(batch, survey, model, settings, noise_std_mps2):
+def _outputs(batch, survey):
     """Return ``{topic: series}`` of the accepted samples of ``batch``."""
     accepted = survey.accepted
     stamps_ns, frame_ids = batch.stamps_ns[accepted], batch.frame_ids[accepted]
     n = stamps_ns.size
-    acceleration_cov, orientation_cov = imu_covariances(survey, model, settings, noise_std_mps2)
+    acceleration_cov, orientation_cov = imu_covariances(survey)
     w, x, y, z = survey.orientation_wxyz.T
     azimuth_deg = np.full(n, np.nan) if survey.magnetic is None else survey.magnetic.azimuth_deg
     return {

@@ -10,9 +10,9 @@ Output: the input columns (one whose name the output uses is kept as
 ``input_<name>``) plus ``inclination_deg``, ``toolface_deg``, ``azimuth_deg``,
 ``g_total_mps2``, ``b_total_nT``, ``dip_deg`` and ``status`` (``ok`` or why
 the row gave no angles: ``non_finite``, ``saturated``, ``zero``).  The
-azimuth is written wherever it is defined (a field of at least 1000 nT, an
-inclination of at least ``--min-inclination-deg``): QC is a column here,
-not a filter.  With a reference field (``--reference-total-nT`` and
+azimuth is written wherever it is defined (a field of at least 1000 nT, a
+1 sigma within ``--azimuth-max-std-deg``: not near vertical): QC is a column
+here, not a filter.  With a reference field (``--reference-total-nT`` and
 ``--reference-dip-deg``, or ``--site``, else the calibration's MSA
 reference) the QC columns follow: ``b_total_delta_nT``, ``dip_delta_deg``,
 ``g_total_delta_mps2`` and the flags ``qc_b_total``, ``qc_dip``,
@@ -29,7 +29,8 @@ import sys
 
 from inclino_ros.calibration.model import CalibrationFileError, load_model
 from inclino_ros.cli.errors import CommandError
-from inclino_ros.cli.process import NODE_DEFAULTS
+from inclino_ros.cli.fitting import NODE_DEFAULTS, node_option
+from inclino_ros.cli.process import add_limit_arguments
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core.magnetics import field_unit_problem, QcLimits, true_azimuth_deg
 from inclino_ros.core.screening import ACCEPTED, REASONS
@@ -58,9 +59,12 @@ def register(subparsers):
                         help='gravity toolface definition (default: %(default)s)')
     parser.add_argument('--gravity-mps2', type=float, default=NODE_DEFAULTS['gravity_mps2'],
                         help='local gravity [m/s^2] (default: %(default)s)')
-    parser.add_argument('--min-inclination-deg', type=float,
-                        default=NODE_DEFAULTS['magnetic.min_inclination_deg'],
-                        help='below it the azimuth is undefined (NaN) (default: %(default)s)')
+    node_option(parser, '--noise-mps2', 'accelerometer_noise_std_mps2',
+                'accelerometer noise per sample, 1 sigma [m/s^2]: the 1 sigma of the angles',
+                dest='noise_std_mps2', metavar='NOISE_MPS2')
+    node_option(parser, '--mag-noise-nT', 'magnetometer_noise_std_nT',
+                'magnetometer noise per sample, 1 sigma [nT]')
+    add_limit_arguments(parser)
     add_reference_arguments(parser.add_argument_group('reference field (adds the QC columns)'))
     parser.set_defaults(func=run)
 
@@ -129,8 +133,8 @@ def survey(args):
         settings = Settings(gravity_mps2=args.gravity_mps2,
                             accelerometer_range_mps2=NODE_DEFAULTS['accelerometer_range_mps2'],
                             toolface_convention=args.toolface_convention,
-                            toolface_min_inclination_deg=NODE_DEFAULTS[
-                                'toolface_min_inclination_deg'])
+                            noise_std_mps2=args.noise_std_mps2,
+                            toolface_max_std_deg=args.toolface_max_std_deg)
     except ValueError as err:
         raise CommandError(str(err)) from None
     if (total_nT is None) != (dip_deg is None):
@@ -139,7 +143,8 @@ def survey(args):
     magnetic = MagneticSettings(reference_total_nT=total_nT or 0.0,
                                 reference_dip_deg=dip_deg or 0.0,
                                 declination_deg=declination_deg or 0.0, limits=QcLimits(),
-                                min_inclination_deg=args.min_inclination_deg)
+                                noise_std_nT=args.mag_noise_nT,
+                                azimuth_max_std_deg=args.azimuth_max_std_deg)
     result = run_pipeline(raw, model, settings, temperature_c, field, magnetic)
     columns = output_columns(result, declination_deg, total_nT is not None)
     write(args.output, header, rows, result.codes, columns)

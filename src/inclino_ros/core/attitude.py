@@ -66,16 +66,23 @@ def _wrap_2pi(angle):
     return np.where(angle == 2.0 * np.pi, 0.0, angle)  # NaN stays NaN
 
 
+def _toolface(f, x, y):
+    """Return ``atan2(y, x) mod 2 pi``, NaN for a vertical tool (f_x = f_y = 0: undefined)."""
+    vertical = (f[..., 0] == 0.0) & (f[..., 1] == 0.0)
+    return np.where(vertical, np.nan, _wrap_2pi(np.arctan2(y, x)))
+
+
 def toolface_seed000(f):
     """
     Return the gravity toolface of seed 000 Eq. 16, in [0, 2 pi).
 
     ``alpha = asin(v_y / sqrt(v_x^2 + v_y^2))`` with the quadrant taken from
     the signs of ``v_x`` and ``v_y``, i.e. ``atan2(v_y, v_x) mod 2 pi``: the
-    direction of the high side measured from the tool x axis towards y.
+    direction of the high side measured from the tool x axis towards y.  NaN
+    for a vertical tool (no high side).
     """
     f = np.asarray(f, dtype=float)
-    return _wrap_2pi(np.arctan2(f[..., 1], f[..., 0]))
+    return _toolface(f, f[..., 0], f[..., 1])
 
 
 def toolface_highside(f):
@@ -88,7 +95,7 @@ def toolface_highside(f):
     ``GTF = atan2(f_x, -f_y) = alpha + 90 deg`` (``shared/notes/formulas.md``).
     """
     f = np.asarray(f, dtype=float)
-    return _wrap_2pi(np.arctan2(f[..., 0], -f[..., 1]))
+    return _toolface(f, -f[..., 1], f[..., 0])
 
 
 TOOLFACE_CONVENTIONS = {

@@ -169,7 +169,7 @@ def azimuth_deg(G, B):
 
     ``A = atan2((Gx By - Gy Bx) |G|, Bz (Gx^2 + Gy^2) - Gz (Gx Bx + Gy By))``
     (formulas.md, "Inverse"; seed 001 Eq. 4 with the quadrant from the signs).
-    Undefined for a vertical tool (both arguments vanish).
+    Undefined for a vertical tool (both arguments vanish): NaN there.
     """
     G = np.asarray(G, dtype=float)
     B = np.asarray(B, dtype=float)
@@ -177,7 +177,8 @@ def azimuth_deg(G, B):
     bx, by, bz = B[..., 0], B[..., 1], B[..., 2]
     num = (gx * by - gy * bx) * g_total(G)
     den = bz * (gx * gx + gy * gy) - gz * (gx * bx + gy * by)
-    return _wrap_360(np.degrees(np.arctan2(num, den)))
+    vertical = (gx == 0.0) & (gy == 0.0)
+    return np.where(vertical, np.nan, _wrap_360(np.degrees(np.arctan2(num, den))))
 
 
 def horizontal_vertical_nT(G, B):

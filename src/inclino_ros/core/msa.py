@@ -49,14 +49,34 @@ station i for 1 nT of axial interference), linearised
 ``sigma_k`` that of the k_i; for R0 = 0 and sigma_k >> |k0| it is the ratio
 ``sigma_min / sigma_k``, and the seed's r_xy (0.1-0.2, "negligible") is left
 out.  ``d`` is that bound times ``MsaLimits.interval_margin`` (room for the
-non-linearity), at least ``MsaLimits.min_interval_nT``.
+non-linearity), at least ``MsaLimits.min_interval_nT``.  This is a SEARCH
+BRACKET, not a confidence interval: its width is set by the spread of the
+stations, not by the precision of eps_z (typically +-17 nT around a 1 sigma
+of 3 nT).  A minimum on its edge means the bracket missed the solution:
+refused.
+
+How well it solved (``MsaResult.eps_covariance_nT2``, ``azimuth_std_deg``).
+At the solution, with J the Jacobian of the 2N residuals over the p solved
+components and s^2 = V / (2N - p) the residual variance, the fit's own
+covariance is ``s^2 (J^T J)^-1``.  The reference field is not exact (WMM
+2025 1 sigma: F 138 nT, dip 0.20 deg, formulas.md): the solution moves with
+it as ``d eps = -(J^T J)^-1 J^T (dR / d ref) d ref``, with ``dR/dF =
+-(cos D, sin D)`` and ``dR/dD = F (sin D, -cos D)`` per station, which adds
+``S diag(sigma_F^2, sigma_D^2) S^T``.  Each station's azimuth 1 sigma is
+``grad_B A^T (C_eps + s^2 I) grad_B A + sigma_G^2 |grad_G A|^2``
+(``uncertainty.azimuth_gradients``; sigma_G the scatter of the stations'
+|G|): the interference's uncertainty, reference included, and the station's
+own noise.  The geometry is judged again at the solution (its condition
+number and axial sensitivity, ``MsaLimits``): a start at eps = 0 can look
+well posed where the solution is not.
 """
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 import math
 
 from inclino_ros.core import magnetics
 from inclino_ros.core.attitude import as_vectors
+from inclino_ros.core.uncertainty import azimuth_gradients
 import numpy as np
 
 #: Gravity of the QC tolerance in ``magnetics.QcLimits`` (m/s^2), to make it relative.
@@ -68,6 +88,9 @@ MAX_INTERFERENCE_NT = 10000.0
 STEP_TOLERANCE_NT = 1e-4
 #: ...or after this many iterations (then refused: it does not converge).
 MAX_ITERATIONS = 50
+#: 1 sigma of the World Magnetic Model 2025 (formulas.md): total field [nT], dip [deg].
+#: An IFR model is roughly half; pass its own (``reference_std``).
+WMM_REFERENCE_STD = (138.0, 0.20)
 
 
 class MsaRefused(Exception):
@@ -125,7 +148,6 @@ class MsaDiagnostics:
     inclination_range_deg: tuple   # (min, max) of the used stations
     axial_sensitivity: float       # RMS |k_i| at the solution [nT per nT]
     condition_number: float        # of the Jacobian at the solution (1 for eps_z alone)
-    at_interval_bound: bool = False  # improved: the minimum lies on the interval's edge
 
 
 @dataclass(frozen=True)
@@ -143,8 +165,17 @@ class MsaResult:
     qc: magnetics.SurveyQc         # of the corrected readings
     excluded: tuple                # 0-based stations left out of the solve (QC)
     diagnostics: MsaDiagnostics
+    eps_covariance_nT2: np.ndarray = None  # (3, 3) fit and reference field; 0 where not solved
+    residual_std_nT: float = math.nan      # s = sqrt(V / (2N - p))
+    azimuth_std_deg: np.ndarray = None     # (N,) 1 sigma per station (NaN: undefined)
+    reference_std: tuple = WMM_REFERENCE_STD  # (total [nT], dip [deg]) 1 sigma taken
     eps_z0_nT: float = math.nan    # improved: the mean-station value (Eq. 27)
-    interval_nT: tuple = None      # improved: (eps_z0 - d, eps_z0 + d) (Eq. 28)
+    search_bracket_nT: tuple = None  # improved: (eps_z0 - d, eps_z0 + d) (Eq. 28)
+
+    @property
+    def eps_std_nT(self):
+        """Return the 1 sigma of (eps_x, eps_y, eps_z) [nT]: fit and reference field."""
+        return np.sqrt(np.diag(self.eps_covariance_nT2))
 
     @property
     def used(self):
@@ -198,7 +229,7 @@ def toolface_gap_deg(G):
 
 
 def solve_msa_classic(G, B, reference_total_nT, reference_dip_deg, limits=MsaLimits(),
-                      exclude_failing_qc=False):
+                      exclude_failing_qc=False, reference_std=WMM_REFERENCE_STD):
     """
     Return Brooks' full MSA: eps = (eps_x, eps_y, eps_z) minimising V (Eq. 10).
 
@@ -208,20 +239,23 @@ def solve_msa_classic(G, B, reference_total_nT, reference_dip_deg, limits=MsaLim
     eps_y are then not separable from the Earth's field.  With
     ``exclude_failing_qc`` the stations failing QC (G-total before, B-total
     or dip after the correction) are left out and named in ``excluded``.
+    ``reference_std`` (total [nT], dip [deg]) is the reference field's own
+    1 sigma, carried into ``eps_covariance_nT2`` and ``azimuth_std_deg``.
     """
     return _solve('classic', G, B, reference_total_nT, reference_dip_deg, limits,
-                  exclude_failing_qc, (0.0, 0.0))
+                  exclude_failing_qc, (0.0, 0.0), reference_std)
 
 
 def solve_msa_axial(G, B, reference_total_nT, reference_dip_deg, limits=MsaLimits(),
-                    exclude_failing_qc=False):
+                    exclude_failing_qc=False, reference_std=WMM_REFERENCE_STD):
     """Return the axial-only MSA: eps_z minimising V, eps_x = eps_y = 0 (see classic)."""
     return _solve('axial', G, B, reference_total_nT, reference_dip_deg, limits,
-                  exclude_failing_qc, (0.0, 0.0))
+                  exclude_failing_qc, (0.0, 0.0), reference_std)
 
 
 def solve_msa_improved(G, B, reference_total_nT, reference_dip_deg, cross_axial_nT=(0.0, 0.0),
-                       limits=MsaLimits(), exclude_failing_qc=False):
+                       limits=MsaLimits(), exclude_failing_qc=False,
+                       reference_std=WMM_REFERENCE_STD, cross_axial_covariance_nT2=None):
     """
     Return seed 002's improved MSA (§2.2, Eqs. 23-33).
 
@@ -231,10 +265,55 @@ def solve_msa_improved(G, B, reference_total_nT, reference_dip_deg, cross_axial_
     half-width of its interval (Eqs. 28-32), both as derived in the module
     docstring, and eps_z the bounded minimum of V in ``eps_z0 +- d``
     (Eq. 33, ``scipy.optimize.minimize_scalar``).  No toolface spread is
-    needed.  Refusals and QC exclusion as in ``solve_msa_classic``.
+    needed.  Refused besides the common reasons when the minimum lies on the
+    edge of that search bracket.  Refusals and QC exclusion as in
+    ``solve_msa_classic``; ``improved_cross_axial`` says where (eps_x, eps_y)
+    may come from, and ``cross_axial_covariance_nT2`` (2x2, None: not known)
+    their uncertainty, carried into ``eps_covariance_nT2`` and the stations'.
     """
-    return _solve('improved', G, B, reference_total_nT, reference_dip_deg, limits,
-                  exclude_failing_qc, tuple(float(v) for v in cross_axial_nT))
+    result = _solve('improved', G, B, reference_total_nT, reference_dip_deg, limits,
+                    exclude_failing_qc, tuple(float(v) for v in cross_axial_nT), reference_std)
+    if cross_axial_covariance_nT2 is None:
+        return result
+    covariance = result.eps_covariance_nT2.copy()
+    covariance[:2, :2] += cross_axial_covariance_nT2
+    G = as_vectors(G, 'G')
+    return replace(result, eps_covariance_nT2=covariance, azimuth_std_deg=station_azimuth_std_deg(
+        G, result.corrected_nT, covariance, result.residual_std_nT,
+        _gravity_noise(G[result.used])))
+
+
+def improved_cross_axial(G, B, reference_total_nT, reference_dip_deg, given_nT=None,
+                         rotation_fitted_at=None, limits=MsaLimits(), exclude_failing_qc=False,
+                         reference_std=WMM_REFERENCE_STD):
+    """
+    Return ((eps_x, eps_y) [nT], where they come from, their 2x2 covariance or None).
+
+    For ``solve_msa_improved``.
+    In order: ``given_nT``; zero when a rotation fit (``rotation_fitted_at``)
+    has already removed the cross-axial part from B (seed 002 §2.1); the
+    classic solve's, when the toolfaces spread (largest gap at most
+    ``limits.max_toolface_gap_deg``).  Otherwise MsaRefused: taking it as zero
+    would leave its error in every azimuth (80 nT cost 0.23 deg on an
+    east-west well); the axial method is the one that assumes it.
+    """
+    if given_nT is not None:
+        return tuple(float(v) for v in given_nT), 'given', None
+    if rotation_fitted_at is not None:
+        return (0.0, 0.0), f'removed by the rotation fit of {rotation_fitted_at}', None
+    gap_deg = toolface_gap_deg(G)
+    if gap_deg <= limits.max_toolface_gap_deg:
+        classic = solve_msa_classic(G, B, reference_total_nT, reference_dip_deg, limits,
+                                    exclude_failing_qc, reference_std)
+        return (tuple(float(v) for v in classic.eps_nT[:2]),
+                f'from the classic solve (toolfaces spread, largest gap {gap_deg:.1f} deg)',
+                classic.eps_covariance_nT2[:2, :2])
+    raise MsaRefused(
+        f'improved needs the cross-axial interference, and there is no rotation fit to take '
+        f'it from and the toolfaces do not spread (largest gap {gap_deg:.1f} deg, limit '
+        f'{limits.max_toolface_gap_deg:g}) for the classic solve to find it: fit a rotation '
+        '(~/capture_rotation, inclino fit-rotation), give it, or use the axial method, which '
+        'takes it as zero')
 
 
 def short_collar(G, B, reference_total_nT, reference_dip_deg, limits=MsaLimits()):
@@ -270,7 +349,7 @@ def short_collar(G, B, reference_total_nT, reference_dip_deg, limits=MsaLimits()
 
 
 def _solve(method, G, B, reference_total_nT, reference_dip_deg, limits, exclude_failing_qc,
-           cross_axial_nT):
+           cross_axial_nT, reference_std):
     """Check, solve, QC and (optionally) solve again without the failing stations."""
     G, B = as_vectors(G, 'G'), as_vectors(B, 'B')
     finite = _finite(G, B)
@@ -279,7 +358,7 @@ def _solve(method, G, B, reference_total_nT, reference_dip_deg, limits, exclude_
     used = finite & _g_total_ok(G, finite, limits)
     _check_qc(used, finite, 'G-total off (tool moving?)', exclude_failing_qc)
     solution = _solve_used(method, G[used], B[used], reference_total_nT, reference_dip_deg,
-                           limits, cross_axial_nT)
+                           limits, cross_axial_nT, reference_std)
     qc = _qc(G, B - solution['eps_nT'], reference_total_nT, reference_dip_deg, limits)
     passing = used & qc.b_total_ok & qc.dip_ok
     if not passing[used].all():
@@ -287,16 +366,21 @@ def _solve(method, G, B, reference_total_nT, reference_dip_deg, limits, exclude_
                   exclude_failing_qc)
         used = passing
         solution = _solve_used(method, G[used], B[used], reference_total_nT,
-                               reference_dip_deg, limits, cross_axial_nT)
+                               reference_dip_deg, limits, cross_axial_nT, reference_std)
         qc = _qc(G, B - solution['eps_nT'], reference_total_nT, reference_dip_deg, limits)
     corrected = B - solution['eps_nT']
     return MsaResult(
         method=method, corrected_nT=corrected, azimuth_raw_deg=magnetics.azimuth_deg(G, B),
         azimuth_deg=magnetics.azimuth_deg(G, corrected), qc=qc,
-        excluded=tuple(np.flatnonzero(~used).tolist()), **solution)
+        excluded=tuple(np.flatnonzero(~used).tolist()),
+        azimuth_std_deg=station_azimuth_std_deg(
+            G, corrected, solution['eps_covariance_nT2'], solution['residual_std_nT'],
+            _gravity_noise(G[used])),
+        reference_std=tuple(reference_std), **solution)
 
 
-def _solve_used(method, G, B, reference_total_nT, reference_dip_deg, limits, cross_axial_nT):
+def _solve_used(method, G, B, reference_total_nT, reference_dip_deg, limits, cross_axial_nT,
+                reference_std):
     """Return the MsaResult fields of a solve on the used stations only."""
     reference = reference_nT(reference_total_nT, reference_dip_deg)
     count = G.shape[0]
@@ -315,23 +399,72 @@ def _solve_used(method, G, B, reference_total_nT, reference_dip_deg, limits, cro
             f'{limits.max_toolface_gap_deg:g} deg, so the cross-axial eps_x, eps_y cannot be '
             'freed; use the axial or improved method (cross-axial from rotation captures)')
     start = np.array([*cross_axial_nT, 0.0])
+    axes = [0, 1, 2] if method == 'classic' else [2]
     if method == 'improved':
-        eps, iterations, extra, at_bound = _improved(G, B - start, reference_total_nT,
-                                                     reference, limits)
+        eps, iterations, extra = _improved(G, B - start, reference_total_nT, reference, limits)
         eps = eps + start
     else:
-        axes = [0, 1, 2] if method == 'classic' else [2]
         eps, iterations = _gauss_newton(G, B, reference, axes, limits)
-        extra, at_bound = {}, False
-    jacobian = _jacobian(G, B - eps, reference, [0, 1, 2] if method == 'classic' else [2])
+        extra = {}
+    jacobian = _jacobian(G, B - eps, reference, axes)
+    _refuse_ill_posed(G, B - eps, reference, jacobian, limits, 'at the solution')
+    covariance, residual_std = _eps_covariance(G, B - eps, reference, reference_total_nT,
+                                               reference_dip_deg, axes, reference_std)
     diagnostics = MsaDiagnostics(
         stations_used=count, toolface_gap_deg=gap_deg,
         inclination_range_deg=(float(inclination.min()), float(inclination.max())),
         axial_sensitivity=_axial_sensitivity(G, B - eps, reference),
-        condition_number=float(np.linalg.cond(jacobian)), at_interval_bound=at_bound)
+        condition_number=float(np.linalg.cond(jacobian)))
     return dict(eps_nT=eps, v_before_nT2=float(np.sum(residual_nT(G, B, reference) ** 2)),
                 v_after_nT2=float(np.sum(residual_nT(G, B - eps, reference) ** 2)),
-                iterations=iterations, diagnostics=diagnostics, **extra)
+                iterations=iterations, diagnostics=diagnostics, eps_covariance_nT2=covariance,
+                residual_std_nT=residual_std, **extra)
+
+
+def _eps_covariance(G, B, reference, reference_total_nT, reference_dip_deg, axes,
+                    reference_std):
+    """
+    Return (3x3 covariance of eps [nT^2], residual 1 sigma s [nT]) at the solution B.
+
+    ``s^2 (J^T J)^-1`` of the fit plus ``S diag(sigma_F^2, sigma_D^2) S^T``
+    of the reference field (module docstring), on the solved ``axes``.
+    """
+    jacobian = _jacobian(G, B, reference, axes)
+    residual = residual_nT(G, B, reference)
+    variance = float(residual @ residual) / max(residual.size - len(axes), 1)
+    inverse = np.linalg.inv(jacobian.T @ jacobian)
+    count = G.shape[0]
+    dip = math.radians(reference_dip_deg)
+    d_residual = np.column_stack([
+        -np.concatenate([np.full(count, math.cos(dip)), np.full(count, math.sin(dip))]),
+        reference_total_nT * np.concatenate([np.full(count, math.sin(dip)),
+                                             np.full(count, -math.cos(dip))])])
+    moves = -inverse @ jacobian.T @ d_residual           # d eps / d (F, D)
+    reference_variance = np.diag([reference_std[0] ** 2, math.radians(reference_std[1]) ** 2])
+    solved = variance * inverse + moves @ reference_variance @ moves.T
+    covariance = np.zeros((3, 3))
+    covariance[np.ix_(axes, axes)] = solved
+    return covariance, math.sqrt(variance)
+
+
+def _gravity_noise(G):
+    """Return the per-axis noise of G estimated from the scatter of |G| (0 for < 2 stations)."""
+    return float(np.std(magnetics.g_total(G), ddof=1)) if G.shape[0] > 1 else 0.0
+
+
+def station_azimuth_std_deg(G, B, eps_covariance_nT2, field_std_nT, gravity_std):
+    """
+    Return each station's azimuth 1 sigma [deg] (module docstring): eps, B and G noise.
+
+    ``G``, ``B`` (N, 3) corrected readings (ISCWSA), ``eps_covariance_nT2`` (3, 3),
+    ``field_std_nT`` and ``gravity_std`` the per-axis noise of B and G.
+    NaN where the azimuth is undefined (vertical).
+    """
+    grad_g, grad_b = azimuth_gradients(G, B)
+    variance = (np.einsum('mi,ij,mj->m', grad_b, eps_covariance_nT2, grad_b)
+                + field_std_nT ** 2 * np.sum(grad_b ** 2, axis=1)
+                + gravity_std ** 2 * np.sum(grad_g ** 2, axis=1))
+    return np.degrees(np.sqrt(variance))
 
 
 def _gauss_newton(G, B, reference, axes, limits):
@@ -354,7 +487,11 @@ def _gauss_newton(G, B, reference, axes, limits):
 
 
 def _improved(G, B, reference_total_nT, reference, limits):
-    """Return (eps (3,), iterations, extra fields, at_bound) of seed 002 Eqs. 23-33."""
+    """
+    Return (eps (3,), iterations, extra fields) of seed 002 Eqs. 23-33.
+
+    MsaRefused when the minimum lies on the edge of the search bracket.
+    """
     eps_z0, weight = _closed_form_axial_nT(G, B, reference_total_nT, reference[1],
                                            average=True)
     if weight < limits.min_axial_sensitivity ** 2:
@@ -380,10 +517,17 @@ def _improved(G, B, reference_total_nT, reference, limits):
     from scipy.optimize import minimize_scalar
     found = minimize_scalar(
         lambda eps_z: np.sum(residual_nT(G, B - eps_z * axial, reference) ** 2),
-        bounds=interval, method='bounded', options={'xatol': 1e-3})
-    at_bound = min(found.x - interval[0], interval[1] - found.x) < 1e-2 * half_width
+        bounds=interval, method='bounded', options={'xatol': min(1e-3, 1e-4 * half_width)})
+    # Brent's bounded search keeps ~sqrt(machine eps) |x| off the bounds: an edge is nearer.
+    edge_nT = max(1e-2 * half_width, 1e-6 * max(1.0, abs(found.x)))
+    if min(found.x - interval[0], interval[1] - found.x) < edge_nT:
+        raise MsaRefused(
+            f'the minimum of V lies on the edge of the search bracket [{interval[0]:.1f}, '
+            f'{interval[1]:.1f}] nT (seed 002 Eqs. 28-32: a search range about eps_z0 '
+            f'{eps_z0:.1f} nT, not a confidence interval): the solution may lie outside it; '
+            'use the classic or axial method')
     return (found.x * axial, int(found.nit),
-            {'eps_z0_nT': float(eps_z0), 'interval_nT': tuple(map(float, interval))}, at_bound)
+            {'eps_z0_nT': float(eps_z0), 'search_bracket_nT': tuple(map(float, interval))})
 
 
 def _closed_form_axial_nT(G, B, reference_total_nT, reference_vertical_nT, average):
@@ -425,18 +569,20 @@ def _axial_sensitivity(G, B, reference):
     return float(np.sqrt(2.0 * np.mean(_jacobian(G, B, reference, [2]) ** 2)))
 
 
-def _refuse_ill_posed(G, B, reference, jacobian, limits):
-    """Raise MsaRefused for no axial sensitivity or an ill-conditioned Jacobian."""
+def _refuse_ill_posed(G, B, reference, jacobian, limits, where='at the start'):
+    """Raise MsaRefused for no axial sensitivity or an ill-conditioned Jacobian (``where``)."""
     sensitivity = _axial_sensitivity(G, B, reference)
     if sensitivity < limits.min_axial_sensitivity:
         raise MsaRefused(
-            f'singular geometry: eps_z moves the stations by {sensitivity:.3g} nT per nT (RMS; '
-            f'limit {limits.min_axial_sensitivity:g}); stations all horizontal and east/west?')
+            f'singular geometry {where}: eps_z moves the stations by {sensitivity:.3g} nT per '
+            f'nT (RMS; limit {limits.min_axial_sensitivity:g}); stations all horizontal and '
+            'east/west?')
     condition = float(np.linalg.cond(jacobian))
     if condition > limits.max_condition_number:
         raise MsaRefused(
-            f'singular geometry: the Jacobian has condition number {condition:.3g} (limit '
-            f'{limits.max_condition_number:g}); the stations do not vary enough in attitude')
+            f'singular geometry {where}: the Jacobian has condition number {condition:.3g} '
+            f'(limit {limits.max_condition_number:g}); the stations do not vary enough in '
+            'attitude')
 
 
 def _g_total_ok(G, finite, limits):

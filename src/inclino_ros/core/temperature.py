@@ -1,5 +1,5 @@
 """
-Temperature drift of the accelerometer scale factors (seed 001 §3, Eqs. 5-7).
+Temperature drift of a sensor triad: scale factors (seed 001 §3, Eqs. 5-7) and biases.
 
 Seed 001 models each axis as ``A_T = K_T G`` (Eq. 6): the scale factor K_T
 of an axis varies with temperature, and is fitted by least squares as a
@@ -24,10 +24,27 @@ Choices made here:
   (0.58, 0.58, 0.57 g); a vertical or horizontal tool cannot, and its fit
   takes two attitudes (pass ``reference`` per sample).
 * The seed models the scale factor only: a temperature-dependent bias is
-  not modelled (at one attitude it is absorbed into K_T).
+  not modelled by ``fit_temperature`` (at one attitude it is absorbed into
+  K_T, exactly: the fit's residual stays at the noise, and the compensation
+  is wrong at every other attitude).
+
+Bias and scale (``fit_temperature_drift``), seed 001 Eqs. 5-7 generalised.
+A triad axis reads ``A_T = K_T(T) A + B_T(T)`` (Eq. 6 with an additive bias
+drift B_T, 0 at the reference temperature; real MEMS parts drift 0.5-1
+mg/degC in bias, real-sensors.md): with A the reading at the reference
+temperature, ``K_T = 1 + sum c_k (T - T_ref)^k`` and
+``B_T = sum d_k (T - T_ref)^k``.  At one attitude only ``A c_k + d_k`` is
+seen; heating runs at two or more attitudes where the axis reads
+differently (``MIN_AXIS_SPREAD_FRACTION``) separate them.  The unknowns (A
+per attitude and axis, c_k, d_k) are fitted by Gauss-Newton on all the
+readings (the model is bilinear in A and c).  Compensation:
+``A = (A_T - B_T(T)) / K_T(T)`` (``compensate_temperature``).  Nothing here
+depends on the unit: the same fit serves the accelerometer (m/s^2) and the
+magnetometer (nT; seed 001 §3.2: "the magnetometer is compensated the same
+way").
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.polynomial import Polynomial
@@ -40,6 +57,15 @@ REFERENCE_TEMPERATURE_C = 25.0
 MIN_AXIS_FRACTION = 0.3
 #: Temperatures closer than this [deg C] count as one when counting distinct ones.
 TEMPERATURE_RESOLUTION_C = 0.1
+#: Bias and scale drift of an axis separate only when its reference readings at
+#: the attitudes spread by at least this fraction of the vector's magnitude (0.5:
+#: e.g. the axis at +15 and -15 deg out of the horizontal plane; two opposite
+#: attitudes give up to 2).
+MIN_AXIS_SPREAD_FRACTION = 0.5
+#: Gauss-Newton of the bias-and-scale fit stops when a step moves K_T by less than this.
+DRIFT_STEP_TOLERANCE = 1e-13
+#: ...within this many steps, else refused.
+MAX_DRIFT_ITERATIONS = 50
 AXES = 'xyz'
 
 
@@ -53,17 +79,51 @@ class TemperatureFitRefused(Exception):
 
 @dataclass(frozen=True)
 class TemperatureFit:
-    """Per-axis scale factor ``K_T(T)`` (seed 001 Eq. 7), 1 at the reference temperature."""
+    """
+    Per-axis scale factor ``K_T(T)`` (seed 001 Eq. 7), 1 at the reference temperature.
+
+    ``bias_coefficients`` (None: scale only) is the bias drift ``B_T(T)``,
+    0 at the reference, in the unit of the readings; ``attitudes`` how many
+    attitudes the fit saw; ``references`` (attitudes, 3) their readings at
+    the reference temperature (bias-and-scale fit only).
+    """
 
     coefficients: np.ndarray       # (3, order + 1): a0..an per axis, T in deg C
     t_min_c: float                 # fitted temperature range
     t_max_c: float
     reference_temperature_c: float
-    rms_residual_mps2: np.ndarray  # (3,) of A_i - f_i(T) G_i, unit of the readings
+    rms_residual: np.ndarray       # (3,) of the fit per axis, unit of the readings
+    bias_coefficients: np.ndarray = None  # (3, order + 1): B_T(T) = b0 + b1 T + ...
+    attitudes: int = 1
+    references: np.ndarray = None
 
     def scale_factor(self, temperature_c):
         """Return K_T per axis at each temperature, shape (N, 3)."""
         return poly.polyval(np.asarray(temperature_c, dtype=float), self.coefficients.T).T
+
+    def bias(self, temperature_c):
+        """Return the bias drift B_T per axis at each temperature, shape (N, 3) (0 if none)."""
+        temperature_c = np.asarray(temperature_c, dtype=float)
+        if self.bias_coefficients is None:
+            return np.zeros(temperature_c.shape + (3,))
+        return poly.polyval(temperature_c, self.bias_coefficients.T).T
+
+    def referenced_to(self, temperature_c):
+        """
+        Return this fit normalised at ``temperature_c``: compensation to that temperature.
+
+        With ``A_T = K_T(T) A + B_T(T)`` about the old reference, the reading
+        at T_s is ``A_s = K_T(T_s) A + B_T(T_s)``, so ``A_T = K'(T) A_s + B'(T)``
+        with ``K' = K_T / K_T(T_s)`` and ``B' = B_T - K' B_T(T_s)``: the same
+        polynomials' order, K' = 1 and B' = 0 at T_s.
+        """
+        scale_s = self.scale_factor(temperature_c)                 # (3,)
+        coefficients = self.coefficients / scale_s[:, None]
+        bias = None
+        if self.bias_coefficients is not None:
+            bias = self.bias_coefficients - coefficients * self.bias(temperature_c)[:, None]
+        return replace(self, coefficients=coefficients, bias_coefficients=bias,
+                       reference_temperature_c=float(temperature_c))
 
 
 def fit_temperature(temperature_c, readings, reference, order,
@@ -80,25 +140,11 @@ def fit_temperature(temperature_c, readings, reference, order,
     the data; an axis that reads about 0 at every fit attitude; an axis whose
     fitted K_T at the reference temperature is not positive.
     """
-    temperature_c = np.asarray(temperature_c, dtype=float)
-    readings = np.asarray(readings, dtype=float)
+    temperature_c, readings, _, t_min_c, t_max_c = _checked_run(
+        temperature_c, readings, order, reference_temperature_c)
     reference = np.broadcast_to(np.asarray(reference, dtype=float), readings.shape)
-    if readings.ndim != 2 or readings.shape[1] != 3 or temperature_c.shape != readings[:, 0].shape:
-        raise ValueError(f'need temperature_c (M,) and readings (M, 3), not '
-                         f'{temperature_c.shape} and {readings.shape}')
-    if not (np.isfinite(temperature_c).all() and np.isfinite(readings).all()
-            and np.isfinite(reference).all()):
+    if not np.isfinite(reference).all():
         raise TemperatureFitRefused('non-finite temperature, readings or reference')
-    distinct = np.unique(np.round(temperature_c / TEMPERATURE_RESOLUTION_C)).size
-    if distinct < order + 2:
-        raise TemperatureFitRefused(
-            f'order {order} needs at least {order + 2} distinct temperatures (more than its '
-            f'{order + 1} coefficients), got {distinct}')
-    t_min_c, t_max_c = float(temperature_c.min()), float(temperature_c.max())
-    if not t_min_c <= reference_temperature_c <= t_max_c:
-        raise TemperatureFitRefused(
-            f'reference temperature {reference_temperature_c} C lies outside the data '
-            f'[{t_min_c}, {t_max_c}] C: K_T cannot be normalised there without extrapolating')
     fraction = np.max(np.abs(reference) / np.linalg.norm(reference, axis=1)[:, None], axis=0)
     weak = [AXES[i] for i in np.flatnonzero(fraction < MIN_AXIS_FRACTION)]
     if weak:
@@ -124,17 +170,137 @@ def fit_temperature(temperature_c, readings, reference, order,
         coefficients.append(np.pad(plain, (0, order + 1 - plain.size)))
     return TemperatureFit(coefficients=np.array(coefficients), t_min_c=t_min_c,
                           t_max_c=t_max_c, reference_temperature_c=reference_temperature_c,
-                          rms_residual_mps2=np.array(rms))
+                          rms_residual=np.array(rms))
+
+
+def fit_temperature_drift(temperature_c, readings, attitude, order,
+                          reference_temperature_c=REFERENCE_TEMPERATURE_C):
+    """
+    Return the least-squares bias and scale drift of each axis (module docstring).
+
+    ``temperature_c`` (M,), ``readings`` (M, 3) of a still tool,
+    ``attitude`` (M,) a label per reading (readings of one label share one
+    attitude).  Raises TemperatureFitRefused, with the reason, for:
+    non-finite data; fewer than ``order + 2`` distinct temperatures; a
+    reference temperature outside the data; fewer than two attitudes heated
+    through ``order + 1`` distinct temperatures each (one attitude cannot
+    tell a bias drift from a scale drift); an axis whose readings at those
+    attitudes do not spread by ``MIN_AXIS_SPREAD_FRACTION`` of the vector;
+    a fit that does not converge.
+    """
+    temperature_c, readings, rounded, t_min_c, t_max_c = _checked_run(
+        temperature_c, readings, order, reference_temperature_c)
+    labels, index = np.unique(np.asarray(attitude), return_inverse=True)
+    index = index.reshape(-1)
+    heated = [a for a in range(labels.size)
+              if np.unique(rounded[index == a]).size >= order + 1]
+    if len(heated) < 2:
+        raise TemperatureFitRefused(
+            f'{len(heated)} attitude(s) heated through {order + 1} distinct temperatures, '
+            'need 2: at one attitude a bias drift cannot be told from a scale drift (use the '
+            'scale-only fit of seed 001, or heat the tool at a second attitude)')
+    means = np.stack([readings[index == a].mean(axis=0) for a in heated])
+    spread = np.ptp(means, axis=0) / np.median(np.linalg.norm(means, axis=1))
+    weak = [AXES[i] for i in np.flatnonzero(spread < MIN_AXIS_SPREAD_FRACTION)]
+    if weak:
+        raise TemperatureFitRefused(
+            f'axis {", ".join(weak)} reads nearly the same at every heated attitude (spread '
+            f'{spread.min():.3f} of |reading|, need {MIN_AXIS_SPREAD_FRACTION}): its bias and '
+            'scale drift cannot be told apart; heat it at an attitude where it reads '
+            'differently (e.g. turned over)')
+    keep = np.isin(index, heated)
+    dt = temperature_c[keep] - reference_temperature_c
+    scale_c = max(abs(t_min_c - reference_temperature_c), abs(t_max_c - reference_temperature_c))
+    powers = (dt[:, None] / scale_c) ** np.arange(1, order + 1)     # (M, n), |x| <= 1
+    onehot = (index[keep][:, None] == np.array(heated)[None, :]).astype(float)
+    scale, bias, references, rms = [], [], [], []
+    for axis in range(3):
+        r, c, d = _drift_axis(readings[keep, axis], onehot, powers)
+        model = (onehot @ r) * (1.0 + powers @ c) + powers @ d
+        rms.append(float(np.sqrt(np.mean((readings[keep, axis] - model) ** 2))))
+        # (T - T_ref)^k / scale_c^k in plain powers of T.
+        shift = Polynomial([-reference_temperature_c / scale_c, 1.0 / scale_c])
+        scale.append((Polynomial(np.r_[1.0, c]))(shift).coef[:order + 1])
+        bias.append((Polynomial(np.r_[0.0, d]))(shift).coef[:order + 1])
+        references.append(r)
+    return TemperatureFit(
+        coefficients=_pad_rows(scale, order), t_min_c=t_min_c, t_max_c=t_max_c,
+        reference_temperature_c=reference_temperature_c, rms_residual=np.array(rms),
+        bias_coefficients=_pad_rows(bias, order), attitudes=len(heated),
+        references=np.array(references).T)
+
+
+def _checked_run(temperature_c, readings, order, reference_temperature_c):
+    """
+    Return (temperature_c, readings, rounded temperatures, t_min_c, t_max_c) of a heating run.
+
+    ValueError for wrong shapes; TemperatureFitRefused for non-finite data,
+    fewer than ``order + 2`` distinct temperatures (n + 1 coefficients and a
+    residual to judge them by), a reference temperature outside the data.
+    """
+    temperature_c = np.asarray(temperature_c, dtype=float)
+    readings = np.asarray(readings, dtype=float)
+    if readings.ndim != 2 or readings.shape[1] != 3 or temperature_c.shape != readings[:, 0].shape:
+        raise ValueError(f'need temperature_c (M,) and readings (M, 3), not '
+                         f'{temperature_c.shape} and {readings.shape}')
+    if not (np.isfinite(temperature_c).all() and np.isfinite(readings).all()):
+        raise TemperatureFitRefused('non-finite temperature, readings or reference')
+    rounded = np.round(temperature_c / TEMPERATURE_RESOLUTION_C)
+    distinct = np.unique(rounded).size
+    if distinct < order + 2:
+        raise TemperatureFitRefused(
+            f'order {order} needs at least {order + 2} distinct temperatures (more than its '
+            f'{order + 1} coefficients), got {distinct}')
+    t_min_c, t_max_c = float(temperature_c.min()), float(temperature_c.max())
+    if not t_min_c <= reference_temperature_c <= t_max_c:
+        raise TemperatureFitRefused(
+            f'reference temperature {reference_temperature_c} C lies outside the data '
+            f'[{t_min_c}, {t_max_c}] C: K_T cannot be normalised there without extrapolating')
+    return temperature_c, readings, rounded, t_min_c, t_max_c
+
+
+def _pad_rows(rows, order):
+    """Return polynomial coefficient rows padded with zeros to ``order + 1`` columns."""
+    return np.array([np.pad(row, (0, order + 1 - len(row))) for row in rows])
+
+
+def _drift_axis(y, onehot, powers):
+    """
+    Return (r (A,), c (n,), d (n,)) of ``y = r_a (1 + P c) + P d`` (Gauss-Newton).
+
+    Start: c = 0, r and d linear least squares; then full Gauss-Newton steps
+    on all three (Jacobian columns onehot (1 + P c), r_a P, P).
+    """
+    n = powers.shape[1]
+    c = np.zeros(n)
+    start = np.linalg.lstsq(np.hstack([onehot, powers]), y, rcond=None)[0]
+    r, d = start[:onehot.shape[1]], start[onehot.shape[1]:]
+    for _ in range(MAX_DRIFT_ITERATIONS):
+        r_a = onehot @ r
+        k_t = 1.0 + powers @ c
+        residual = y - (r_a * k_t + powers @ d)
+        jacobian = np.hstack([onehot * k_t[:, None], r_a[:, None] * powers, powers])
+        scale = np.linalg.norm(jacobian, axis=0)
+        step = np.linalg.lstsq(jacobian / scale, residual, rcond=None)[0] / scale
+        r = r + step[:r.size]
+        c = c + step[r.size:r.size + n]
+        d = d + step[r.size + n:]
+        if np.max(np.abs(step[r.size:r.size + n])) < DRIFT_STEP_TOLERANCE:
+            return r, c, d
+    raise TemperatureFitRefused('the bias-and-scale fit does not converge')
 
 
 def compensate_temperature(readings, temperature_c, fit):
     """
-    Return ``A_T / K_T(T)`` per axis (seed 001 Eq. 6): readings as at the reference temperature.
+    Return ``(A_T - B_T(T)) / K_T(T)`` per axis: readings as at the reference temperature.
 
-    ``readings`` (N, 3), ``temperature_c`` (N,).  Outside the fitted range the
-    polynomial extrapolates; ``in_range`` tells which samples are inside.
+    Seed 001 Eq. 6 with the bias drift B_T of ``fit_temperature_drift`` (0
+    for a scale-only fit).  ``readings`` (N, 3), ``temperature_c`` (N,).
+    Outside the fitted range the polynomials extrapolate; ``in_range`` tells
+    which samples are inside.
     """
-    return np.asarray(readings, dtype=float) / fit.scale_factor(temperature_c)
+    return ((np.asarray(readings, dtype=float) - fit.bias(temperature_c))
+            / fit.scale_factor(temperature_c))
 
 
 def in_range(temperature_c, fit):

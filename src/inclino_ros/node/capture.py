@@ -8,12 +8,16 @@ services share: commit a model (write atomically, then apply), succeed,
 refuse (nothing changed).
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
-from inclino_ros.calibration.level_capture import CaptureRefused
 from inclino_ros.calibration.model import save_model
+from inclino_ros.calibration.still_capture import CaptureRefused
+from inclino_ros.core.screening import REASONS
 import numpy as np
 from rclpy.task import Future
+
+#: Columns of a captured row: raw (3), temperature, field (3), stamp.
+COLUMNS = 8
 
 
 @dataclass(frozen=True)
@@ -21,8 +25,14 @@ class Captured:
     """The samples of one capture, aligned."""
 
     raw: np.ndarray             # (N, 3) raw accepted accelerometer readings [m/s^2]
-    temperatures_c: np.ndarray  # (N,), or None when the model has no temperature stage
+    temperatures_c: np.ndarray  # (N,) when every sample had one, else None
     field_nT: np.ndarray        # (N, 3) raw paired magnetometer readings, NaN rows unpaired
+    times_s: np.ndarray         # (N,) header stamps of the samples [s]
+
+    @property
+    def temperature_c(self):
+        """Return the capture's mean temperature [deg C]; None unless every sample had one."""
+        return None if self.temperatures_c is None else float(np.mean(self.temperatures_c))
 
 
 class Capture:
@@ -34,16 +44,17 @@ class Capture:
         self.future = Future()
         self.rows = []
 
-    def add(self, raw, temperature_c, field_nT):
+    def add(self, raw, temperature_c, field_nT, stamp_s):
         """Add one accepted sample; complete the future when enough are in."""
-        self.rows.append((*raw, np.nan if temperature_c is None else temperature_c, *field_nT))
+        self.rows.append((*raw, np.nan if temperature_c is None else temperature_c, *field_nT,
+                          stamp_s))
         if len(self.rows) == self.count and not self.future.done():
             self.future.set_result(np.array(self.rows))
 
     def expire(self):
         """Time is up: complete with what a timed capture holds, None for a counted one."""
         if not self.future.done():
-            self.future.set_result(np.array(self.rows).reshape(-1, 7)
+            self.future.set_result(np.array(self.rows).reshape(-1, COLUMNS)
                                    if self.count is None else None)
 
 
@@ -55,10 +66,10 @@ class Collector:
         self.node = node
         self.capture = None
 
-    def add_sample(self, raw, temperature_c, field_nT):
+    def add_sample(self, raw, temperature_c, field_nT, stamp_s):
         """Give an accepted sample to the running capture, if any."""
         if self.capture is not None:
-            self.capture.add(raw, temperature_c, field_nT)
+            self.capture.add(raw, temperature_c, field_nT, stamp_s)
 
     async def collect(self, prefix, duration_s=None):
         """
@@ -73,6 +84,7 @@ class Collector:
         count = None if duration_s else node.param(f'{prefix}.samples')
         wait_s = duration_s or node.param(f'{prefix}.timeout_s')
         capture = self.capture = Capture(count)
+        dropped_before = list(node.stats.dropped_total)
         timer = node.create_timer(wait_s, capture.expire)
         node.get_logger().info(f'{prefix}: collecting '
                                f'{f"{count} samples" if count else f"for {wait_s} s"}')
@@ -82,19 +94,26 @@ class Collector:
             node.destroy_timer(timer)
             self.capture = None
         if rows is None or rows.shape[0] == 0:
+            dropped = {reason: after - before for reason, after, before in zip(
+                REASONS, node.stats.dropped_total, dropped_before) if after > before}
             raise CaptureRefused(
                 f'no data: {len(capture.rows)} of {count or "any"} samples arrived on '
-                f'{node.resolve_topic_name("imu/data_raw")} within {wait_s} s')
+                f'{node.resolve_topic_name("imu/data_raw")} within {wait_s} s'
+                + (f' ({sum(dropped.values())} dropped: '
+                   + ', '.join(f'{n} {reason}' for reason, n in dropped.items()) + ')'
+                   if dropped else ''))
         temperatures_c = rows[:, 3]
-        if node.model.temperature is None:
+        if np.isnan(temperatures_c).any():
+            if node.model.temperature is not None:
+                raise CaptureRefused('no temperature on imu/temperature for some samples: the '
+                                     'temperature stage of the model needs one')
             temperatures_c = None
-        elif np.isnan(temperatures_c).any():
-            raise CaptureRefused('no temperature on imu/temperature for some samples: the '
-                                 'temperature stage of the model needs one')
-        return Captured(raw=rows[:, :3], temperatures_c=temperatures_c, field_nT=rows[:, 4:])
+        return Captured(raw=rows[:, :3], temperatures_c=temperatures_c, field_nT=rows[:, 4:7],
+                        times_s=rows[:, 7])
 
     def commit(self, model):
         """Write ``model`` atomically, then apply it; CaptureRefused if it is not written."""
+        model = replace(model, sensor_id=self.node.sensor_id or model.sensor_id)
         try:
             save_model(self.node.calibration_file, model)
         except OSError as err:

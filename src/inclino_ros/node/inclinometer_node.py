@@ -16,7 +16,7 @@ import sys
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Vector3Stamped
 from inclino_ros.calibration.model import (
-    age_seconds, CalibrationFileError, CalibrationModel, load_model)
+    CalibrationFileError, CalibrationModel, check_sensor, load_model, stage_ages_s, stale_stages)
 from inclino_ros.calibration.stations import load_stations, StationsFileError
 from inclino_ros.core.magnetics import QcLimits
 from inclino_ros.core.screening import ACCEPTED
@@ -57,10 +57,13 @@ class InclinometerNode(Node):
             gravity_mps2=self.param('gravity_mps2'),
             accelerometer_range_mps2=self.param('accelerometer_range_mps2'),
             toolface_convention=self.param('toolface_convention'),
-            toolface_min_inclination_deg=self.param('toolface_min_inclination_deg'))
-        self.noise_std_mps2 = self.param('accelerometer_noise_std_mps2')
+            noise_std_mps2=self.param('accelerometer_noise_std_mps2'),
+            toolface_max_std_deg=self.param('toolface_max_std_deg'),
+            g_total_tolerance_mps2=self.param('g_total_tolerance_mps2'),
+            two_axis_max_inclination_deg=self.param('two_axis_max_inclination_deg'))
         self.frame_id = self.param('frame_id')
         self.calibration_file = os.path.expanduser(self.param('calibration_file'))
+        self.sensor_id = self.param('sensor_id') or None
         self.model = self._load_model()
         self.stations_file = os.path.expanduser(self.param('stations_file'))
         stations = load_stations(self.stations_file)
@@ -122,7 +125,12 @@ class InclinometerNode(Node):
             self.get_logger().warning(
                 f'no calibration file at {self.calibration_file}: running UNCALIBRATED '
                 '(raw angles); call ~/calibrate_level with the tool on a level bench')
-            return CalibrationModel(accelerometer_axes=axes)
+            return CalibrationModel(accelerometer_axes=axes, sensor_id=self.sensor_id)
+        check_sensor(model, self.sensor_id, self.calibration_file)
+        if model.sensor_id is None and self.sensor_id is not None:
+            self.get_logger().warning(
+                f'{self.calibration_file} names no sensor: taken as sensor_id '
+                f'{self.sensor_id!r}, written into it on the next calibration')
         if model.accelerometer_axes != axes:
             raise CalibrationFileError(
                 self.calibration_file,
@@ -145,7 +153,8 @@ class InclinometerNode(Node):
             reference_total_nT=self.param('magnetic.reference_total_nT'),
             reference_dip_deg=self.param('magnetic.reference_dip_deg'),
             declination_deg=self.param('magnetic.declination_deg'),
-            min_inclination_deg=self.param('magnetic.min_inclination_deg'),
+            noise_std_nT=self.param('magnetometer_noise_std_nT'),
+            azimuth_max_std_deg=self.param('magnetic.azimuth_max_std_deg'),
             limits=QcLimits(
                 b_total_tolerance_nT=self.param('magnetic.b_total_tolerance_nT'),
                 dip_tolerance_deg=self.param('magnetic.dip_tolerance_deg'),
@@ -184,17 +193,19 @@ class InclinometerNode(Node):
                 self.param('magnetic.max_pairing_s'))
         survey = run(raw, self.model, self.settings, temperature_c, field_nT,
                      self.magnetic_settings)
-        covariances = imu_covariances(survey, self.model, self.settings, self.noise_std_mps2)
+        covariances = imu_covariances(survey)
         row = 0
         for index, (message, code) in enumerate(zip(messages, survey.codes.tolist())):
             if code != ACCEPTED:
                 self.stats.drop(code)
                 continue
-            self.stats.accept(float(survey.g_total_mps2[row]))
+            self.stats.accept(float(survey.g_total_mps2[row]),
+                              math.isnan(survey.toolface_deg[row]))
             field = (math.nan,) * 3 if field_nT is None else tuple(field_nT[index])
             if survey.magnetic is not None:
                 self.magnetometer.count(survey.magnetic, row, math.isfinite(field[0]))
-            self.collector.add_sample(tuple(raw[index]), temperature_c, field)
+            self.collector.add_sample(tuple(raw[index]), temperature_c, field,
+                                      stamp_ns(message.header.stamp) * 1e-9)
             self._publish(message.header, survey, row, covariances)
             row += 1
 
@@ -235,7 +246,7 @@ class InclinometerNode(Node):
             self.stats.status(self.get_name(), now_s, self.settings.gravity_mps2,
                               self.param('level_capture.g_total_tolerance_mps2')),
             self.temperature.status(self.get_name(), now_s, self.param('temperature.max_age_s'),
-                                    self.model.temperature),
+                                    self.model.temperature or self.model.magnetometer_temperature),
             self.magnetometer.status(self.get_name(), self.magnetic_settings,
                                      self.model.magnetic, len(self.magnetic.stations),
                                      self.model)]
@@ -246,11 +257,22 @@ class InclinometerNode(Node):
                                   hardware_id=self.calibration_file)
         model = self.model
         values = {'calibration_file': self.calibration_file,
+                  'sensor_id': str(model.sensor_id),
                   'capture_running': str(self.collector.capture is not None),
-                  'stand_positions_held': str(len(self.calibration.positions))}
+                  'stand_positions_held': str(len(self.calibration.positions)),
+                  'tilt_std_deg': f'{math.degrees(model.tilt_std_rad):.5f}'}
+        values.update({f'{name}_age_days': f'{age_s / 86400.0:.2f}'
+                       for name, age_s, _ in stage_ages_s(model)})
+        stale = stale_stages(model, self.param('calibration.max_age_days') * 86400.0,
+                             self.param('magnetic.interference_max_age_days') * 86400.0)
         if not model.calibrated:
             status.level = DiagnosticStatus.WARN
             status.message = 'uncalibrated: raw angles published; call ~/calibrate_level'
+        elif stale:
+            status.level = DiagnosticStatus.WARN
+            status.message = 'stale: ' + '; '.join(
+                f'{name} is {age_s / 86400.0:.1f} days old (limit {limit_s / 86400.0:g})'
+                for name, age_s, limit_s in stale)
         else:
             status.level = DiagnosticStatus.OK
             status.message = f'calibrated: {", ".join(model.stages)}'
@@ -269,7 +291,6 @@ class InclinometerNode(Node):
                 beta_deg=f'{installation.beta_deg:.5f}',
                 theta_deg=f'{installation.theta_deg:.5f}',
                 captured_at=installation.captured_at,
-                age_s=f'{age_seconds(installation.captured_at):.0f}',
                 sample_count=str(installation.sample_count))
         status.values = [KeyValue(key=k, value=v) for k, v in values.items()]
         return status

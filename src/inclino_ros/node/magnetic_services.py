@@ -6,30 +6,35 @@ The node's magnetometer services (seed 002): rotation fit, survey stations, MSA.
   (§2.1), persists and applies W and c; the MSA interference is reset, as it
   was solved on the old cross-axial correction.
 - ``~/take_survey``: averages a still station (``survey.samples``; refused when
-  the tool moves more than ``survey.max_std_deg``), appends it
+  the tool moves or the mean misses ``survey.max_sem_deg``), appends it
   to the persisted station list, answers inclination, azimuth and QC.
 - ``~/solve_msa``: multi-station analysis of the stations against the
-  reference field (§2.2, ``msa.method``), persists and applies the interference.
+  reference field (§2.2, ``msa.method``), persists and applies the
+  interference and its 1 sigma (the fit and the reference field's own,
+  ``magnetic.reference_*_std_*``); ``improved`` takes the cross-axial part
+  from the rotation fit, else from the classic solve, else refuses
+  (``msa.improved_cross_axial``), as ``inclino msa`` does.
 - ``~/clear_surveys``: empties the station list.
 """
 
 from dataclasses import replace
 
-from inclino_ros.calibration.level_capture import CaptureRefused
-from inclino_ros.calibration.model import NO_MAGNETIC_CORRECTION, utc_now_iso
-from inclino_ros.calibration.stand_capture import direction_spread_deg
+from inclino_ros.calibration.model import (
+    NO_MAGNETIC_CORRECTION, readings_temperature_c, utc_now_iso)
 from inclino_ros.calibration.stations import msa_inputs, save_stations, Station
+from inclino_ros.calibration.still_capture import (
+    CaptureRefused, require_axis_still, require_still_vectors)
 from inclino_ros.core.cross_axial import fit_cross_axial, RotationFitRefused
 from inclino_ros.core.magnetics import iscwsa_from_tool
 from inclino_ros.core.msa import (
-    azimuth_difference_deg, MsaRefused, solve_msa_axial, solve_msa_classic, solve_msa_improved)
+    azimuth_difference_deg, improved_cross_axial, MsaRefused, solve_msa_axial, solve_msa_classic,
+    solve_msa_improved)
 from inclino_ros.pipeline import run
 import numpy as np
 from rclpy.callback_groups import ReentrantCallbackGroup
 from std_srvs.srv import Trigger
 
-SOLVERS = {'improved': solve_msa_improved, 'classic': solve_msa_classic,
-           'axial': solve_msa_axial}
+SOLVERS = {'classic': solve_msa_classic, 'axial': solve_msa_axial}
 
 
 class MagneticServices:
@@ -56,14 +61,21 @@ class MagneticServices:
         try:
             captured = await self.collector.collect(
                 'rotation', duration_s=node.param('rotation.duration_s'))
-            field = captured.field_nT[np.isfinite(captured.field_nT).all(axis=1)]
+            require_axis_still(node.model.apply(captured.raw, captured.temperatures_c),
+                               captured.times_s, node.calibration.still_limits('survey'))
+            paired = np.isfinite(captured.field_nT).all(axis=1)
+            temperatures_c = (None if captured.temperatures_c is None
+                              else captured.temperatures_c[paired])
             # The ellipse is fitted in the tool frame: after the magnetometer's own stages
             # and the shared mount, before seed 002's.
-            fit = fit_cross_axial(node.model.apply_magnetic(field, before='magnetic'))
+            fit = fit_cross_axial(node.model.apply_magnetic(
+                captured.field_nT[paired], temperatures_c, before='magnetic'))
             stage = replace(self._stage(), hard_iron_nT=tuple(fit.offset_nT.tolist()),
                             soft_iron=tuple(map(tuple, fit.correction.tolist())),
-                            interference_nT=(0.0, 0.0, 0.0), rotation_fitted_at=utc_now_iso(),
-                            msa_method=None, msa_stations=0, msa_fitted_at=None)
+                            interference_nT=(0.0, 0.0, 0.0), interference_std_nT=None,
+                            rotation_fitted_at=utc_now_iso(), msa_method=None, msa_stations=0,
+                            msa_fitted_at=None, rotation_temperature_c=readings_temperature_c(
+                                node.model.magnetometer_temperature, captured.temperature_c))
             self.collector.commit(replace(node.model, magnetic=stage))
         except (CaptureRefused, RotationFitRefused) as err:
             return self.collector.refuse(response, str(err))
@@ -86,23 +98,24 @@ class MagneticServices:
             return self.collector.refuse(
                 response, f'only {paired.sum()} of {paired.size} samples had a paired imu/mag '
                 'reading', kept)
-        spread_deg = direction_spread_deg(captured.raw[paired])
-        if spread_deg > node.param('survey.max_std_deg'):
-            return self.collector.refuse(
-                response, f'tool is moving: spread {spread_deg:.4f} deg exceeds '
-                f'survey.max_std_deg {node.param("survey.max_std_deg")} deg', kept)
+        try:
+            require_still_vectors(captured.raw[paired], captured.times_s[paired],
+                                  node.calibration.still_limits('survey'))
+        except CaptureRefused as err:
+            return self.collector.refuse(response, str(err), kept)
         temperatures_c = (None if captured.temperatures_c is None
                           else captured.temperatures_c[paired].mean())
         survey = run(captured.raw[paired].mean(axis=0), node.model, node.settings,
                      temperatures_c, captured.field_nT[paired].mean(axis=0)[None],
-                     node.magnetic_settings)
+                     node.magnetic_settings, averaged=int(paired.sum()))
         if not survey.accepted.all():
             return self.collector.refuse(response, 'the averaged station is not a valid '
                                          'reading', kept)
         station = Station(
             specific_force_mps2=tuple(survey.corrected_mps2[0].tolist()),
             field_nT=tuple(captured.field_nT[paired].mean(axis=0).tolist()),
-            samples=int(paired.sum()), captured_at=utc_now_iso())
+            samples=int(paired.sum()), captured_at=utc_now_iso(),
+            temperature_c=captured.temperature_c)
         try:
             save_stations(node.stations_file, self.stations + [station])
         except OSError as err:
@@ -117,6 +130,7 @@ class MagneticServices:
         return self.collector.answer(response, (
             f'station {len(self.stations)} from {station.samples} samples: inclination_deg='
             f'{survey.inclination_deg[0]:.3f} azimuth_deg={magnetic.azimuth_deg[0]:.3f} '
+            f'(1 sigma {magnetic.azimuth_std_deg[0]:.3f}) '
             f'b_total_nT={magnetic.b_total_nT[0]:.0f} dip_deg={magnetic.dip_deg[0]:.3f}; '
             f'QC {qc}; stored in {node.stations_file}'), saved=False)
 
@@ -130,20 +144,36 @@ class MagneticServices:
                                          'magnetic.reference_total_nT and reference_dip_deg')
         stage = self._stage()
         gravity, field = msa_inputs(self.stations, node.model)
+        reference = (settings.reference_total_nT, settings.reference_dip_deg)
+        reference_std = (node.param('magnetic.reference_total_std_nT'),
+                         node.param('magnetic.reference_dip_std_deg'))
         try:
-            result = SOLVERS[method](gravity, field, settings.reference_total_nT,
-                                     settings.reference_dip_deg)
+            source = ''
+            if method == 'improved':
+                cross_axial, source, covariance = improved_cross_axial(
+                    gravity, field, *reference, rotation_fitted_at=stage.rotation_fitted_at,
+                    reference_std=reference_std)
+                source = f'; cross-axial ({cross_axial[0]:.1f}, {cross_axial[1]:.1f}) nT {source}'
+                result = solve_msa_improved(gravity, field, *reference, cross_axial_nT=cross_axial,
+                                            reference_std=reference_std,
+                                            cross_axial_covariance_nT2=covariance)
+            else:
+                result = SOLVERS[method](gravity, field, *reference, reference_std=reference_std)
             stage = replace(stage, interference_nT=tuple(iscwsa_from_tool(
-                result.eps_nT).tolist()), msa_method=method, msa_stations=len(self.stations),
+                result.eps_nT).tolist()), interference_std_nT=tuple(result.eps_std_nT.tolist()),
+                msa_method=method, msa_stations=len(self.stations),
                 msa_reference_total_nT=settings.reference_total_nT,
                 msa_reference_dip_deg=settings.reference_dip_deg, msa_fitted_at=utc_now_iso())
             self.collector.commit(replace(node.model, magnetic=stage))
         except (MsaRefused, CaptureRefused) as err:
             return self.collector.refuse(response, str(err))
         change = np.abs(azimuth_difference_deg(result.azimuth_deg, result.azimuth_raw_deg))
+        eps = ', '.join(f'{v:.1f} +- {s:.1f}' for v, s in zip(result.eps_nT, result.eps_std_nT))
         return self.collector.answer(response, (
             f'{method} MSA of {len(self.stations)} stations: interference (x, y, z) = '
-            f'({", ".join(f"{v:.1f}" for v in result.eps_nT)}) nT (ISCWSA axes), V '
+            f'({eps}) nT (ISCWSA axes; 1 sigma from the fit and the reference field, '
+            f'{reference_std[0]:g} nT and {reference_std[1]:g} deg){source}; station azimuth '
+            f'1 sigma up to {np.nanmax(result.azimuth_std_deg):.3f} deg; V '
             f'{result.v_before_nT2:.3g} -> {result.v_after_nT2:.3g} nT^2, azimuths moved by up '
             f'to {np.nanmax(change):.3f} deg'))
 

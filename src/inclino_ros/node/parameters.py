@@ -45,6 +45,12 @@ PARAMETERS = (
     Parameter('calibration_file', '~/.ros/inclino_ros/calibration.json',
               'Calibration file: loaded at start when present (a corrupt file stops the '
               'node), written atomically by the calibration services.'),
+    Parameter('sensor_id', '',
+              'The sensor this node reads (e.g. its serial number): written into the '
+              'calibration file; a file of another sensor stops the node.'),
+    Parameter('calibration.max_age_days', 180.0,
+              'Diagnostics WARN when a calibration stage is older than this [days].',
+              0.01, 36500.0, read_only=False),
     Parameter('accelerometer_axes', 3,
               'Accelerometer axes: 3, or 2 for a two-axis sensor (z completed from '
               'gravity_mps2, tool upright).', 2, 3),
@@ -55,15 +61,26 @@ PARAMETERS = (
               'Sensor full scale [m/s^2]: a component at or beyond it is saturated and '
               'the sample dropped.', 1.0, 2000.0),
     Parameter('accelerometer_noise_std_mps2', 0.01,
-              'Per-sample accelerometer noise, 1 sigma [m/s^2]: sets the imu/data '
-              'covariances.', 1e-6, 10.0),
+              'Per-sample accelerometer noise, 1 sigma per axis [m/s^2]: sets the 1 sigma of '
+              'every angle, the imu/data covariances and the per-sample QC limits.',
+              1e-6, 10.0),
+    Parameter('magnetometer_noise_std_nT', 100.0,
+              'Per-sample magnetometer noise, 1 sigma per axis [nT]: enters the 1 sigma of '
+              'the azimuth and the per-sample QC limits.', 1e-3, 10000.0),
     Parameter('toolface_convention', 'seed000',
               'Gravity toolface: seed000 (atan2(a_y, a_x), seed 000 Eq. 16) or '
               'iscwsa_highside (ISCWSA high-side, = seed000 + 90 deg).',
               choices=('seed000', 'iscwsa_highside')),
-    Parameter('toolface_min_inclination_deg', 0.01,
-              'Below this inclination [deg] the toolface is undefined and published '
-              'as NaN.', 0.0, 10.0),
+    Parameter('toolface_max_std_deg', 5.0,
+              'A toolface whose 1 sigma (sensor noise and calibration, over sin I) exceeds '
+              'this [deg] is published as NaN.', 0.01, 180.0),
+    Parameter('g_total_tolerance_mps2', 3.0,
+              'A three-axis sample whose corrected G-total is further than this [m/s^2] from '
+              'gravity_mps2 is not gravity: dropped and counted (dynamic).', 0.01, 9.0),
+    Parameter('two_axis_max_inclination_deg', 60.0,
+              'Two-axis sensors: a sample steeper than this [deg] is dropped and counted '
+              '(two_axis_range): beyond 90 deg it would read folded back (I as 180 - I).',
+              1.0, 89.0),
     Parameter('frame_id', '',
               'frame_id of the corrected outputs (the ideal tool frame); empty: the '
               'input frame_id.'),
@@ -72,15 +89,19 @@ PARAMETERS = (
               'imu/data_raw.', 1, 10000),
     Parameter('diagnostics_period_s', 1.0,
               'Period of the /diagnostics report [s].', 0.1, 60.0),
-    Parameter('level_capture.samples', 100,
-              'Samples a level capture collects after the service call.', 2, 1000000,
+    Parameter('still.max_drift_deg_per_s', 0.02,
+              'Every capture: a drift of its mean faster than this [deg/s] and beyond 5 sigma '
+              'of its own noise is motion, and refused.', 1e-4, 10.0, read_only=False),
+    Parameter('level_capture.samples', 500,
+              'Samples a level capture collects after the service call.', 6, 1000000,
               read_only=False),
-    Parameter('level_capture.timeout_s', 10.0,
+    Parameter('level_capture.timeout_s', 30.0,
               'Seconds a level capture waits for its samples before refusing.',
               0.1, 3600.0, read_only=False),
-    Parameter('level_capture.max_std_deg', 0.1,
-              'Largest spread (1 sigma) of the axis tilts [deg] of a still tool.',
-              1e-4, 10.0, read_only=False),
+    Parameter('level_capture.max_sem_deg', 0.01,
+              'Largest standard error [deg] of the mean axis tilts (noise / sqrt(samples)): '
+              'beyond it the capture is refused as too noisy, with the samples needed.',
+              1e-5, 10.0, read_only=False),
     Parameter('level_capture.max_tilt_deg', 5.0,
               'Largest false tilt theta [deg] accepted as an installation error on '
               'a level bench.', 0.0, 45.0, read_only=False),
@@ -97,15 +118,15 @@ PARAMETERS = (
               'Stand attitude of the next ~/capture_position: magnetic azimuth of the hole '
               'direction [deg] (as survey.z); used with magnetic.reference_* for the '
               'magnetometer.', 0.0, 360.0, read_only=False),
-    Parameter('stand.samples', 100,
+    Parameter('stand.samples', 500,
               'Samples a stand position capture collects after the service call.',
-              2, 1000000, read_only=False),
-    Parameter('stand.timeout_s', 10.0,
+              6, 1000000, read_only=False),
+    Parameter('stand.timeout_s', 30.0,
               'Seconds a stand position capture waits for its samples before refusing.',
               0.1, 3600.0, read_only=False),
-    Parameter('stand.max_std_deg', 0.1,
-              'Largest spread (RMS angle about the mean direction) [deg] of a still tool '
-              'in a stand position.', 1e-4, 10.0, read_only=False),
+    Parameter('stand.max_sem_deg', 0.01,
+              'Largest standard error [deg] of the mean direction of a stand position.',
+              1e-5, 10.0, read_only=False),
     Parameter('stand.max_rms_deg', 0.05,
               'Largest inclination residual RMS [deg] of a stand fit over its own positions: '
               'beyond it ~/solve_stand_calibration refuses.', 1e-4, 10.0, read_only=False),
@@ -121,6 +142,13 @@ PARAMETERS = (
               'and ~/solve_msa refused.', 0.0, 100000.0, read_only=False),
     Parameter('magnetic.reference_dip_deg', 0.0,
               'Reference dip [deg], positive down.', -90.0, 90.0, read_only=False),
+    Parameter('magnetic.reference_total_std_nT', 138.0,
+              '1 sigma of the reference total field itself [nT] (WMM 2025: 138; an IFR model '
+              'about half): enters the 1 sigma of the MSA interference and of every azimuth.',
+              0.0, 10000.0, read_only=False),
+    Parameter('magnetic.reference_dip_std_deg', 0.2,
+              '1 sigma of the reference dip itself [deg] (WMM 2025: 0.20).', 0.0, 10.0,
+              read_only=False),
     Parameter('magnetic.declination_deg', 0.0,
               'Declination [deg] added to the magnetic azimuth for the azimuth topic.',
               -180.0, 180.0, read_only=False),
@@ -132,10 +160,15 @@ PARAMETERS = (
               read_only=False),
     Parameter('magnetic.g_total_tolerance_mps2', 0.019,
               'QC: largest deviation [m/s^2] of G-total from gravity_mps2 (3 sigma of the '
-              'ISCWSA MWD accelerometer terms).', 1e-4, 5.0, read_only=False),
-    Parameter('magnetic.min_inclination_deg', 0.5,
-              'Below this inclination [deg] the azimuth is undefined and published as NaN.',
-              0.0, 10.0, read_only=False),
+              'ISCWSA MWD accelerometer terms); single samples: widened by 3 sigma of their '
+              'noise, like the B-total and dip limits.', 1e-4, 5.0, read_only=False),
+    Parameter('magnetic.azimuth_max_std_deg', 1.0,
+              'An azimuth whose 1 sigma (sensor noise, calibration, MSA interference and its '
+              'reference field) exceeds this [deg] is published as NaN.', 0.01, 180.0,
+              read_only=False),
+    Parameter('magnetic.interference_max_age_days', 3.0,
+              'Diagnostics WARN when the MSA interference is older than this [days]: the drill '
+              'string magnetisation changes with every trip.', 0.01, 3650.0, read_only=False),
     Parameter('magnetic.max_pairing_s', 0.05,
               'Largest stamp difference [s] between an accelerometer sample and the '
               'imu/mag reading paired with it; beyond it the azimuth is NaN.', 1e-4, 10.0,
@@ -143,12 +176,12 @@ PARAMETERS = (
     Parameter('rotation.duration_s', 10.0,
               'Seconds ~/capture_rotation records while the tool turns.', 1.0, 600.0,
               read_only=False),
-    Parameter('survey.samples', 100,
-              'Samples ~/take_survey averages into one station.', 2, 1000000, read_only=False),
-    Parameter('survey.max_std_deg', 0.1,
-              'Largest spread (RMS angle about the mean direction) [deg] of the accelerometer '
-              'in a still station.', 1e-4, 10.0, read_only=False),
-    Parameter('survey.timeout_s', 10.0,
+    Parameter('survey.samples', 500,
+              'Samples ~/take_survey averages into one station.', 6, 1000000, read_only=False),
+    Parameter('survey.max_sem_deg', 0.01,
+              'Largest standard error [deg] of the mean accelerometer direction of a station.',
+              1e-5, 10.0, read_only=False),
+    Parameter('survey.timeout_s', 30.0,
               'Seconds ~/take_survey waits for its samples before refusing.', 0.1, 3600.0,
               read_only=False),
     Parameter('msa.method', 'improved',
@@ -158,6 +191,10 @@ PARAMETERS = (
     Parameter('temperature.max_age_s', 5.0,
               'Age [s] beyond which the latest imu/temperature is reported stale (it is '
               'still used).', 0.1, 3600.0, read_only=False),
+    Parameter('temperature.max_stage_difference_c', 2.0,
+              'Without a temperature stage, stages whose readings stood for temperatures '
+              'further apart than this [deg C] are refused (their drift is not corrected).',
+              0.01, 200.0, read_only=False),
 )
 
 

@@ -7,11 +7,14 @@ as they were.
 """
 
 from dataclasses import replace
+import math
 
 from inclino_ros.calibration.level_capture import CaptureRefused, LevelLimits, solve_level_capture
+from inclino_ros.calibration.model import readings_temperature_c, temperature_conflict
 from inclino_ros.calibration.stand_capture import (
     average_position, check_new_attitude, solve_positions)
 from inclino_ros.core.stand import StandFitRefused
+from inclino_ros.core.stillness import StillLimits
 import numpy as np
 from rclpy.callback_groups import ReentrantCallbackGroup
 from std_srvs.srv import Trigger
@@ -34,19 +37,43 @@ class CalibrationServices:
                                ('~/clear_positions', self.clear_positions)):
             node.create_service(Trigger, name, callback, callback_group=group)
 
+    def still_limits(self, prefix):
+        """Return the StillLimits of the captures of ``prefix`` (its max_sem_deg)."""
+        return StillLimits(
+            max_drift_deg_per_s=self.node.param('still.max_drift_deg_per_s'),
+            max_sem_deg=self.node.param(f'{prefix}.max_sem_deg'),
+            drift_name='still.max_drift_deg_per_s', sem_name=f'{prefix}.max_sem_deg')
+
+    def stage_temperature(self, captured, names):
+        """
+        Return the temperature the captured readings stand for; CaptureRefused on a conflict.
+
+        The stages ``names`` must stand for the same temperature within
+        ``temperature.max_stage_difference_c`` (``model.temperature_conflict``).
+        """
+        model = self.node.model
+        temperature_c = readings_temperature_c(model.temperature, captured.temperature_c)
+        reason = temperature_conflict(model, temperature_c,
+                                      self.node.param('temperature.max_stage_difference_c'),
+                                      names)
+        if reason is not None:
+            raise CaptureRefused(reason)
+        return temperature_c
+
     async def calibrate_level(self, request, response):
         """Capture the tool on a level bench and apply gamma, beta (seed 000 Eqs. 11-14)."""
         node = self.node
         limits = LevelLimits(
-            max_std_deg=node.param('level_capture.max_std_deg'),
             max_tilt_deg=node.param('level_capture.max_tilt_deg'),
             gravity_mps2=node.settings.gravity_mps2,
-            g_total_tolerance_mps2=node.param('level_capture.g_total_tolerance_mps2'))
+            g_total_tolerance_mps2=node.param('level_capture.g_total_tolerance_mps2'),
+            still=self.still_limits('level_capture'))
         try:
             captured = await self.collector.collect('level_capture')
+            temperature_c = self.stage_temperature(captured, ('stand',))
             installation = solve_level_capture(
                 node.model.apply(captured.raw, captured.temperatures_c, before='installation'),
-                node.settings.accelerometer_axes, limits)
+                node.settings.accelerometer_axes, limits, captured.times_s, temperature_c)
             # The level bench measures the whole mount: a tool axis on top would count twice.
             self.collector.commit(replace(node.model, installation=installation, tool_axis=None))
         except CaptureRefused as err:
@@ -54,7 +81,9 @@ class CalibrationServices:
         return self.collector.answer(response, (
             f'calibrated from {installation.sample_count} samples: '
             f'gamma_deg={installation.gamma_deg:.4f} beta_deg={installation.beta_deg:.4f} '
-            f'theta_deg={installation.theta_deg:.4f} (spread {installation.std_deg:.4f} deg)'))
+            f'theta_deg={installation.theta_deg:.4f} (noise {installation.std_deg:.4f} deg per '
+            f'sample, 1 sigma of the angles '
+            f'{math.degrees(installation.tilt_std_rad):.4f} deg)'))
 
     async def capture_position(self, request, response):
         """Average a still capture at the stand attitude held in the stand.* parameters."""
@@ -71,11 +100,13 @@ class CalibrationServices:
                                reference)
             captured = await self.collector.collect('stand')
             fields = (None if reference is None else
-                      node.model.apply_magnetic(captured.field_nT, before='magnetometer'))
+                      node.model.apply_magnetic(captured.field_nT, captured.temperatures_c,
+                                                before='magnetometer'))
             position = average_position(
                 node.model.apply(captured.raw, captured.temperatures_c, before='stand'),
-                inclination_deg, toolface_deg, node.param('stand.max_std_deg'), fields,
-                azimuth_deg)
+                inclination_deg, toolface_deg, self.still_limits('stand'), captured.times_s,
+                readings_temperature_c(node.model.temperature, captured.temperature_c),
+                fields, azimuth_deg)
         except CaptureRefused as err:
             return self.collector.refuse(
                 response, str(err), f'{len(self.positions)} positions kept')
@@ -89,7 +120,8 @@ class CalibrationServices:
         response.message = (
             f'position {len(self.positions)} captured at inclination_deg={inclination_deg} '
             f'toolface_deg={toolface_deg} azimuth_deg={azimuth_deg}: mean ({mean}) m/s^2, '
-            f'spread {position.std_deg:.4f} deg from {position.samples} samples{field}; '
+            f'noise {position.std_deg:.4f} deg per sample from {position.samples} '
+            f'samples{field}; '
             f'{len(self.positions)} positions held (solve needs at least 6)')
         node.get_logger().info(response.message)
         return response
@@ -107,7 +139,8 @@ class CalibrationServices:
         try:
             stand, field, note = solve_positions(
                 self.positions, node.settings.gravity_mps2, node.param('stand.max_rms_deg'),
-                self.reference(), node.param('stand.max_field_rms_deg'))
+                self.reference(), node.param('stand.max_field_rms_deg'),
+                node.param('temperature.max_stage_difference_c'))
             # K is fitted against the tool's attitude on the stand, so it already
             # holds the mounting misalignment: a kept gamma/beta would count it twice.
             model = replace(node.model, stand=stand, installation=None, tool_axis=None)

@@ -21,18 +21,22 @@ class InputStats:
         self.dropped_total = [0] * len(REASONS)
         self._period_accepted = 0
         self._period_dropped = 0
+        self._period_reasons = [0] * len(REASONS)
+        self._period_toolface_nan = 0
         self._period_g_sum = 0.0
         self._period_start_s = None
 
-    def accept(self, g_total_mps2):
-        """Count one accepted sample and its G-total."""
+    def accept(self, g_total_mps2, toolface_nan=False):
+        """Count one accepted sample, its G-total and whether its toolface was NaN."""
         self.accepted_total += 1
         self._period_accepted += 1
         self._period_g_sum += g_total_mps2
+        self._period_toolface_nan += bool(toolface_nan)
 
     def drop(self, code):
         """Count one dropped sample under its screening reason."""
         self.dropped_total[code] += 1
+        self._period_reasons[code] += 1
         self._period_dropped += 1
 
     def status(self, node_name, now_s, gravity_mps2, g_tolerance_mps2):
@@ -42,11 +46,18 @@ class InputStats:
         g_mean = (self._period_g_sum / self._period_accepted
                   if self._period_accepted else float('nan'))
         status = DiagnosticStatus(name=f'{node_name}: input', level=DiagnosticStatus.OK)
-        if self._period_accepted == 0:
+        if self._period_dropped > self._period_accepted:
+            main = max(range(len(REASONS)), key=self._period_reasons.__getitem__)
+            status.level = DiagnosticStatus.ERROR
+            status.message = (
+                f'most samples dropped: {self._period_dropped} of '
+                f'{self._period_dropped + self._period_accepted}, '
+                f'{self._period_reasons[main]} as {REASONS[main]}'
+                + (' (G-total off gravity: not gravity; does the driver remove it?)'
+                   if REASONS[main] == 'dynamic' else ''))
+        elif self._period_accepted == 0:
             status.level = DiagnosticStatus.WARN
-            status.message = ('no accepted samples on imu/data_raw'
-                              + (f' ({self._period_dropped} dropped)'
-                                 if self._period_dropped else ''))
+            status.message = 'no samples on imu/data_raw'
         elif self._period_dropped:
             status.level = DiagnosticStatus.WARN
             status.message = f'{self._period_dropped} samples dropped in the last period'
@@ -57,11 +68,13 @@ class InputStats:
             status.message = f'{rate_hz:.1f} samples/s'
         values = {'rate_hz': f'{rate_hz:.2f}', 'g_total_mps2': f'{g_mean:.5f}',
                   'accepted_total': str(self.accepted_total),
-                  'dropped_total': str(sum(self.dropped_total))}
+                  'dropped_total': str(sum(self.dropped_total)),
+                  'toolface_nan': str(self._period_toolface_nan)}
         values.update({f'dropped_{reason}': str(n)
                        for reason, n in zip(REASONS, self.dropped_total)})
         status.values = [KeyValue(key=k, value=v) for k, v in values.items()]
-        self._period_accepted = self._period_dropped = 0
+        self._period_accepted = self._period_dropped = self._period_toolface_nan = 0
+        self._period_reasons = [0] * len(REASONS)
         self._period_g_sum = 0.0
         self._period_start_s = now_s
         return status
@@ -151,7 +164,7 @@ class MagneticInput:
         """Start with no magnetometer; keep the latest ``keep`` readings for pairing."""
         self.recent = deque(maxlen=keep)
         self.rejected = 0
-        self._period = {'trusted': 0, 'unpaired': 0, 'untrusted': 0}
+        self._period = {'trusted': 0, 'unpaired': 0, 'imprecise': 0, 'untrusted': 0}
         self._last = None
 
     @property
@@ -173,8 +186,12 @@ class MagneticInput:
 
     def count(self, azimuth_survey, row, paired):
         """Count the azimuth outcome of one sample (``row`` of an AzimuthSurvey)."""
-        trusted = bool(azimuth_survey.trusted[row])
-        key = 'trusted' if trusted else ('untrusted' if paired else 'unpaired')
+        if azimuth_survey.trusted[row]:
+            key = 'trusted'
+        elif not paired:
+            key = 'unpaired'
+        else:
+            key = 'imprecise' if azimuth_survey.imprecise[row] else 'untrusted'
         self._period[key] += 1
         self._last = (azimuth_survey, row)
 
@@ -198,17 +215,19 @@ class MagneticInput:
         if self._last is not None:
             last, row = self._last
             values.update(b_total_nT=f'{last.b_total_nT[row]:.0f}',
-                          dip_deg=f'{last.dip_deg[row]:.3f}')
+                          dip_deg=f'{last.dip_deg[row]:.3f}',
+                          azimuth_std_deg=f'{last.azimuth_std_deg[row]:.3f}')
             if last.qc is not None:
                 values.update(b_total_delta_nT=f'{last.qc.b_total_delta_nT[row]:+.0f}',
                               dip_delta_deg=f'{last.qc.dip_delta_deg[row]:+.3f}')
         if self.stamp_ns is None:
             status.message = 'no imu/mag: azimuth not computed (NaN)'
-        elif self._period['unpaired'] or self._period['untrusted']:
+        elif self._period['unpaired'] or self._period['untrusted'] or self._period['imprecise']:
             status.level = DiagnosticStatus.WARN
             status.message = (f'{self._period["unpaired"]} samples without a paired imu/mag '
-                              f'reading and {self._period["untrusted"]} failing QC: their '
-                              'azimuth is NaN')
+                              f'reading, {self._period["imprecise"]} with a 1 sigma above '
+                              f'magnetic.azimuth_max_std_deg and {self._period["untrusted"]} '
+                              'failing QC: their azimuth is NaN')
         elif settings.reference_total_nT <= 0:
             status.level = DiagnosticStatus.WARN
             status.message = 'no reference field: azimuth QC not checked'

@@ -1,0 +1,212 @@
+"""
+Still detection: motion told from noise by the capture itself.
+
+A still sensor's samples scatter about a stable mean; the spread of single
+samples measures the sensor's noise, not motion (a MEMS accelerometer at
+100 Hz spreads 0.10-0.13 deg lying still, real-sensors.md).  Motion shows as
+a mean that moves.  So a capture of N samples (angles a_i, rad, k = 1 or 2
+components; times t_i) is cut into B blocks of consecutive samples and:
+
+* noise: the pooled within-block variance
+  ``s^2 = sum_b sum_(i in b) |a_i - m_b|^2 / (k (N - B))`` (m_b the block
+  means): a slow motion hardly enters it, white noise wholly;
+* precision: the standard error of the mean, ``s / sqrt(N)`` per component;
+  N_needed = N (SE / target)^2 samples reach a target;
+* drift: the least-squares slope of the angles against time,
+  ``d = sum (t_i - t) (a_i - a) / S_tt`` with standard error
+  ``s / sqrt(S_tt)``, ``S_tt = sum (t_i - t)^2``; for a still sensor
+  ``|d|^2 / SE^2`` is chi-square with k degrees of freedom;
+* unsteadiness (a knock, a step): the block means about that line,
+  ``X = sum_b n_b |m_b - a - d (t_b - t)|^2 / s^2``, chi-square with
+  ``k (B - 2)`` degrees of freedom for a still sensor (white noise: the
+  block means scatter as s / sqrt(n_b), real-sensors.md).
+
+A capture moves when a test exceeds SIGNIFICANCE_SIGMA (a still sensor is
+refused with probability ~1e-6 per test) AND the motion is large enough to
+matter (``StillLimits``).  Angles are in radians in, degrees in the result.
+"""
+
+from dataclasses import dataclass
+import math
+
+import numpy as np
+
+#: Blocks a capture is cut into (at most; at least 2 samples a block).
+BLOCKS = 10
+#: Fewest samples a still test takes: 3 blocks of 2 (a line and a residual).
+MIN_SAMPLES = 6
+#: A test statistic beyond this many standard deviations is motion, not noise:
+#: a still sensor passes the drift test with probability 1 - 3.7e-6 (k = 2,
+#: Rayleigh) or 1 - 5.7e-7 (k = 1, Gaussian), the block test likewise.
+SIGNIFICANCE_SIGMA = 5.0
+
+
+@dataclass(frozen=True)
+class StillLimits:
+    """
+    When a capture is still enough and precise enough (``judge``).
+
+    ``max_drift_deg_per_s``: a significant drift slower than this is accepted
+    (a tool settling on its stand, a warming sensor);
+    ``max_sem_deg``: the standard error of the mean the capture must reach; a
+    significant unsteadiness that moves the mean less than it is accepted too.
+    ``drift_name``, ``sem_name``: how the messages name the two limits.
+    """
+
+    max_drift_deg_per_s: float = 0.02
+    max_sem_deg: float = 0.01
+    drift_name: str = 'max_drift_deg_per_s'
+    sem_name: str = 'max_sem_deg'
+
+
+@dataclass(frozen=True)
+class Stillness:
+    """What a capture shows about its noise and its motion (``assess``)."""
+
+    samples: int
+    duration_s: float           # NaN when the capture has no times
+    noise_deg: float            # per-sample 1 sigma of one component (within blocks)
+    sem_deg: float              # standard error of the mean, one component
+    drift_deg_per_s: float      # |slope|; per sample when the capture has no times
+    drift_sigma: float          # |slope| / its standard error
+    scatter_sigma: float        # block test as a Gaussian z (Wilson-Hilferty)
+    scatter_ratio: float        # X / its degrees of freedom (1 for white noise)
+    motion_deg: float           # RMS of the block means' motion beyond the noise
+
+    def samples_needed(self, max_sem_deg):
+        """Return the samples that bring the standard error to ``max_sem_deg``."""
+        return int(math.ceil(self.samples * (self.sem_deg / max_sem_deg) ** 2))
+
+
+def without_once_per_turn(angle_rad, turn_rad):
+    """
+    Return ``angle`` less its least-squares part ``a cos(turn) + b sin(turn)``.
+
+    A tool turned about its own axis reads an inclination that wobbles once
+    per turn by any mounting error left (seed 000: the sensor axis off the
+    tool axis by theta): removing that term leaves the axis' own motion.
+    """
+    angle = np.asarray(angle_rad, dtype=float)
+    design = np.column_stack([np.ones_like(angle), np.cos(turn_rad), np.sin(turn_rad)])
+    wobble = design[:, 1:] @ np.linalg.lstsq(design, angle, rcond=None)[0][1:]
+    return angle - wobble
+
+
+def tangent_angles(vectors):
+    """
+    Return the angles (N, 2) [rad] of each vector from the mean direction.
+
+    Components along two unit vectors e1, e2 orthogonal to the mean
+    direction u: ``atan2(v . e_j, v . u)``, the tilt of each sample about u.
+    """
+    vectors = np.asarray(vectors, dtype=float)
+    mean = vectors.mean(axis=0)
+    u = mean / np.linalg.norm(mean)
+    helper = np.eye(3)[np.argmin(np.abs(u))]
+    e1 = np.cross(u, helper)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(u, e1)
+    along = vectors @ u
+    return np.arctan2(vectors @ np.stack([e1, e2], axis=1), along[:, None])
+
+
+def chi_square_sigma(value, dof):
+    """
+    Return the Gaussian z of a chi-square ``value`` with ``dof`` degrees of freedom.
+
+    Wilson-Hilferty: ``(X / dof)^(1/3)`` is about normal with mean
+    ``1 - 2 / (9 dof)`` and variance ``2 / (9 dof)``.
+    """
+    spread = 2.0 / (9.0 * dof)
+    return ((value / dof) ** (1.0 / 3.0) - (1.0 - spread)) / math.sqrt(spread)
+
+
+def assess(angles_rad, times_s=None):
+    """
+    Return the Stillness of a capture (module docstring).
+
+    ``angles_rad`` (N,) or (N, k); ``times_s`` (N,) sample times, or None
+    (then drift is per sample).  ValueError below MIN_SAMPLES samples.
+    """
+    angles = np.asarray(angles_rad, dtype=float)
+    count = angles.shape[0]
+    if count < MIN_SAMPLES:
+        raise ValueError(f'{count} samples: a still test needs at least {MIN_SAMPLES}')
+    angles = angles.reshape(count, -1)
+    k = angles.shape[1]
+    timed = times_s is not None
+    t = np.asarray(times_s, dtype=float) if timed else np.arange(count, dtype=float)
+    if timed and not (np.all(np.isfinite(t)) and np.ptp(t) > 0.0):
+        t, timed = np.arange(count, dtype=float), False
+    blocks = min(BLOCKS, count // 2)
+    block = np.repeat(np.arange(blocks), [len(b) for b in np.array_split(np.arange(count),
+                                                                         blocks)])
+    n_b = np.bincount(block).astype(float)
+    means = np.stack([np.bincount(block, weights=angles[:, j]) for j in range(k)], axis=1)
+    means /= n_b[:, None]
+    noise_var = np.sum((angles - means[block]) ** 2) / (k * (count - blocks))
+    t_mean = t.mean()
+    s_tt = np.sum((t - t_mean) ** 2)
+    a_mean = angles.mean(axis=0)
+    slope = (t - t_mean) @ (angles - a_mean) / s_tt
+    slope_norm = float(np.linalg.norm(slope))
+    t_b = np.bincount(block, weights=t) / n_b
+    off_line = means - a_mean - np.outer(t_b - t_mean, slope)
+    scatter = float(np.sum(n_b * np.sum(off_line ** 2, axis=1)))
+    dof = k * (blocks - 2)
+    noise = math.sqrt(noise_var)
+    with np.errstate(divide='ignore', invalid='ignore'):
+        drift_sigma = slope_norm * math.sqrt(s_tt) / noise if noise > 0 else (
+            math.inf if slope_norm > 0 else 0.0)
+        ratio = scatter / noise_var / dof if noise > 0 else (math.inf if scatter > 0 else 1.0)
+    motion_var = np.mean(np.sum(off_line ** 2, axis=1) / k - noise_var / n_b)
+    return Stillness(
+        samples=count, duration_s=float(np.ptp(t)) if timed else math.nan,
+        noise_deg=math.degrees(noise), sem_deg=math.degrees(noise / math.sqrt(count)),
+        drift_deg_per_s=math.degrees(slope_norm), drift_sigma=float(drift_sigma),
+        scatter_sigma=(float(chi_square_sigma(ratio * dof, dof)) if math.isfinite(ratio)
+                       else math.inf),
+        scatter_ratio=float(ratio), motion_deg=math.degrees(math.sqrt(max(motion_var, 0.0))))
+
+
+def motion(stillness, limits, steady=True):
+    """
+    Return why a capture moves, or None for a still one.
+
+    Moving: a drift beyond SIGNIFICANCE_SIGMA and faster than
+    ``limits.max_drift_deg_per_s`` (without times: one that moves the mean by
+    more than ``max_sem_deg`` over half the capture), or (``steady``) block
+    means off their trend beyond SIGNIFICANCE_SIGMA by more than
+    ``max_sem_deg`` RMS.
+    """
+    s = stillness
+    if math.isnan(s.duration_s):
+        drifting = s.drift_deg_per_s * s.samples / 2.0 > limits.max_sem_deg
+        rate = f'{s.drift_deg_per_s * s.samples:.4f} deg over the capture'
+    else:
+        drifting = s.drift_deg_per_s > limits.max_drift_deg_per_s
+        rate = f'{s.drift_deg_per_s:.4f} deg/s'
+    if s.drift_sigma > SIGNIFICANCE_SIGMA and drifting:
+        return (f'tool is moving (drift {rate}, {s.drift_sigma:.0f} sigma of the noise; '
+                f'{limits.drift_name} {limits.max_drift_deg_per_s} deg/s)')
+    if steady and s.scatter_sigma > SIGNIFICANCE_SIGMA and s.motion_deg > limits.max_sem_deg:
+        return (f'tool is moving (not steady: the means of its blocks scatter '
+                f'{math.sqrt(s.scatter_ratio):.1f}x the noise about their trend, '
+                f'{s.motion_deg:.4f} deg RMS)')
+    return None
+
+
+def judge(stillness, limits):
+    """
+    Return why a capture cannot be used (moving, or too noisy), or None.
+
+    Motion first (``motion``), then precision: the standard error of the mean
+    above ``limits.max_sem_deg`` is refused with the samples that would reach it.
+    """
+    reason = motion(stillness, limits)
+    if reason is None and stillness.sem_deg > limits.max_sem_deg:
+        reason = (f'too noisy for the target: {stillness.samples_needed(limits.max_sem_deg)} '
+                  f'samples needed (standard error {stillness.sem_deg:.4f} deg from '
+                  f'{stillness.samples} samples of noise {stillness.noise_deg:.3f} deg exceeds '
+                  f'{limits.sem_name} {limits.max_sem_deg} deg)')
+    return reason

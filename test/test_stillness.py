@@ -1,0 +1,169 @@
+"""
+Still detection (issue 9, bullet 1): motion told from noise, in the core and the captures.
+
+The truth comes from the physical sensor model (``sim.sensor_model``): a still tool whose
+accelerometer has white noise sigma per axis and sample, or the same tool turning.
+
+Closed forms used as tolerances:
+- a still capture's per-sample tilt noise is sigma / g rad per component; estimated from
+  k (N - B) = 2 * 490 degrees of freedom its relative sampling error is 1 / sqrt(2 * 980)
+  = 2.3 % (1 sigma), so 10 % is > 4 sigma;
+- the drift of N samples at rate r over T = (N - 1) / r has standard error
+  (sigma / g) sqrt(12 / (N (N^2 - 1))) r: at 0.02 m/s^2, 500 samples, 100 Hz, 0.0036 deg/s;
+  a turn of 0.05 deg/s is then 14 sigma from zero and 8 sigma above the 0.02 deg/s limit,
+  and a still tool passes the 5 sigma test except with probability exp(-25 / 2) = 4e-6.
+"""
+
+import math
+
+from inclino_ros.calibration.level_capture import CaptureRefused, LevelLimits, solve_level_capture
+from inclino_ros.calibration.stand_capture import average_position
+from inclino_ros.core.stillness import (
+    assess, judge, motion, StillLimits, tangent_angles, without_once_per_turn)
+from inclino_ros.sim import sensor_model
+import numpy as np
+import pytest
+
+G = sensor_model.STANDARD_GRAVITY_MPS2
+RATE_HZ = 100.0
+#: The issue's real MEMS IMU lying still: 0.014 m/s^2 per sample; the default must accept
+#: 0.02 m/s^2 and the seed 001 ADXL345 reads ~4 mg per sample at 100 Hz.
+MEMS_NOISE_MPS2 = 0.014
+DEFAULT_NOISE_MPS2 = 0.02
+ADXL345_NOISE_MPS2 = 4e-3 * G
+SAMPLES = 500      # the captures' default (node parameters *.samples)
+MOUNT = sensor_model.Mount(gamma_deg=0.8, beta_deg=-1.2, roll_deg=20.0)
+
+
+def tool(noise_mps2):
+    """Return a tool on MOUNT whose accelerometer has white noise ``noise_mps2``."""
+    return sensor_model.Tool(mount=MOUNT, accelerometer=sensor_model.Triad(noise_std=noise_mps2))
+
+
+def capture(noise_mps2, inclination_deg, toolface_deg, samples=SAMPLES, seed=0,
+            turn_deg_per_s=0.0):
+    """Return (readings, times_s) of a capture at 100 Hz, the inclination turning if asked."""
+    times_s = np.arange(samples) / RATE_HZ
+    readings = sensor_model.read(tool(noise_mps2), inclination_deg + turn_deg_per_s * times_s,
+                                 toolface_deg, rng=seed).accel_mps2
+    return readings, times_s
+
+
+def test_still_mems_is_not_moving_and_its_noise_is_measured():
+    """Per-sample spread 0.12 deg is noise: measured as sigma / g, the mean's as that / sqrt N."""
+    readings, times_s = capture(MEMS_NOISE_MPS2, 35.0, 120.0)
+    result = assess(tangent_angles(readings), times_s)
+    per_sample_deg = math.degrees(MEMS_NOISE_MPS2 / G)                 # 0.082 deg
+    assert result.noise_deg == pytest.approx(per_sample_deg, rel=0.1)
+    assert result.sem_deg == pytest.approx(result.noise_deg / math.sqrt(SAMPLES), rel=1e-12)
+    assert result.drift_sigma < 5.0 and result.scatter_sigma < 5.0
+    assert judge(result, StillLimits()) is None
+    # What the old rule measured: the RMS spread about the mean direction, 0.116 deg here,
+    # above the former max_std_deg of 0.1 deg: "tool is moving".
+    spread_deg = math.degrees(math.sqrt(np.mean(np.sum(tangent_angles(readings) ** 2, 1))))
+    assert spread_deg > 0.1
+
+
+@pytest.mark.parametrize('seed', range(40))
+def test_defaults_accept_still_and_refuse_turning(seed):
+    """At 0.02 m/s^2 and 100 Hz: still passes, 0.05 deg/s is 'moving (drift ... deg/s)'."""
+    limits = StillLimits()
+    still, times_s = capture(DEFAULT_NOISE_MPS2, 60.0, 300.0, seed=seed)
+    assert judge(assess(tangent_angles(still), times_s), limits) is None
+    turning, _ = capture(DEFAULT_NOISE_MPS2, 60.0, 300.0, seed=seed, turn_deg_per_s=0.05)
+    result = assess(tangent_angles(turning), times_s)
+    assert result.drift_deg_per_s == pytest.approx(0.05, abs=5 * 0.0036)
+    assert judge(result, limits).startswith('tool is moving (drift 0.0')
+
+
+def test_drift_standard_error_is_the_closed_form():
+    """Over 400 still captures the drift / its standard error is Rayleigh: mean sqrt(pi / 2)."""
+    sigmas = [assess(tangent_angles(capture(DEFAULT_NOISE_MPS2, 20.0, 10.0, seed=s)[0]),
+                     np.arange(SAMPLES) / RATE_HZ).drift_sigma for s in range(400)]
+    # Rayleigh(1): mean 1.2533, sd 0.655; the mean of 400 within 4 sd / 20 = 0.13.
+    assert np.mean(sigmas) == pytest.approx(math.sqrt(math.pi / 2.0), abs=0.13)
+
+
+def test_a_knock_is_not_steady():
+    """A step of 0.2 deg in the middle of a still capture: block means off their trend."""
+    readings, times_s = capture(DEFAULT_NOISE_MPS2, 40.0, 40.0)
+    stepped, _ = capture(DEFAULT_NOISE_MPS2, 40.2, 40.0, seed=1)
+    readings[SAMPLES // 2:] = stepped[SAMPLES // 2:]
+    reason = judge(assess(tangent_angles(readings), times_s), StillLimits())
+    assert reason.startswith('tool is moving (')
+
+
+def test_too_noisy_says_how_many_samples():
+    """An ADXL345 (4 mg) at 100 samples: the mean misses 0.01 deg; N (SE / 0.01)^2 needed."""
+    readings, times_s = capture(ADXL345_NOISE_MPS2, 0.0, 0.0, samples=100)
+    result = assess(tangent_angles(readings), times_s)
+    reason = judge(result, StillLimits())
+    needed = result.samples_needed(0.01)
+    assert needed == pytest.approx(100 * (math.degrees(ADXL345_NOISE_MPS2 / G) / 10 / 0.01) ** 2,
+                                   rel=0.3)
+    assert reason.startswith(f'too noisy for the target: {needed} samples needed')
+    more, times_s = capture(ADXL345_NOISE_MPS2, 0.0, 0.0, samples=int(needed * 1.3))
+    assert judge(assess(tangent_angles(more), times_s), StillLimits()) is None
+
+
+def test_level_capture_accepts_a_still_mems_and_refuses_a_turning_one():
+    """The level bench, seed 000: a still MEMS gives gamma, beta; a tilting one is refused."""
+    limits = LevelLimits(max_tilt_deg=5.0, gravity_mps2=G, g_total_tolerance_mps2=0.3)
+    readings, times_s = capture(MEMS_NOISE_MPS2, 0.0, 0.0)
+    installation = solve_level_capture(readings, 3, limits, times_s)
+    bound_deg = 5 * math.degrees(MEMS_NOISE_MPS2 / G) / math.sqrt(SAMPLES)
+    assert installation.gamma_deg == pytest.approx(0.8, abs=bound_deg)
+    assert installation.beta_deg == pytest.approx(-1.2, abs=bound_deg)
+    turning, _ = capture(MEMS_NOISE_MPS2, 0.0, 0.0, turn_deg_per_s=0.05)
+    turning = sensor_model.read(tool(MEMS_NOISE_MPS2), 1.0 + 0.05 * times_s, 0.0,
+                                rng=2).accel_mps2
+    with pytest.raises(CaptureRefused, match=r'^tool is moving \(drift 0\.0'):
+        solve_level_capture(turning, 3, limits, times_s)
+
+
+def test_stand_position_accepts_still_and_refuses_turning_toolface():
+    """A stand position turning in toolface at 0.05 deg/s is refused; still is averaged."""
+    limits = StillLimits()
+    readings, times_s = capture(DEFAULT_NOISE_MPS2, 90.0, 0.0)
+    position = average_position(readings, 90.0, 0.0, limits, times_s, 25.0)
+    assert position.std_deg == pytest.approx(math.degrees(DEFAULT_NOISE_MPS2 / G), rel=0.1)
+    assert position.temperature_c == 25.0
+    turning = sensor_model.read(tool(DEFAULT_NOISE_MPS2), 90.0, 0.05 * times_s,
+                                rng=3).accel_mps2
+    with pytest.raises(CaptureRefused, match=r'^tool is moving \(drift 0\.0'):
+        average_position(turning, 90.0, 0.0, limits, times_s)
+
+
+def test_without_times_the_drift_is_over_the_capture():
+    """No stamps: drift is judged by how far it moves the mean, said per capture."""
+    readings, _ = capture(0.0, 30.0, 0.0, samples=100, turn_deg_per_s=1.0)
+    reason = judge(assess(tangent_angles(readings)), StillLimits())
+    assert reason.startswith('tool is moving (drift ') and 'over the capture' in reason
+
+
+def test_rotation_wobble_is_not_motion():
+    """
+    A tool turned 1.2 times about its axis with 1.4 deg of mounting error.
+
+    Its inclination wobbles once per turn, which a line through 1.2 turns takes for a drift
+    of 0.24 deg/s; with the wobble removed (``without_once_per_turn``) the axis is still.
+    The same rotation with the axis tilting at 0.1 deg/s is refused.
+    """
+    turns = np.linspace(0.0, 1.2 * 360.0, 600)
+    times_s = np.arange(600) / RATE_HZ
+    limits = StillLimits()
+
+    def axis(readings):
+        inclination = np.arctan2(np.hypot(readings[:, 0], readings[:, 1]), readings[:, 2])
+        return inclination, np.arctan2(readings[:, 1], readings[:, 0])
+
+    inclination, toolface = axis(sensor_model.read(tool(0.005), 60.0, turns, rng=4).accel_mps2)
+    assert motion(assess(inclination, times_s), limits, steady=False).startswith(
+        'tool is moving (drift 0.2')
+    still = assess(without_once_per_turn(inclination, toolface), times_s)
+    assert motion(still, limits, steady=False) is None
+    inclination, toolface = axis(sensor_model.read(
+        tool(0.005), 60.0 + 0.1 * times_s, turns, rng=5).accel_mps2)
+    drifting = assess(without_once_per_turn(inclination, toolface), times_s)
+    # Over 1.2 turns the wobble fit takes part of a drift (0.079 of the 0.1 deg/s here).
+    assert motion(drifting, limits, steady=False).startswith('tool is moving (drift 0.0')
