@@ -24,12 +24,13 @@ from inclino_ros.calibration.model import CalibrationModel, Installation
 from inclino_ros.cli.main import main as inclino
 from inclino_ros.core import magnetics
 from inclino_ros.core.attitude import inclination, toolface_seed000
+from inclino_ros.io import bag
 from inclino_ros.pipeline import run, Settings
 from inclino_ros.sim import sensor_model as sm
 from inclino_ros.sim.bench import (
     DEFAULT_STATIONS_DEG, DEMO_TOOL, make_tool, Scenario, simulate, simulate_heating,
     simulate_stand, STAND_POSITIONS_DEG, STAND_TOOL, StandRun, tool_from_iscwsa,
-    tool_stand_truth)
+    tool_stand_truth, TURNED_OVER_HEATING_ATTITUDES_DEG)
 import numpy as np
 import pytest
 
@@ -285,6 +286,32 @@ def test_heating_ramp():
     assert np.abs(drift).max() > 0.02 * G
 
 
+def test_heating_at_two_attitudes():
+    """
+    Heated at 55/45 deg, turned over to 125/225 deg and cooled: every reading is the model's.
+
+    The temperature runs 20 -> 100 -> 20 deg C without a jump; each axis reads the opposite
+    sign at the second attitude (what lets fit-temperature tell a bias from a scale drift).
+    """
+    tool = make_tool('mems', 0.8, -1.2)
+    heating = simulate_heating(StandRun(tool=tool, seed=4), TURNED_OVER_HEATING_ATTITUDES_DEG,
+                               samples=81)
+    ramp = np.linspace(20.0, 100.0, 81)
+    np.testing.assert_array_equal(heating.temperature_c, np.r_[ramp, ramp[::-1]])
+    assert np.bincount(heating.segment).tolist() == [0, 81, 81]
+    assert [(s['inclination_deg'], s['toolface_deg']) for s in heating.truth['segments']] == \
+        [(55.0, 45.0), (125.0, 225.0)]
+    first = heating.segment == 1
+    assert np.all(heating.inclination_deg[first] == 55.0)
+    assert np.all(heating.toolface_deg[~first] == 225.0)
+    readings = sm.read(tool, heating.inclination_deg, heating.toolface_deg, 0.0,
+                       heating.temperature_c, field=sm.Field(), rng=4)
+    np.testing.assert_array_equal(heating.raw_mps2, readings.accel_mps2)
+    assert np.all(np.sign(heating.raw_mps2[first]) == -np.sign(heating.raw_mps2[~first]))
+    with pytest.raises(ValueError, match='pairs'):
+        simulate_heating(StandRun(tool=tool), ((55.0,),))
+
+
 def run_cli(argv):
     """Run ``inclino simulate argv`` in-process quietly; return (exit code, stdout, stderr)."""
     out, err = io.StringIO(), io.StringIO()
@@ -313,8 +340,31 @@ def test_cli_options_reach_the_tool(tmp_path):
         [s['samples'] for s in expected.truth['segments']]
 
 
+def test_cli_heating_attitudes(tmp_path):
+    """--heating-attitudes: the bag, the truth file and the CSV's attitude column."""
+    path = tmp_path / 'heating'
+    code, out, err = run_cli([path, '--heating', '--sensor', 'mems', '--heating-attitudes', 55,
+                              45, 125, 225, '--samples', 41, '--seed', 3, '--csv',
+                              tmp_path / 'heating.csv'])
+    assert code == 0, err
+    assert 'attitudes 55/45, 125/225 deg' in out and '82 messages' in out
+    expected = simulate_heating(StandRun(tool=make_tool('mems', 0.8, -1.2), seed=3),
+                                TURNED_OVER_HEATING_ATTITUDES_DEG, samples=41)
+    raw = bag.concatenate(bag.read(path, '/imu/data_raw'))
+    np.testing.assert_array_equal(raw.linear_acceleration_mps2, expected.raw_mps2)
+    temperature = bag.concatenate(bag.read(path, '/imu/temperature'))
+    np.testing.assert_array_equal(temperature.temperature_c, expected.temperature_c)
+    truth = json.loads((tmp_path / 'heating.truth.json').read_text())
+    assert [s['toolface_deg'] for s in truth['segments']] == [45.0, 225.0]
+    rows = np.genfromtxt(tmp_path / 'heating.csv', delimiter=',', names=True)
+    np.testing.assert_array_equal(rows['attitude'], expected.segment)
+    np.testing.assert_array_equal(rows['temperature_c'], expected.temperature_c)
+
+
 @pytest.mark.parametrize('argv, message', [
     (['--stand', '--magnetic'], '--magnetic goes with the bench scenario'),
+    (['--stand', '--heating-attitudes', '55', '45'], '--heating-attitudes goes with --heating'),
+    (['--heating', '--heating-attitudes', '55', '45', '125'], 'INCLINATION TOOLFACE pairs'),
     (['--heating', '--axes', '2'], 'three-axis sensor'),
     (['--stand', '--samples', '0'], '--samples must be at least 1'),
     (['--noise-mps2', '-1'], 'must not be negative'),

@@ -18,7 +18,10 @@ scenario, its segments and every error source of the tool
   the mount and the noise are the only errors (seed 000's demo).
 - ``--stand``: seed 001's nine stand positions at 25 deg C (plus
   ``/stand/attitude`` and ``/imu/temperature``); ``--heating``: 20 -> 100 deg C
-  at one attitude (plus ``/imu/temperature``).  Both with the quartz-flex
+  at one attitude (plus ``/imu/temperature``), or at several in turn
+  (``--heating-attitudes``: heated at the first, turned, cooled at the
+  second, ...; two where each axis reads differently let ``inclino
+  fit-temperature`` fit the bias drift besides the scale drift).  Both with the quartz-flex
   triads on the same mount by default: K, bias, bias and scale drift, 1e-4 g
   noise (``--sensor mems``: ~10x larger errors and 2 mg noise, which the
   fits' still checks take for motion at their default limits).
@@ -36,7 +39,9 @@ rotation segment: the tool turning about its axis (``--rotation-turns``) at
 one inclination and azimuth, for ``inclino fit-rotation``.  Every
 magnetometer message has the stamp of the accelerometer sample it goes with
 (one each, the same stamps): ``inclino process --mag-topic`` pairs them
-exactly.  ``--csv`` writes the accelerometer samples as CSV too.
+exactly.  ``--csv`` writes the accelerometer samples as CSV too (with
+``--heating`` an ``attitude`` column, the segment of each row, which
+``inclino fit-temperature`` reads as the attitude label).
 """
 
 import csv
@@ -48,8 +53,9 @@ from inclino_ros.io.bag import (
     TemperatureSeries, VECTOR3_STAMPED, Vector3Series)
 from inclino_ros.sim import sensor_model
 from inclino_ros.sim.bench import (
-    DEMO_BETA_DEG, DEMO_GAMMA_DEG, DEMO_MAG_NOISE_NT, DEMO_NOISE_MPS2, make_tool, PRESETS,
-    Scenario, simulate, simulate_heating, simulate_stand, StandRun, tool_from_iscwsa)
+    DEMO_BETA_DEG, DEMO_GAMMA_DEG, DEMO_MAG_NOISE_NT, DEMO_NOISE_MPS2, HEATING_ATTITUDE_DEG,
+    make_tool, PRESETS, Scenario, simulate, simulate_heating, simulate_stand, StandRun,
+    tool_from_iscwsa)
 from inclino_ros.sim.well import WellScenario
 import numpy as np
 
@@ -125,15 +131,23 @@ def register(subparsers):
                       help=f'seed 001 stand: nine still positions at 25 deg C, the attitude '
                            f'on {STAND_TOPIC} (x inclination_deg, y toolface_deg, z NaN)')
     mode.add_argument('--heating', dest='mode', action='store_const', const='heating',
-                      help=f'seed 001 heating run: inclination 55 deg, toolface 45 deg, '
-                           f'20 -> 100 deg C on {TEMPERATURE_TOPIC}')
+                      help='seed 001 heating run: 20 -> 100 deg C on '
+                           f'{TEMPERATURE_TOPIC} at --heating-attitudes')
+    parser.add_argument('--heating-attitudes', type=float, nargs='+',
+                        metavar='DEG',
+                        help='--heating: the attitudes held in turn, INCLINATION TOOLFACE '
+                             '[deg] pairs; the tool heats at the first, cools at the second, '
+                             '...; e.g. 55 45 125 225 (turned over: every axis reads the '
+                             'opposite) for a bias drift fit (default: '
+                             f'{" ".join(f"{v:g}" for v in HEATING_ATTITUDE_DEG)})')
     parser.add_argument('--samples', type=int,
                         help='--stand: samples per position (default: '
                              f'{DEFAULT_SAMPLES["stand"]}); --heating: samples over the ramp '
-                             f'(default: {DEFAULT_SAMPLES["heating"]})')
+                             f'at each attitude (default: {DEFAULT_SAMPLES["heating"]})')
     parser.add_argument('--csv', metavar='FILE',
                         help='also write the samples to FILE: stamp_ns, inclination_deg, '
-                             'toolface_deg, [temperature_c,] ax, ay, az [m/s^2]')
+                             'toolface_deg, [temperature_c, attitude (--heating),] ax, ay, '
+                             'az [m/s^2]')
     add_magnetic_arguments(parser)
     parser.set_defaults(func=run, mode=None)
 
@@ -229,19 +243,30 @@ def run(args):
     samples = DEFAULT_SAMPLES.get(args.mode) if args.samples is None else args.samples
     if args.mode is not None and samples < 1:
         return error('--samples must be at least 1')
+    if args.heating_attitudes is not None and args.mode != 'heating':
+        return error('--heating-attitudes goes with --heating')
+    heating_attitudes = tuple(args.heating_attitudes or HEATING_ATTITUDE_DEG)
+    if len(heating_attitudes) % 2:
+        return error('--heating-attitudes takes INCLINATION TOOLFACE pairs, '
+                     f'not {len(heating_attitudes)} numbers')
     try:
         tool = tool_of(args, sensor)
         if args.mode is None:
             sim = simulate(bench_scenario(args, tool))
         else:
             stand_run = StandRun(tool=tool, rate_hz=args.rate_hz, seed=args.seed)
+            pairs = tuple(zip(heating_attitudes[::2], heating_attitudes[1::2]))
             sim = (simulate_stand(stand_run, samples=samples) if args.mode == 'stand' else
-                   simulate_heating(stand_run, samples=samples))
+                   simulate_heating(stand_run, pairs, samples=samples))
     except ValueError as err:
         return error(err)
     what = describe(sensor, tool)
     if args.mode is not None:
         what = f'{args.mode} run of a {what}'
+    if args.mode == 'heating':
+        what += '; attitudes ' + ', '.join(
+            f'{segment["inclination_deg"]:g}/{segment["toolface_deg"]:g}'
+            for segment in sim.truth['segments']) + ' deg'
     magnetic = None
     if args.magnetic:
         magnetic = magnetometer(sim.stamps_ns, FRAME_ID, sim.mag_nT,
@@ -265,7 +290,7 @@ def run(args):
           f'{", ".join(topics.values())}; {what}')
     print(f'wrote {truth_path}: {len(sim.truth["segments"])} segments, every error source')
     if args.csv:
-        write_csv(args.csv, sim, args.mode is not None)
+        write_csv(args.csv, sim, args.mode is not None, args.mode == 'heating')
         print(f'wrote {args.csv}: {sim.stamps_ns.size} rows')
     return 0
 
@@ -305,12 +330,14 @@ def write_bag(path, storage, sim, noise_std_mps2, mode, magnetic=None):
     return topics
 
 
-def write_csv(path, sim, temperature):
-    """Write one row per sample: stamp, true attitude, [temperature,] raw reading."""
+def write_csv(path, sim, temperature, attitude=False):
+    """Write one row per sample: stamp, true attitude, [temperature, attitude,] raw reading."""
     columns = {'stamp_ns': sim.stamps_ns, 'inclination_deg': sim.inclination_deg,
                'toolface_deg': sim.toolface_deg}
     if temperature:
         columns['temperature_c'] = sim.temperature_c
+    if attitude:
+        columns['attitude'] = sim.segment
     columns.update(zip(('ax', 'ay', 'az'), sim.raw_mps2.T))
     with open(path, 'w', newline='') as stream:
         writer = csv.writer(stream)

@@ -17,7 +17,9 @@ Scenarios, each holding attitudes still one after the other:
   seed 002's ellipse fit).  Accelerometer and magnetometer are read together.
 - ``simulate_stand(StandRun)``: seed 001's nine stand positions at one
   temperature.
-- ``simulate_heating(StandRun)``: one attitude while the temperature ramps.
+- ``simulate_heating(StandRun)``: the temperature ramping at one attitude,
+  or at several in turn (``TURNED_OVER_HEATING_ATTITUDES_DEG``: what a
+  bias drift needs to be told from a scale drift).
 
 Default tools (``make_tool``; what each scenario simulates unless told
 otherwise):
@@ -61,6 +63,10 @@ STAND_POSITIONS_DEG = (
     (45.0, 45.0), (135.0, 165.0), (60.0, 300.0))
 #: Attitude of the heating run: every axis sees gravity, (0.58, 0.58, 0.57) g.
 HEATING_ATTITUDE_DEG = (55.0, 45.0)
+#: Two heating attitudes where every axis reads the opposite: 55/45 deg and turned over,
+#: 125/225 deg (-0.58, -0.58, -0.57) g.  At one attitude a bias drift cannot be told from
+#: a scale drift; here each axis reads differently and both are fitted.
+TURNED_OVER_HEATING_ATTITUDES_DEG = (HEATING_ATTITUDE_DEG, (125.0, 225.0))
 
 #: The demo's mount: seed 000's installation angles [deg].
 DEMO_GAMMA_DEG = 0.8
@@ -317,16 +323,26 @@ def simulate_stand(run=StandRun(), positions_deg=STAND_POSITIONS_DEG, samples=10
                       'position', temperature_c=temperature_c)
 
 
-def simulate_heating(run=StandRun(), attitude_deg=HEATING_ATTITUDE_DEG, t_start_c=20.0,
+def simulate_heating(run=StandRun(), attitudes_deg=(HEATING_ATTITUDE_DEG,), t_start_c=20.0,
                      t_end_c=100.0, samples=1601):
     """
-    Return a heating run: one still attitude, temperature ramping linearly.
+    Return a heating run: the tool still at each attitude in turn while the temperature ramps.
 
-    ``samples`` readings from ``t_start_c`` to ``t_end_c`` (the default 1601
-    are 0.05 deg C apart, 41 of them within 1 deg C of 25 deg C).
+    ``attitudes_deg``: (inclination_deg, toolface_deg) pairs, segments 1..N
+    in that order.  Each attitude gets ``samples`` readings over the whole
+    ramp (the default 1601 are 0.05 deg C apart, 41 of them within 1 deg C
+    of 25 deg C): the first heats from ``t_start_c`` to ``t_end_c``, the tool
+    is turned and the second cools back, and so on, so the temperature is
+    continuous over the run.
     """
-    temperature_c = np.linspace(t_start_c, t_end_c, samples)
-    return run.sample((tuple(attitude_deg),), [samples], temperature_c, 'heating',
+    attitudes_deg = tuple(tuple(float(v) for v in attitude) for attitude in attitudes_deg)
+    if not attitudes_deg or any(len(attitude) != 2 for attitude in attitudes_deg):
+        raise ValueError('heating attitudes are (inclination_deg, toolface_deg) pairs, '
+                         'at least one')
+    ramp = np.linspace(t_start_c, t_end_c, samples)
+    temperature_c = np.concatenate([ramp if k % 2 == 0 else ramp[::-1]
+                                    for k in range(len(attitudes_deg))])
+    return run.sample(attitudes_deg, [samples] * len(attitudes_deg), temperature_c, 'heating',
                       t_start_c=t_start_c, t_end_c=t_end_c)
 
 
