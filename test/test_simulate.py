@@ -56,14 +56,14 @@ def angle_diff_deg(a, b):
 
 
 def test_default_tools():
-    """The demo: ideal triads, gamma 0.8, beta -1.2, 0.002 m/s^2; the stand: quartz, same mount."""
+    """The demo: ideal triads, gamma 0.8, beta -1.2, 0.002 m/s^2; the stand: MEMS, same mount."""
     assert (DEMO_TOOL.mount.gamma_deg, DEMO_TOOL.mount.beta_deg, DEMO_TOOL.mount.roll_deg) == \
         (0.8, -1.2, 0.0)
     assert (DEMO_TOOL.accelerometer.noise_std, DEMO_TOOL.magnetometer.noise_std) == (0.002, 5.0)
     assert DEMO_TOOL.accelerometer.matrix == sm.IDEAL.accelerometer.matrix
     assert DEMO_TOOL.hard_iron_nT == (0.0, 0.0, 0.0)
     assert Scenario().tool == DEMO_TOOL and StandRun().tool == STAND_TOOL
-    assert STAND_TOOL.accelerometer == sm.QUARTZ_FLUXGATE.accelerometer
+    assert STAND_TOOL.accelerometer == sm.MEMS.accelerometer
     assert STAND_TOOL.mount == DEMO_TOOL.mount
     quartz = make_tool('quartz', 0.1, 0.2, 0.3, (0.4, 0.5, 0.6), noise_mps2=0.0, axes=2)
     assert quartz.mount == sm.Mount(0.1, 0.2, 0.3, (0.4, 0.5, 0.6))
