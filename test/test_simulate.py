@@ -340,6 +340,14 @@ def test_cli_options_reach_the_tool(tmp_path):
         [s['samples'] for s in expected.truth['segments']]
 
 
+def test_demo_takes_the_noise_from_the_truth_file(tmp_path):
+    """``inclino demo`` tells the node the noise ``inclino simulate`` recorded (0.002 m/s^2)."""
+    from inclino_ros.cli.demo import accelerometer_noise_mps2
+    assert run_cli([tmp_path / 'bench', '--level-s', 0.1, '--station-s', 0.1])[0] == 0
+    truth = json.loads((tmp_path / 'bench.truth.json').read_text())
+    assert accelerometer_noise_mps2(truth) == 0.002
+
+
 def test_cli_heating_attitudes(tmp_path):
     """--heating-attitudes: the bag, the truth file and the CSV's attitude column."""
     path = tmp_path / 'heating'

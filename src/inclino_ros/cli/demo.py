@@ -42,6 +42,16 @@ def isolate_dds(log_dir):
     os.environ['ROS_LOG_DIR'] = log_dir
 
 
+def accelerometer_noise_mps2(truth):
+    """
+    Return the simulated accelerometer noise [m/s^2] of a truth file (``inclino simulate``).
+
+    The physical model's triad records it (``sensor_model.truth_dict``): one value, or one
+    per axis, of which the largest.
+    """
+    return float(np.max(truth['tool']['accelerometer']['noise_std']))
+
+
 def start_node(calibration_file, log_path, noise_std_mps2):
     """Start ``inclinometer_node`` (the console script beside this Python), told the noise."""
     executable = os.path.join(os.path.dirname(sys.executable), 'inclinometer_node')
@@ -225,8 +235,8 @@ def run(args):
     stations = segment(series, seg > 0)
 
     print(f'== 2. start inclinometer_node (ROS_DOMAIN_ID={os.environ["ROS_DOMAIN_ID"]})')
-    node = start_node(calibration_file, os.path.join(out, 'node.log'),
-                      truth['noise_std_mps2'])
+    noise_std_mps2 = accelerometer_noise_mps2(truth)
+    node = start_node(calibration_file, os.path.join(out, 'node.log'), noise_std_mps2)
     session = LiveSession()
     try:
         session.wait_for_node()
@@ -249,7 +259,7 @@ def run(args):
         import shutil
         shutil.rmtree(processed)
     inclino(['process', bag_path, processed, '--calibration', calibration_file,
-             '--noise-mps2', str(truth['noise_std_mps2'])])
+             '--noise-mps2', str(noise_std_mps2)])
     offline_series = concatenate(read(processed, '/survey'))
     offline_by_stamp = dict(zip(offline_series.stamps_ns.tolist(),
                                 map(tuple, offline_series.vector[:, :2])))
