@@ -121,7 +121,7 @@ def test_unwritable_folder_keeps_previous_file(tmp_path, monkeypatch):
         raise PermissionError(13, 'Permission denied')
 
     # Simulated so that the test also bites when run as root, who ignores chmod.
-    monkeypatch.setattr('tempfile.mkstemp', refuse)
+    monkeypatch.setattr('inclino_ros.io.files.open', refuse, raising=False)
     with pytest.raises(PermissionError):
         save_model(str(path), CalibrationModel(accelerometer_axes=3))
     monkeypatch.undo()

@@ -18,16 +18,15 @@ naming the file, never a silent zero correction.
 from dataclasses import asdict, dataclass, fields
 from datetime import datetime, timezone
 from functools import cached_property
-import json
 import math
 import os
-import tempfile
 
 from inclino_ros.core.cross_axial import apply_cross_axial
 from inclino_ros.core.installation import (
     inverse_installation_matrix, pseudo_inclination, to_tool_frame)
 from inclino_ros.core.stand import correct_stand, MAX_CONDITION_NUMBER
 from inclino_ros.core.temperature import compensate_temperature, TemperatureFit
+from inclino_ros.io.files import read_json, write_json
 import numpy as np
 
 FORMAT = 'inclino_ros.calibration'
@@ -235,31 +234,7 @@ def age_seconds(iso_time, now=None):
 def save_model(path, model):
     """Write ``model`` to ``path`` atomically: a reader sees old or new, whole."""
     model_from_dict(model.to_dict())  # never write what load_model would refuse
-    write_json_atomically(path, model.to_dict())
-
-
-def write_json_atomically(path, doc):
-    """Write ``doc`` as JSON to ``path``: temporary file, fsync, rename, fsync the folder."""
-    path = os.path.abspath(os.path.expanduser(path))
-    folder = os.path.dirname(path)
-    os.makedirs(folder, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f'.{os.path.basename(path)}-', suffix='.tmp', dir=folder)
-    try:
-        with os.fdopen(fd, 'w') as out:
-            json.dump(doc, out, indent=2)
-            out.write('\n')
-            out.flush()
-            os.fsync(out.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    dir_fd = os.open(folder, os.O_RDONLY)
-    try:
-        os.fsync(dir_fd)
-    finally:
-        os.close(dir_fd)
+    write_json(os.path.expanduser(path), model.to_dict())
 
 
 def load_model(path):
@@ -271,17 +246,9 @@ def load_model(path):
     """
     path = os.path.expanduser(path)
     try:
-        with open(path, 'rb') as stream:
-            data = stream.read()
-    except FileNotFoundError:
-        raise
-    except OSError as err:
-        raise CalibrationFileError(path, f'cannot be read ({err})') from None
-    try:
-        # From bytes, so undecodable garbage is a ValueError (UnicodeDecodeError) here too.
-        doc = json.loads(data)
-    except (ValueError, RecursionError) as err:
-        raise CalibrationFileError(path, f'not valid JSON ({err})') from None
+        doc = read_json(path)
+    except ValueError as err:
+        raise CalibrationFileError(path, str(err)) from None
     try:
         return model_from_dict(doc)
     except (KeyError, TypeError, ValueError, OverflowError) as err:
