@@ -76,7 +76,7 @@ def test_failure_removes_the_temporaries(tmp_path):
 
 
 def test_stale_temporaries_of_killed_writes_are_removed(tmp_path):
-    """Temporaries of a dead PID or of the old mkstemp naming go at the next write; live ones stay."""
+    """Temporaries of a dead PID or the old mkstemp naming go at the next write; live ones stay."""
     path = tmp_path / 'calibration.json'
     dead = dead_pid()
     stale = [tmp_path / f'.calibration.json-{dead}-0123abcd.tmp',

@@ -11,8 +11,10 @@ A model is an ordered set of correction stages applied to raw specific force
 3. ``installation``: seed 000 Eqs. 8-9, the level-bench angles gamma, beta.
 
 The file is JSON, versioned, written atomically (temporary file, fsync,
-rename) and validated on load; any defect raises ``CalibrationFileError``
-naming the file, never a silent zero correction.
+rename, ``io.files``) and validated on load and before every write: its
+structure here, what each stage can physically be in ``plausibility``; any
+defect raises ``CalibrationFileError`` naming the file, never a silent zero
+correction.
 """
 
 from dataclasses import asdict, dataclass, fields
@@ -21,10 +23,11 @@ from functools import cached_property
 import math
 import os
 
+from inclino_ros.calibration import plausibility
 from inclino_ros.core.cross_axial import apply_cross_axial
 from inclino_ros.core.installation import (
     inverse_installation_matrix, pseudo_inclination, to_tool_frame)
-from inclino_ros.core.stand import correct_stand, MAX_CONDITION_NUMBER
+from inclino_ros.core.stand import correct_stand
 from inclino_ros.core.temperature import compensate_temperature, TemperatureFit
 from inclino_ros.io.files import read_json, write_json
 import numpy as np
@@ -326,15 +329,11 @@ def installation_from_dict(section):
     """Return a validated Installation from its file section."""
     _check_fields(section, Installation, 'installation')
     _finite(section, 'installation', 'gamma_deg', 'beta_deg', 'std_deg', 'g_total_mps2')
-    for name in ('gamma_deg', 'beta_deg'):
-        if abs(section[name]) >= 45.0:
-            raise ValueError(f'installation.{name} = {section[name]} is not an '
-                             'installation error (|angle| must be < 45 deg)')
     _count(section, 'installation', 'sample_count')
-    if section['std_deg'] < 0 or section['g_total_mps2'] <= 0:
-        raise ValueError('installation.std_deg must be >= 0 and g_total_mps2 > 0')
     _time(section, 'installation', 'captured_at')
-    return Installation(**section)
+    stage = Installation(**section)
+    plausibility.check_installation(stage)
+    return stage
 
 
 def stand_from_dict(section):
@@ -347,13 +346,12 @@ def stand_from_dict(section):
         raise ValueError(f'stand.method = {section["method"]!r} is not stand or sphere')
     if section['rms_inclination_deg'] is not None:
         _finite(section, 'stand', 'rms_inclination_deg')
-    if np.linalg.cond(k) > MAX_CONDITION_NUMBER or np.any(np.abs(np.diag(k) - 1.0) > 0.5):
-        raise ValueError(f'stand.scale_matrix {k.tolist()} is not a plausible sensor '
-                         '(singular, or an axis scale far from 1)')
     _count(section, 'stand', 'positions')
     _time(section, 'stand', 'fitted_at')
-    return Stand(**dict(section, scale_matrix=tuple(map(tuple, k.tolist())),
-                        bias_mps2=tuple(section['bias_mps2'])))
+    stage = Stand(**dict(section, scale_matrix=tuple(map(tuple, k.tolist())),
+                         bias_mps2=tuple(section['bias_mps2'])))
+    plausibility.check_stand(stage)
+    return stage
 
 
 def temperature_from_dict(section):
@@ -373,25 +371,16 @@ def temperature_from_dict(section):
     _time(section, 'temperature', 'fitted_at')
     stage = Temperature(**dict(section, coefficients=tuple(map(tuple, section['coefficients'])),
                                rms_residual_mps2=tuple(section['rms_residual_mps2'])))
-    scale = stage.fit.scale_factor(np.linspace(t_min, t_max, 101))
-    if np.any(scale <= 0.5) or np.any(scale >= 1.5):
-        raise ValueError('temperature.coefficients give a scale factor outside 0.5..1.5 '
-                         'in the fitted range')
-    if np.max(np.abs(stage.fit.scale_factor([t_ref]) - 1.0)) > 1e-6:
-        raise ValueError('temperature.coefficients are not 1 at the reference temperature')
+    plausibility.check_temperature(stage)
     return stage
 
 
 def magnetic_from_dict(section):
     """Return a validated Magnetic from its file section."""
     _check_fields(section, Magnetic, 'magnetic')
-    (w,) = _finite(section, 'magnetic', 'soft_iron', shape=(2, 2))
+    _finite(section, 'magnetic', 'soft_iron', shape=(2, 2))
     _finite(section, 'magnetic', 'hard_iron_nT', shape=(2,))
-    (eps,) = _finite(section, 'magnetic', 'interference_nT', shape=(3,))
-    if np.linalg.cond(w) > 2.0 or np.any(np.abs(np.diag(w) - 1.0) > 0.5):
-        raise ValueError(f'magnetic.soft_iron {w.tolist()} is not a plausible correction')
-    if np.max(np.abs(eps)) > 1e5:
-        raise ValueError(f'magnetic.interference_nT {eps.tolist()} exceeds 100000 nT')
+    _finite(section, 'magnetic', 'interference_nT', shape=(3,))
     for key in ('rotation_fitted_at', 'msa_fitted_at'):
         if section[key] is not None:
             _time(section, 'magnetic', key)
@@ -400,9 +389,11 @@ def magnetic_from_dict(section):
             raise ValueError(f'magnetic.msa_method = {section["msa_method"]!r} is unknown')
         _count(section, 'magnetic', 'msa_stations')
         _finite(section, 'magnetic', 'msa_reference_total_nT', 'msa_reference_dip_deg')
-    return Magnetic(**dict(section, hard_iron_nT=tuple(section['hard_iron_nT']),
-                           soft_iron=tuple(map(tuple, section['soft_iron'])),
-                           interference_nT=tuple(section['interference_nT'])))
+    stage = Magnetic(**dict(section, hard_iron_nT=tuple(section['hard_iron_nT']),
+                            soft_iron=tuple(map(tuple, section['soft_iron'])),
+                            interference_nT=tuple(section['interference_nT'])))
+    plausibility.check_magnetic(stage)
+    return stage
 
 
 #: A magnetic stage that changes nothing, to build the first correction on.

@@ -13,6 +13,7 @@ import math
 
 from inclino_ros.calibration.level_capture import CaptureRefused
 from inclino_ros.calibration.model import Stand, utc_now_iso
+from inclino_ros.calibration.plausibility import check_accelerometer_readings
 from inclino_ros.core.attitude import angle_between
 from inclino_ros.core.stand import (
     fit_stand, MIN_SEPARATION_DEG, stand_specific_force, StandFitRefused)
@@ -49,11 +50,17 @@ def check_new_attitude(positions, inclination_deg, toolface_deg):
                 'stand.inclination_deg / stand.toolface_deg to the next stand attitude')
 
 
-def average_position(samples, inclination_deg, toolface_deg, max_std_deg):
-    """Return the Position of a still capture, or raise CaptureRefused if it moved."""
+def average_position(samples, inclination_deg, toolface_deg, max_std_deg, gravity_mps2):
+    """
+    Return the Position of a still capture.
+
+    Raises CaptureRefused if it moved, Implausible for readings that are not
+    a still tool's in m/s^2 (``plausibility.check_accelerometer_readings``).
+    """
     samples = np.asarray(samples, dtype=float)
     if samples.shape[0] < 2:
         raise CaptureRefused(f'only {samples.shape[0]} sample(s) captured, need at least 2')
+    check_accelerometer_readings(samples, gravity_mps2, "the position's samples")
     std_deg = direction_spread_deg(samples)
     if std_deg > max_std_deg:
         raise CaptureRefused(f'tool is moving: spread {std_deg:.4f} deg exceeds '

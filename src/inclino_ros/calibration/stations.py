@@ -58,7 +58,7 @@ def msa_inputs(stations, magnetic_stage):
 def save_stations(path, stations):
     """Write the station list to ``path`` atomically."""
     write_json(os.path.expanduser(path), {'format': FORMAT, 'schema_version': SCHEMA_VERSION,
-                                 'stations': [asdict(s) for s in stations]})
+                                          'stations': [asdict(s) for s in stations]})
 
 
 def load_stations(path):

@@ -17,14 +17,17 @@ are kept.  Report: the readings before and after with the fitted ellipse and
 circle (seed 002 Fig. 4) in ``fit_rotation.png`` and the summary in
 ``fit_rotation.txt``.
 
-Refused (exit 1, the calibration file untouched): too few readings, a
-non-finite one, no ellipse, too flat an ellipse, too short an arc or too
-large a radial RMSE (``cross_axial.RotationLimits``).
+Refused (exit 1, the calibration file untouched): readings that are no
+Earth field in nT (``plausibility.check_field_readings``: a dead
+magnetometer, tesla or gauss named), too few readings, a non-finite one, no
+ellipse, too flat an ellipse, too short an arc or too large a radial RMSE
+(``cross_axial.RotationLimits``).
 """
 
 from dataclasses import replace
 
 from inclino_ros.calibration.model import NO_MAGNETIC_CORRECTION, utc_now_iso
+from inclino_ros.calibration.plausibility import check_field_readings
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_file_arguments, finish_figure, is_bag, load_existing, new_figure, read_csv, read_topic,
@@ -81,6 +84,7 @@ def fit(args, lines):
     """Fit the rotation of ``args.input`` into ``args.calibration``; see ``run_fit``."""
     existing = load_existing(args.calibration)
     readings = load_readings(args)
+    check_field_readings(readings)
     try:
         result = fit_cross_axial(readings)
     except RotationFitRefused as err:

@@ -20,16 +20,19 @@ temperature stage and drops the installation stage: a stand K contains the
 mounting misalignment, and after a sphere fit the level bench must be
 measured again on the stand-corrected readings.
 
-Refused (exit 1, the calibration file untouched): a fit ``stand`` refuses
-(too few positions, repeated attitudes, an ill-posed set), a position whose
-samples spread more than ``--max-std-deg`` (the tool moved), an RMS
-inclination residual above ``--max-rms-deg`` (for a sphere fit: the RMS of
-``|G| - g`` over g, as an angle).
+Refused (exit 1, the calibration file untouched): readings that are not
+those of a still tool in m/s^2 (``plausibility.check_accelerometer_readings``:
+g or mg named), a fit ``stand`` refuses (too few positions, repeated
+attitudes, an ill-posed set), a position whose samples spread more than
+``--max-std-deg`` (the tool moved), an RMS inclination residual above
+``--max-rms-deg`` (for a sphere fit: the RMS of ``|G| - g`` over g, as an
+angle).
 """
 
 from functools import partial
 
 from inclino_ros.calibration.model import CalibrationModel, Stand, utc_now_iso
+from inclino_ros.calibration.plausibility import check_accelerometer_readings
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_common_arguments, AXIS_COLUMNS, finish_figure, has_topic, is_bag, load_existing,
@@ -77,6 +80,7 @@ def fit(args, lines):
     """Fit the stand stage of ``args.input`` into ``args.calibration``; see ``run_fit``."""
     existing = load_existing(args.calibration)
     readings, attitude_deg, temperature_c = load_input(args)
+    check_accelerometer_readings(readings, args.gravity_mps2)
     if existing.temperature is not None:
         readings = CalibrationModel(3, temperature=existing.temperature).apply(
             readings, temperature_c)

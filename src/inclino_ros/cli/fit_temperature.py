@@ -18,15 +18,18 @@ polynomial of ``--order`` (``temperature.fit_temperature``, K_T = 1 at
 installation stages are kept (K_T is a ratio of readings, independent of
 them).
 
-Refused (exit 1, the calibration file untouched): no reading near 25 deg C
-and no ref columns, or a fit ``temperature`` refuses (too few distinct
-temperatures for the order, 25 deg C outside the data, an axis that sees no
-gravity at the attitude).
+Refused (exit 1, the calibration file untouched): readings not of a still
+tool in m/s^2 or temperatures no sensor reads (``plausibility``), no reading
+near 25 deg C and no ref columns, or a fit ``temperature`` refuses (too few
+distinct temperatures for the order, 25 deg C outside the data, an axis that
+sees no gravity at the attitude).
 """
 
 from dataclasses import replace
 
 from inclino_ros.calibration.model import Temperature, utc_now_iso
+from inclino_ros.calibration.plausibility import (
+    check_accelerometer_readings, check_temperatures, STANDARD_GRAVITY_MPS2)
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_common_arguments, AXIS_COLUMNS, finish_figure, is_bag, load_existing, matrix_lines,
@@ -67,6 +70,8 @@ def fit(args, lines):
         raise CommandError('--order must be at least 1')
     existing = load_existing(args.calibration)
     temperature_c, readings, reference = load_input(args)
+    check_accelerometer_readings(readings, STANDARD_GRAVITY_MPS2)
+    check_temperatures(temperature_c)
     if reference is None:
         near = np.abs(temperature_c - REFERENCE_TEMPERATURE_C) <= args.reference_window_c
         if not near.any():

@@ -15,6 +15,7 @@ import sys
 
 from inclino_ros.calibration.model import (
     CalibrationFileError, CalibrationModel, load_model, save_model)
+from inclino_ros.calibration.plausibility import Implausible
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.io import tables
 from inclino_ros.io.bag import BagError, concatenate, read, topic_info
@@ -156,12 +157,13 @@ def run_fit(command, args, fit):
     Run ``fit(args, lines)`` and report; return the exit code.
 
     ``fit`` appends the summary lines to ``lines`` (printed as they are, and
-    written to the text report by the fit); Refused gives 1, CommandError 2.
+    written to the text report by the fit); Refused and Implausible (readings
+    no sensor gives, ``calibration.plausibility``) give 1, CommandError 2.
     """
     lines = []
     try:
         fit(args, lines)
-    except Refused as err:
+    except (Refused, Implausible) as err:
         if lines:
             print('\n'.join(lines))
         print(f'inclino {command}: refused: {err}; {args.calibration} left unchanged',

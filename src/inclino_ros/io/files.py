@@ -197,7 +197,7 @@ class Outputs:
 
     @staticmethod
     def _replace(tmp, final):
-        """Rename ``tmp`` to ``final``; an existing folder, or a file under a folder, goes aside."""
+        """Rename ``tmp`` to ``final``, moving an existing folder (or file, for a folder) aside."""
         folder_there = os.path.isdir(final) and not os.path.islink(final)
         if not folder_there and not (os.path.isdir(tmp) and os.path.lexists(final)):
             os.replace(tmp, final)  # atomic, over a file too
@@ -245,7 +245,7 @@ def _unique_keys(pairs):
 
 
 def loads_strict(data):
-    """Return the JSON document ``data`` (str or bytes); ValueError for a repeated key."""
+    """Return the JSON document ``data`` (str or bytes); ValueError for a key repeated."""
     return json.loads(data, object_pairs_hook=_unique_keys)
 
 

@@ -17,12 +17,14 @@ from dataclasses import replace
 
 from inclino_ros.calibration.level_capture import CaptureRefused
 from inclino_ros.calibration.model import NO_MAGNETIC_CORRECTION, utc_now_iso
+from inclino_ros.calibration.plausibility import check_field_readings, Implausible
 from inclino_ros.calibration.stand_capture import direction_spread_deg
 from inclino_ros.calibration.stations import msa_inputs, save_stations, Station
 from inclino_ros.core.cross_axial import fit_cross_axial, RotationFitRefused
 from inclino_ros.core.magnetics import iscwsa_from_tool
 from inclino_ros.core.msa import (
     azimuth_difference_deg, MsaRefused, solve_msa_axial, solve_msa_classic, solve_msa_improved)
+from inclino_ros.node.capture import guarded
 from inclino_ros.pipeline import run
 import numpy as np
 from rclpy.callback_groups import ReentrantCallbackGroup
@@ -45,7 +47,8 @@ class MagneticServices:
                                ('~/take_survey', self.take_survey),
                                ('~/solve_msa', self.solve_msa),
                                ('~/clear_surveys', self.clear_surveys)):
-            node.create_service(Trigger, name, callback, callback_group=group)
+            node.create_service(Trigger, name, guarded(collector, callback),
+                                callback_group=group)
 
     def _stage(self):
         return self.node.model.magnetic or NO_MAGNETIC_CORRECTION
@@ -57,13 +60,14 @@ class MagneticServices:
             captured = await self.collector.collect(
                 'rotation', duration_s=node.param('rotation.duration_s'))
             field = captured.field_nT[np.isfinite(captured.field_nT).all(axis=1)]
+            check_field_readings(field, "the rotation's magnetometer readings")
             fit = fit_cross_axial(field)
             stage = replace(self._stage(), hard_iron_nT=tuple(fit.offset_nT.tolist()),
                             soft_iron=tuple(map(tuple, fit.correction.tolist())),
                             interference_nT=(0.0, 0.0, 0.0), rotation_fitted_at=utc_now_iso(),
                             msa_method=None, msa_stations=0, msa_fitted_at=None)
             self.collector.commit(replace(node.model, magnetic=stage))
-        except (CaptureRefused, RotationFitRefused) as err:
+        except (CaptureRefused, RotationFitRefused, Implausible) as err:
             return self.collector.refuse(response, str(err))
         return self.collector.answer(response, (
             f'rotation fit of {fit.sample_count} samples: hard iron '
@@ -84,6 +88,11 @@ class MagneticServices:
             return self.collector.refuse(
                 response, f'only {paired.sum()} of {paired.size} samples had a paired imu/mag '
                 'reading', kept)
+        field_nT = captured.field_nT[paired].mean(axis=0)
+        try:
+            check_field_readings(field_nT[None], "the station's field")
+        except Implausible as err:
+            return self.collector.refuse(response, err.reason, kept)
         spread_deg = direction_spread_deg(captured.raw[paired])
         if spread_deg > node.param('survey.max_std_deg'):
             return self.collector.refuse(
@@ -92,14 +101,13 @@ class MagneticServices:
         temperatures_c = (None if captured.temperatures_c is None
                           else captured.temperatures_c[paired].mean())
         survey = run(captured.raw[paired].mean(axis=0), node.model, node.settings,
-                     temperatures_c, captured.field_nT[paired].mean(axis=0)[None],
-                     node.magnetic_settings)
+                     temperatures_c, field_nT[None], node.magnetic_settings)
         if not survey.accepted.all():
             return self.collector.refuse(response, 'the averaged station is not a valid '
                                          'reading', kept)
         station = Station(
             specific_force_mps2=tuple(survey.corrected_mps2[0].tolist()),
-            field_nT=tuple(captured.field_nT[paired].mean(axis=0).tolist()),
+            field_nT=tuple(field_nT.tolist()),
             samples=int(paired.sum()), captured_at=utc_now_iso())
         try:
             save_stations(node.stations_file, self.stations + [station])

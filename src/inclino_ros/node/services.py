@@ -9,9 +9,11 @@ as they were.
 from dataclasses import replace
 
 from inclino_ros.calibration.level_capture import CaptureRefused, LevelLimits, solve_level_capture
+from inclino_ros.calibration.plausibility import Implausible
 from inclino_ros.calibration.stand_capture import (
     average_position, check_new_attitude, solve_positions)
 from inclino_ros.core.stand import StandFitRefused
+from inclino_ros.node.capture import guarded
 import numpy as np
 from rclpy.callback_groups import ReentrantCallbackGroup
 from std_srvs.srv import Trigger
@@ -32,7 +34,8 @@ class CalibrationServices:
                                ('~/capture_position', self.capture_position),
                                ('~/solve_stand_calibration', self.solve_stand_calibration),
                                ('~/clear_positions', self.clear_positions)):
-            node.create_service(Trigger, name, callback, callback_group=group)
+            node.create_service(Trigger, name, guarded(collector, callback),
+                                callback_group=group)
 
     async def calibrate_level(self, request, response):
         """Capture the tool on a level bench and apply gamma, beta (seed 000 Eqs. 11-14)."""
@@ -68,8 +71,9 @@ class CalibrationServices:
             captured = await self.collector.collect('stand')
             position = average_position(
                 node.model.apply(captured.raw, captured.temperatures_c, before='stand'),
-                inclination_deg, toolface_deg, node.param('stand.max_std_deg'))
-        except CaptureRefused as err:
+                inclination_deg, toolface_deg, node.param('stand.max_std_deg'),
+                node.settings.gravity_mps2)
+        except (CaptureRefused, Implausible) as err:
             return self.collector.refuse(
                 response, str(err), f'{len(self.positions)} positions kept')
         self.positions.append(position)
