@@ -80,7 +80,7 @@ def load_readings(args):
     return series.field_nT[window]
 
 
-def fit(args, lines):
+def fit(args, lines, outputs):
     """Fit the rotation of ``args.input`` into ``args.calibration``; see ``run_fit``."""
     existing = load_existing(args.calibration)
     readings = load_readings(args)
@@ -96,11 +96,11 @@ def fit(args, lines):
                     soft_iron=tuple(map(tuple, result.correction.tolist())),
                     rotation_fitted_at=utc_now_iso())
     png, txt = report_paths(args, REPORT_NAME)
-    plot_rotation(png, readings, corrected, result)
+    plot_rotation(outputs.path(png), readings, corrected, result)
     save(args.calibration, replace(existing, magnetic=stage))
     lines += [f'wrote the magnetic stage (hard and soft iron) to {args.calibration}',
               f'report: {png}, {txt}']
-    write_text(txt, lines)
+    write_text(outputs.path(txt), lines)
 
 
 def summary_lines(result, readings):

@@ -76,7 +76,7 @@ def run(args):
     return run_fit('fit-stand', args, fit)
 
 
-def fit(args, lines):
+def fit(args, lines, outputs):
     """Fit the stand stage of ``args.input`` into ``args.calibration``; see ``run_fit``."""
     existing = load_existing(args.calibration)
     readings, attitude_deg, temperature_c = load_input(args)
@@ -93,9 +93,9 @@ def fit(args, lines):
         stage, refusal, draw = fit_readings(args, readings, lines)
     # A refused fit reports beside, not over, the report of the fit in the file.
     png, txt = report_paths(args, REPORT_NAME + ('_refused' if refusal else ''))
-    draw(png)
+    draw(outputs.path(png))
     lines.append(f'report: {png}')
-    write_text(txt, lines + ([f'REFUSED: {refusal}'] if refusal else []))
+    write_text(outputs.path(txt), lines + ([f'REFUSED: {refusal}'] if refusal else []))
     if refusal:
         raise Refused(refusal)
     dropped = existing.installation is not None

@@ -64,7 +64,7 @@ def run(args):
     return run_fit('fit-temperature', args, fit)
 
 
-def fit(args, lines):
+def fit(args, lines, outputs):
     """Fit the temperature stage of ``args.input`` into ``args.calibration``; see ``run_fit``."""
     if args.order < 1:
         raise CommandError('--order must be at least 1')
@@ -114,13 +114,13 @@ def fit(args, lines):
               f'{np.abs(before_deg).max():.4f} deg uncompensated, '
               f'{np.abs(after_deg).max():.4f} deg compensated']
     png, txt = report_paths(args, REPORT_NAME)
-    plot(png, temperature_c, readings / reference, result, before_deg, after_deg)
+    plot(outputs.path(png), temperature_c, readings / reference, result, before_deg, after_deg)
     lines.append(f'report: {png}')
     save(args.calibration, model)
     kept = [name for name in ('stand', 'installation') if getattr(model, name) is not None]
     lines.append(f'wrote {args.calibration}: temperature stage (order {args.order})'
                  + (f', {" and ".join(kept)} stage kept' if kept else ''))
-    write_text(txt, lines)
+    write_text(outputs.path(txt), lines)
 
 
 def load_input(args):

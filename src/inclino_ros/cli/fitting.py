@@ -19,6 +19,7 @@ from inclino_ros.calibration.plausibility import Implausible
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.io import tables
 from inclino_ros.io.bag import BagError, concatenate, read, topic_info
+from inclino_ros.io.files import Outputs
 
 RAW_TOPIC = '/imu/data_raw'
 TEMPERATURE_TOPIC = '/imu/temperature'
@@ -142,43 +143,49 @@ def new_figure(rows, title):
     return pyplot, fig, axes
 
 
-def finish_figure(pyplot, fig, axes, path):
-    """Grid and legend on every panel, then write the figure to ``path``."""
+def finish_figure(pyplot, fig, axes, path, fmt='png'):
+    """Grid and legend on every panel, then write the figure to ``path`` in ``fmt``."""
     for ax in axes:
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize='small')
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    fig.savefig(path, dpi=100, format=fmt)
     pyplot.close(fig)
 
 
 def run_fit(command, args, fit):
     """
-    Run ``fit(args, lines)`` and report; return the exit code.
+    Run ``fit(args, lines, outputs)`` and report; return the exit code.
 
     ``fit`` appends the summary lines to ``lines`` (printed as they are, and
-    written to the text report by the fit); Refused and Implausible (readings
-    no sensor gives, ``calibration.plausibility``) give 1, CommandError 2.
+    written to the text report by the fit) and writes its report files to
+    ``outputs.path(final)`` (``io.files.Outputs``): they replace the report
+    of the previous fit whole, never the input or the calibration file, and
+    are kept when the fit is refused (the refusal's report) but not when the
+    command fails.  Refused and Implausible (readings no sensor gives,
+    ``calibration.plausibility``) give 1; other errors propagate to ``main``.
     """
     lines = []
-    try:
-        fit(args, lines)
-    except (Refused, Implausible) as err:
+    with Outputs(inputs=[args.input, args.calibration], force=True) as outputs:
+        try:
+            fit(args, lines, outputs)
+        except (Refused, Implausible) as err:
+            refusal = err
+        else:
+            refusal = None
+    if refusal is not None:
         if lines:
             print('\n'.join(lines))
-        print(f'inclino {command}: refused: {err}; {args.calibration} left unchanged',
+        print(f'inclino {command}: refused: {refusal}; {args.calibration} left unchanged',
               file=sys.stderr)
         return 1
-    except CommandError as err:
-        print(f'inclino {command}: error: {err}', file=sys.stderr)
-        return 2
     print('\n'.join(lines))
     return 0
 
 
 def write_text(path, lines):
-    """Write the summary ``lines`` to ``path``."""
-    with open(path, 'w') as stream:
+    """Write the summary ``lines`` to the new file ``path``."""
+    with open(path, 'x') as stream:
         stream.write('\n'.join(lines) + '\n')
 
 

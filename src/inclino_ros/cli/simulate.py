@@ -24,19 +24,26 @@ a rotation segment: the tool turning about its axis (``--rotation-turns``) at
 one inclination and azimuth, for ``inclino fit-rotation``.  Every magnetometer
 message has the stamp of the accelerometer sample it goes with (one each, the
 same stamps): ``inclino process --mag-topic`` pairs them exactly.
+
+A run holds at most MAX_SAMPLES samples (about 0.6 GB of memory at the most);
+OUT, OUT.truth.json and the CSV are written under temporary names, renamed
+when all are complete, and refused when they exist unless ``--force``.
 """
 
 import csv
 from dataclasses import dataclass, replace
 import json
 import math
-import sys
 
+from inclino_ros.cli.errors import CommandError
+from inclino_ros.cli.options import add_force_argument, between, finite, reference_total_nT
 from inclino_ros.core import magnetics
 from inclino_ros.core.attitude import specific_force
+from inclino_ros.core.msa import MAX_INTERFERENCE_NT
 from inclino_ros.io.bag import (
     BagWriter, IMU, MAGNETIC_FIELD, MagneticFieldSeries, magnetometer, raw_imu, TEMPERATURE,
     TemperatureSeries, VECTOR3_STAMPED, Vector3Series)
+from inclino_ros.io.files import Outputs
 from inclino_ros.sim.bench import (
     Scenario, sensor_matrix, SensorErrors, SensorRun, simulate, simulate_heating,
     simulate_stand)
@@ -51,6 +58,10 @@ MAG_TOPIC = '/imu/mag'
 #: Default samples: per stand position (--stand), over the whole ramp (--heating).
 DEFAULT_SAMPLES = {'stand': 100, 'heating': 1601}
 FRAME_ID = 'inclinometer'
+#: Most samples of one run (1 000 000: 83 min of a 200 Hz bench).
+MAX_SAMPLES = 1_000_000
+#: Seconds a segment may last (a day).
+MAX_SEGMENT_S = 86_400.0
 
 
 def register(subparsers):
@@ -63,17 +74,20 @@ def register(subparsers):
                     'x inclination_deg, y toolface_deg seed000, z magnetic azimuth_deg with '
                     '--magnetic, else NaN) to the bag OUT, plus OUT.truth.json.')
     parser.add_argument('out', metavar='OUT', help='bag directory to create')
-    for flag, name, meaning in (
-            ('--gamma-deg', 'gamma_deg', 'installation angle gamma [deg]'),
-            ('--beta-deg', 'beta_deg', 'installation angle beta [deg]'),
-            ('--noise-mps2', 'noise_std_mps2', 'noise per axis, 1 sigma [m/s^2]'),
-            ('--rate-hz', 'rate_hz', 'sample rate [Hz]'),
-            ('--level-s', 'level_s', 'duration of the level segment [s]'),
-            ('--station-s', 'station_s', 'duration of each tilted station [s]')):
-        parser.add_argument(flag, dest=name, type=float, default=getattr(defaults, name),
+    for flag, name, kind, meaning in (
+            ('--gamma-deg', 'gamma_deg', between(-45.0, 45.0), 'installation angle gamma [deg]'),
+            ('--beta-deg', 'beta_deg', between(-45.0, 45.0), 'installation angle beta [deg]'),
+            ('--noise-mps2', 'noise_std_mps2', between(0.0, 10.0),
+             'noise per axis, 1 sigma [m/s^2]'),
+            ('--rate-hz', 'rate_hz', between(0.01, 100_000.0), 'sample rate [Hz]'),
+            ('--level-s', 'level_s', between(0.0, MAX_SEGMENT_S),
+             'duration of the level segment [s]'),
+            ('--station-s', 'station_s', between(0.0, MAX_SEGMENT_S),
+             'duration of each tilted station [s]')):
+        parser.add_argument(flag, dest=name, type=kind, default=getattr(defaults, name),
                             metavar=flag[2:].upper().replace('-', '_'),
                             help=f'{meaning} (default: %(default)s)')
-    parser.add_argument('--seed', type=int, default=defaults.seed,
+    parser.add_argument('--seed', type=between(0, 2 ** 63 - 1, int), default=defaults.seed,
                         help='seed of the noise generator (default: %(default)s)')
     parser.add_argument('--axes', type=int, choices=(2, 3), default=defaults.axes,
                         help='accelerometer axes; a 2-axis sensor reads z = 0.0 '
@@ -87,7 +101,7 @@ def register(subparsers):
     mode.add_argument('--heating', dest='mode', action='store_const', const='heating',
                       help=f'seed 001 heating run: inclination 55 deg, toolface 45 deg, '
                            f'20 -> 100 deg C on {TEMPERATURE_TOPIC}')
-    parser.add_argument('--samples', type=int,
+    parser.add_argument('--samples', type=between(1, MAX_SAMPLES, int),
                         help='--stand: samples per position (default: '
                              f'{DEFAULT_SAMPLES["stand"]}); --heating: samples over the ramp '
                              f'(default: {DEFAULT_SAMPLES["heating"]})')
@@ -95,6 +109,7 @@ def register(subparsers):
                         help='also write the samples to FILE: stamp_ns, inclination_deg, '
                              'toolface_deg, [temperature_c,] ax, ay, az [m/s^2]')
     add_magnetic_arguments(parser)
+    add_force_argument(parser)
     parser.set_defaults(func=run, mode=None)
 
 
@@ -118,30 +133,40 @@ def add_magnetic_arguments(parser):
     group = parser.add_argument_group('magnetometer (--magnetic, bench scenario only)')
     group.add_argument('--magnetic', action='store_true',
                        help=f'add the magnetometer on {MAG_TOPIC} and the azimuth truth')
-    group.add_argument('--reference-total-nT', type=float, default=well.reference_total_nT,
+    group.add_argument('--reference-total-nT', type=reference_total_nT,
+                       default=well.reference_total_nT,
                        metavar='F', help='reference total field [nT] (default: %(default)s)')
-    group.add_argument('--reference-dip-deg', type=float, default=well.reference_dip_deg,
+    group.add_argument('--reference-dip-deg', type=between(-89.999, 89.999),
+                       default=well.reference_dip_deg,
                        metavar='D', help='reference dip [deg] (default: %(default)s)')
-    group.add_argument('--azimuth-deg', type=float, nargs=2, default=well.azimuth_deg,
+    group.add_argument('--azimuth-deg', type=finite, nargs=2, default=well.azimuth_deg,
                        metavar=('FIRST', 'LAST'),
                        help='magnetic azimuth of the first and last station, linear between '
                             '(default: %(default)s)')
-    group.add_argument('--interference-nT', type=float, nargs=3, default=well.interference_nT,
+    group.add_argument('--interference-nT', type=interference_nT, nargs=3,
+                       default=well.interference_nT,
                        metavar=('EX', 'EY', 'EZ'),
                        help='drill-string interference in ISCWSA axes [nT]: cross-axial x, y '
                             'and axial z toward the bit (default: %(default)s)')
-    group.add_argument('--mag-noise-nT', type=float, default=well.field_noise_nT,
+    group.add_argument('--mag-noise-nT', type=between(0.0, 10_000.0),
+                       default=well.field_noise_nT,
                        metavar='NOISE_NT',
                        help='magnetometer noise per sample and axis, 1 sigma [nT] '
                             '(default: %(default)s)')
-    group.add_argument('--rotation-s', type=float, default=0.0, metavar='S',
+    group.add_argument('--rotation-s', type=between(0.0, MAX_SEGMENT_S), default=0.0,
+                       metavar='S',
                        help='append a rotation segment of S seconds (default: none)')
-    group.add_argument('--rotation-turns', type=float, default=2.0,
+    group.add_argument('--rotation-turns', type=between(-1e6, 1e6), default=2.0,
                        help='turns of the tool about its axis in the rotation '
                             '(default: %(default)s)')
-    group.add_argument('--rotation-attitude-deg', type=float, nargs=2, default=(60.0, 90.0),
+    group.add_argument('--rotation-attitude-deg', type=finite, nargs=2,
+                       default=(60.0, 90.0),
                        metavar=('INCLINATION', 'AZIMUTH'),
                        help='attitude held while turning (default: %(default)s)')
+
+
+#: An interference [nT]: what the MSA may solve (``msa.MAX_INTERFERENCE_NT``).
+interference_nT = between(-MAX_INTERFERENCE_NT, MAX_INTERFERENCE_NT, why=' nT (a drill string)')
 
 
 def magnetic_bench(args):
@@ -152,9 +177,8 @@ def magnetic_bench(args):
         noise_nT=args.mag_noise_nT, rotation_s=args.rotation_s,
         rotation_turns=args.rotation_turns,
         rotation_attitude_deg=tuple(args.rotation_attitude_deg))
-    if not bench.reference_total_nT > 0.0 or bench.noise_nT < 0.0 or bench.rotation_s < 0.0:
-        raise ValueError('--reference-total-nT must be positive, --mag-noise-nT and '
-                         '--rotation-s not negative')
+    if not 0.0 <= bench.rotation_attitude_deg[0] <= 180.0:
+        raise ValueError('the inclination of --rotation-attitude-deg must lie within 0 .. 180')
     return bench
 
 
@@ -247,6 +271,48 @@ def add_magnetics(sim, scenario, bench):
 
 def run(args):
     """Simulate and write the bag and its truth file; return the exit code."""
+    outputs = Outputs(force=args.force)
+    for path in (args.out, f'{args.out}.truth.json', args.csv):
+        if path is not None:
+            outputs.check(path)
+    sim, what, magnetic = simulated(args)
+    with outputs:
+        topics = write_bag(outputs.path(args.out), args.storage, sim, args.noise_std_mps2,
+                           args.mode, magnetic)
+        truth_path = f'{args.out}.truth.json'
+        with open(outputs.path(truth_path), 'x') as stream:
+            json.dump(dict(sim.truth, bag=args.out, storage=args.storage, topics=topics,
+                           frame_id=FRAME_ID), stream, indent=2)
+            stream.write('\n')
+        if args.csv:
+            write_csv(outputs.path(args.csv), sim)
+    print(f'wrote {args.out} ({args.storage}): {sim.stamps_ns.size} messages on each of '
+          f'{", ".join(topics.values())}; {what}, noise {args.noise_std_mps2} m/s^2')
+    print(f'wrote {truth_path}: {len(sim.truth["segments"])} segments')
+    if args.csv:
+        print(f'wrote {args.csv}: {sim.stamps_ns.size} rows')
+    return 0
+
+
+def simulated(args):
+    """Return (the SimulatedRun, what it is, magnetic or None); CommandError if impossible."""
+    if args.mode is None:
+        samples = args.rate_hz * (args.level_s + args.station_s * len(Scenario().stations_deg)
+                                  + (args.rotation_s if args.magnetic else 0.0))
+    else:
+        samples = (DEFAULT_SAMPLES[args.mode] if args.samples is None else args.samples) * (
+            9 if args.mode == 'stand' else 1)
+    if samples > MAX_SAMPLES:
+        raise CommandError(f'{samples:.0f} samples asked for, at most {MAX_SAMPLES} are '
+                           'simulated: shorten the segments or lower --rate-hz')
+    try:
+        return _simulated(args)
+    except ValueError as err:
+        raise CommandError(str(err)) from None
+
+
+def _simulated(args):
+    """Return (the SimulatedRun, what it is, magnetic or None) of checked options."""
     magnetic = None
     if args.mode is None:
         scenario = Scenario(
@@ -257,48 +323,24 @@ def run(args):
         what = (f'{scenario.axes}-axis sensor, gamma_deg={scenario.gamma_deg} '
                 f'beta_deg={scenario.beta_deg}')
         if args.magnetic:
-            try:
-                bench = magnetic_bench(args)
-            except ValueError as err:
-                print(f'inclino simulate: error: {err}', file=sys.stderr)
-                return 2
+            bench = magnetic_bench(args)
             sim, azimuth_deg, field_nT = add_magnetics(sim, scenario, bench)
             magnetic = (azimuth_deg, magnetometer(sim.stamps_ns, FRAME_ID, field_nT,
                                                   bench.noise_nT))
             what += (f'; magnetometer on {MAG_TOPIC}, interference '
                      f'{", ".join(f"{v:g}" for v in bench.interference_nT)} nT (ISCWSA x, y, z)')
-    else:
-        if args.magnetic:
-            print('inclino simulate: error: --magnetic goes with the bench scenario, not '
-                  '--stand or --heating', file=sys.stderr)
-            return 2
-        if args.axes != 3:
-            print('inclino simulate: error: --stand and --heating simulate a three-axis sensor',
-                  file=sys.stderr)
-            return 2
-        errors = SensorErrors(gamma_deg=args.gamma_deg, beta_deg=args.beta_deg)
-        sensor_run = SensorRun(errors=errors, noise_std_mps2=args.noise_std_mps2,
-                               rate_hz=args.rate_hz, seed=args.seed)
-        samples = DEFAULT_SAMPLES[args.mode] if args.samples is None else args.samples
-        if samples < 1:
-            print('inclino simulate: error: --samples must be at least 1', file=sys.stderr)
-            return 2
-        sim = (simulate_stand(sensor_run, samples=samples) if args.mode == 'stand' else
-               simulate_heating(sensor_run, samples=samples))
-        what = f'{args.mode} run of a three-axis sensor (K, bias, K_T(T) in the truth file)'
-    topics = write_bag(args.out, args.storage, sim, args.noise_std_mps2, args.mode, magnetic)
-    truth_path = f'{args.out}.truth.json'
-    with open(truth_path, 'w') as stream:
-        json.dump(dict(sim.truth, bag=args.out, storage=args.storage, topics=topics,
-                       frame_id=FRAME_ID), stream, indent=2)
-        stream.write('\n')
-    print(f'wrote {args.out} ({args.storage}): {sim.stamps_ns.size} messages on each of '
-          f'{", ".join(topics.values())}; {what}, noise {args.noise_std_mps2} m/s^2')
-    print(f'wrote {truth_path}: {len(sim.truth["segments"])} segments')
-    if args.csv:
-        write_csv(args.csv, sim)
-        print(f'wrote {args.csv}: {sim.stamps_ns.size} rows')
-    return 0
+        return sim, what, magnetic
+    if args.magnetic:
+        raise ValueError('--magnetic goes with the bench scenario, not --stand or --heating')
+    if args.axes != 3:
+        raise ValueError('--stand and --heating simulate a three-axis sensor')
+    errors = SensorErrors(gamma_deg=args.gamma_deg, beta_deg=args.beta_deg)
+    sensor_run = SensorRun(errors=errors, noise_std_mps2=args.noise_std_mps2,
+                           rate_hz=args.rate_hz, seed=args.seed)
+    samples = DEFAULT_SAMPLES[args.mode] if args.samples is None else args.samples
+    sim = (simulate_stand(sensor_run, samples=samples) if args.mode == 'stand' else
+           simulate_heating(sensor_run, samples=samples))
+    return sim, f'{args.mode} run of a three-axis sensor (K, bias, K_T(T) in the truth file)', None
 
 
 def write_bag(path, storage, sim, noise_std_mps2, mode, magnetic=None):
@@ -342,7 +384,7 @@ def write_csv(path, sim):
     if sim.temperature_c is not None:
         columns['temperature_c'] = sim.temperature_c
     columns.update(zip(('ax', 'ay', 'az'), sim.raw_mps2.T))
-    with open(path, 'w', newline='') as stream:
+    with open(path, 'x', newline='') as stream:
         writer = csv.writer(stream)
         writer.writerow(columns)
         writer.writerows(zip(*(values.tolist() for values in columns.values())))
