@@ -2,9 +2,10 @@
 Files written whole or not at all, never over an input or silently over another file.
 
 Every file and bag the package writes goes through ``Outputs``: each output is
-written under a temporary name beside it (``.NAME-PID-XXXXXXXX.tmp``) and
-renamed into place only when the command completed; on any failure, Ctrl-C
-included, the temporaries are removed and what existed stays as it was.  An
+written, under its own name, into a temporary folder beside it
+(``.NAME-PID-XXXXXXXX.tmp/NAME``) and renamed into place only when the command
+completed; on any failure, Ctrl-C included, the temporaries are removed and
+what existed stays as it was.  An
 output that exists already is refused unless ``force`` is given, and an
 output that is one of the command's inputs (the same file, found by device
 and inode, so a link or another spelling of the name is caught too) is
@@ -152,13 +153,20 @@ class Outputs:
         return final
 
     def path(self, final):
-        """Return the temporary name to write the output ``final`` to (OutputError if not)."""
+        """
+        Return where to write the output ``final``: its name in a new temporary folder.
+
+        Nothing is created there: a file or a bag folder may be made.
+        OutputError when ``final`` may not be written.
+        """
         final = self.check(final)
         os.makedirs(os.path.dirname(final), exist_ok=True)
         remove_stale_temporaries(final)
-        temporary = temporary_path(final)
+        folder = temporary_path(final)
+        os.mkdir(folder)
+        _IN_FLIGHT.add(folder)
+        temporary = os.path.join(folder, os.path.basename(final))
         self._pending[final] = temporary
-        _IN_FLIGHT.add(temporary)
         return temporary
 
     def __enter__(self):
@@ -188,8 +196,6 @@ class Outputs:
         folders = set()
         for final, tmp in written.items():
             self._replace(tmp, final)
-            del self._pending[final]
-            _IN_FLIGHT.discard(tmp)
             folders.add(os.path.dirname(final))
         for folder in folders:
             _fsync_tree(folder)
@@ -212,13 +218,14 @@ class Outputs:
         _remove(aside)
 
     def discard(self):
-        """Remove the temporaries not renamed into place."""
+        """Remove the temporary folders (and what was not renamed into place)."""
         for tmp in self._pending.values():
+            folder = os.path.dirname(tmp)
             try:
-                _remove(tmp)
+                _remove(folder)
             except OSError:
                 pass
-            _IN_FLIGHT.discard(tmp)
+            _IN_FLIGHT.discard(folder)
         self._pending.clear()
 
 
