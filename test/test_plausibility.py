@@ -102,7 +102,7 @@ FIELD = np.array([[20000.0, 30000.0, 35000.0]] * 5)
                                           (1e-3, 'microtesla'), (0.0, 'dead magnetometer'),
                                           (40.0, 'not an Earth field')])
 def test_field_readings_in_another_unit_are_named(factor, named):
-    """A rotation or station in tesla, gauss or uT (or a dead sensor) is refused, the unit named."""
+    """A rotation or station in tesla, gauss or uT (or a dead sensor): refused, the unit named."""
     with pytest.raises(Implausible, match=named):
         plausibility.check_field_readings(FIELD * factor)
 

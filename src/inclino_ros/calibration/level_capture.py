@@ -44,25 +44,27 @@ def solve_level_capture(samples, axes, limits):
     samples = np.asarray(samples, dtype=float)
     if samples.shape[0] < 2:
         raise CaptureRefused(f'only {samples.shape[0]} sample(s) captured, need at least 2')
+    if not np.isfinite(samples[:, :axes]).all():
+        raise CaptureRefused('the capture holds non-finite readings')
     if axes == 3:
         g_per_sample = np.linalg.norm(samples, axis=1)
     else:
         g_per_sample = np.full(samples.shape[0], limits.gravity_mps2)
     tilt_x, tilt_y = level_axis_angles(samples, g_per_sample)
     std_deg = math.degrees(max(np.std(tilt_x, ddof=1), np.std(tilt_y, ddof=1)))
-    if std_deg > limits.max_std_deg:
+    if not std_deg <= limits.max_std_deg:
         raise CaptureRefused(
             f'tool is moving: spread of the axis tilts {std_deg:.4f} deg exceeds '
             f'level_capture.max_std_deg {limits.max_std_deg} deg')
     mean = samples.mean(axis=0)
     g_total = float(np.linalg.norm(mean)) if axes == 3 else limits.gravity_mps2
-    if abs(g_total - limits.gravity_mps2) > limits.g_total_tolerance_mps2:
+    if not abs(g_total - limits.gravity_mps2) <= limits.g_total_tolerance_mps2:
         raise CaptureRefused(
             f'implausible G-total {g_total:.4f} m/s^2: expected {limits.gravity_mps2} '
             f'+/- {limits.g_total_tolerance_mps2} m/s^2 (sensor scale or units wrong?)')
     gamma, beta = installation_angles(*level_axis_angles(mean, g_total))
     theta_deg = math.degrees(float(pseudo_inclination(gamma, beta)))
-    if theta_deg > limits.max_tilt_deg:
+    if not theta_deg <= limits.max_tilt_deg:
         raise CaptureRefused(
             f'bench is not level: tilt {theta_deg:.3f} deg exceeds '
             f'level_capture.max_tilt_deg {limits.max_tilt_deg} deg')

@@ -119,14 +119,17 @@ class Temperature:
             rms_residual_mps2=np.array(self.rms_residual_mps2))
 
     def clamp(self, temperature_c):
-        """Return the temperatures clamped to the fitted range."""
-        return np.clip(np.asarray(temperature_c, dtype=float), self.t_min_c, self.t_max_c)
+        """Return the temperatures clamped to the fitted range; NaN is the reference one."""
+        temperature_c = np.asarray(temperature_c, dtype=float)
+        return np.clip(np.where(np.isnan(temperature_c), self.reference_temperature_c,
+                                temperature_c), self.t_min_c, self.t_max_c)
 
     def apply(self, f, temperature_c=None):
         """
         Return ``A_T / K_T(T)`` per axis (seed 001 Eq. 6), T clamped to the fitted range.
 
-        Without a temperature, the reference temperature is used (K_T = 1).
+        Without a temperature (None, or NaN for a sample), the reference
+        temperature is used (K_T = 1).
         """
         f = np.asarray(f, dtype=float)
         if temperature_c is None:

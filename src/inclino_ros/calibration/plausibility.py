@@ -82,7 +82,8 @@ class Implausible(ValueError):
 
 def magnitude(vectors):
     """Return |v| of each row of (N, k) vectors without overflow or underflow."""
-    vectors = np.asarray(vectors, dtype=float).reshape(len(vectors), -1)
+    vectors = np.asarray(vectors, dtype=float)
+    vectors = vectors[None] if vectors.ndim == 1 else vectors
     largest = np.max(np.abs(vectors), axis=1, initial=0.0)
     with np.errstate(invalid='ignore', divide='ignore'):
         scaled = vectors / largest[:, None]

@@ -91,7 +91,7 @@ def fit_ellipse(points):
     """
     points = np.asarray(points, dtype=float)
     # Scaled by the largest value first, so no square below overflows or vanishes.
-    largest = float(np.max(np.abs(points), initial=0.0))
+    largest = np.max(np.abs(points), initial=0.0)
     if not 0.0 < largest < math.inf:
         raise RotationFitRefused('degenerate fit: the samples are all zero or not finite')
     unit = points / largest
@@ -103,8 +103,10 @@ def fit_ellipse(points):
         centre, q = _direct_ellipse((unit - mean) / scale)
     except (np.linalg.LinAlgError, ValueError, FloatingPointError) as err:
         raise RotationFitRefused(f'degenerate fit: numerical failure ({err})') from None
-    centre, q = largest * (mean + scale * centre), q / (largest * scale) ** 2
-    if not (np.all(np.isfinite(centre)) and np.all(np.isfinite(q))):
+    with np.errstate(over='ignore', under='ignore'):
+        size = largest * scale  # a numpy float: overflows to inf, never raises
+        centre, q = largest * (mean + scale * centre), q / size / size
+    if not (np.all(np.isfinite(centre)) and np.all(np.isfinite(q)) and np.all(q != 0.0)):
         raise RotationFitRefused('degenerate fit: the fitted ellipse is not finite')
     return centre, q
 

@@ -64,6 +64,8 @@ STANDARD_GRAVITY_MPS2 = 9.80665
 #: Largest interference accepted [nT]: a drill string's magnetisation stays well below
 #: the Earth's field (seed 002 §3.2, Fig. 5 searches +-10000 nT).
 MAX_INTERFERENCE_NT = 10000.0
+#: Largest reference field [nT]: ten times the Earth's strongest, far from overflow.
+MAX_REFERENCE_NT = 1e6
 #: Largest | |B| - F | of a station [nT]: the interference on all three axes.
 MAX_FIELD_OFFSET_NT = math.sqrt(3.0) * MAX_INTERFERENCE_NT
 #: Gauss-Newton stops when a step changes eps by less than this [nT]...
@@ -502,15 +504,16 @@ def _refuse_implausible(G, B, reference_total_nT, reference_dip_deg, numbers):
     """
     Raise MsaRefused for a reference or stations no survey has, before any arithmetic.
 
-    The reference is a field (finite, positive) with a dip within +-90 deg;
+    The reference is a field (positive, at most MAX_REFERENCE_NT) with a dip
+    within +-90 deg;
     each station's |G| is within half of the median's, and its |B| within
     MAX_FIELD_OFFSET_NT of the reference's (the interference is below
     MAX_INTERFERENCE_NT on each axis).  ``numbers``: the 0-based station
     numbers of the rows, for the message.
     """
-    if not (0.0 < reference_total_nT < math.inf and abs(reference_dip_deg) < 90.0):
+    if not (0.0 < reference_total_nT <= MAX_REFERENCE_NT and abs(reference_dip_deg) < 90.0):
         raise MsaRefused(f'the reference field {reference_total_nT!r} nT, dip '
-                         f'{reference_dip_deg!r} deg is not a field')
+                         f'{reference_dip_deg!r} deg is not a geomagnetic field')
     g = np.hypot(np.hypot(G[:, 0], G[:, 1]), G[:, 2])
     b = np.hypot(np.hypot(B[:, 0], B[:, 1]), B[:, 2])
     g_median = float(np.median(g)) if g.size else 0.0

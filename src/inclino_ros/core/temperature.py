@@ -38,6 +38,8 @@ REFERENCE_TEMPERATURE_C = 25.0
 #: An axis needs ``|G_i| >= MIN_AXIS_FRACTION |G|`` in some sample (0.3: the
 #: axis at least 17.5 deg out of the horizontal plane).
 MIN_AXIS_FRACTION = 0.3
+#: Largest ratio of a reading to its reference: far beyond any drift, checked first.
+MAX_SCALE_RATIO = 10.0
 #: Temperatures closer than this [deg C] count as one when counting distinct ones.
 TEMPERATURE_RESOLUTION_C = 0.1
 AXES = 'xyz'
@@ -74,11 +76,13 @@ def fit_temperature(temperature_c, readings, reference, order,
     ``temperature_c`` (M,), ``readings`` (M, 3) of a still tool, ``reference``
     the specific force at the fit attitude, (3,) or per sample (M, 3) for
     more than one attitude.  Raises TemperatureFitRefused, with the reason,
-    for: non-finite data; fewer than ``order + 2`` distinct temperatures (a
+    for: non-finite data; readings beyond MAX_SCALE_RATIO times the reference
+    (checked before any arithmetic); fewer than ``order + 2`` distinct temperatures (a
     polynomial of order n has n + 1 coefficients, and one more temperature
     leaves a residual to judge the fit by); a reference temperature outside
     the data; an axis that reads about 0 at every fit attitude; an axis whose
-    fitted K_T at the reference temperature is not positive.
+    fitted K_T at the reference temperature is not positive; a fit that is
+    not finite or fails numerically.
     """
     temperature_c = np.asarray(temperature_c, dtype=float)
     readings = np.asarray(readings, dtype=float)
@@ -89,6 +93,12 @@ def fit_temperature(temperature_c, readings, reference, order,
     if not (np.isfinite(temperature_c).all() and np.isfinite(readings).all()
             and np.isfinite(reference).all()):
         raise TemperatureFitRefused('non-finite temperature, readings or reference')
+    size = np.hypot(np.hypot(readings[:, 0], readings[:, 1]), readings[:, 2])
+    reference_size = np.hypot(np.hypot(reference[:, 0], reference[:, 1]), reference[:, 2])
+    if not np.all((reference_size > 0.0) & (size <= MAX_SCALE_RATIO * reference_size)):
+        raise TemperatureFitRefused(
+            f'readings up to {size.max():.4g} for a reference of {reference_size.min():.4g}: '
+            f'a scale factor beyond {MAX_SCALE_RATIO:g} is no temperature drift')
     distinct = np.unique(np.round(temperature_c / TEMPERATURE_RESOLUTION_C)).size
     if distinct < order + 2:
         raise TemperatureFitRefused(
@@ -107,6 +117,20 @@ def fit_temperature(temperature_c, readings, reference, order,
             f'{fraction.min():.3f} of |G|, need {MIN_AXIS_FRACTION}): K_T = A_T / G is '
             'undefined there; tilt the tool so every axis sees gravity, or add an attitude')
 
+    try:
+        with np.errstate(all='ignore'):
+            fit = _fit_axes(temperature_c, readings, reference, order, reference_temperature_c,
+                            t_min_c, t_max_c)
+    except np.linalg.LinAlgError as err:
+        raise TemperatureFitRefused(f'numerical failure of the fit ({err})') from None
+    if not (np.all(np.isfinite(fit.coefficients)) and np.all(np.isfinite(fit.rms_residual_mps2))):
+        raise TemperatureFitRefused('the fit is not finite (temperatures or readings too large)')
+    return fit
+
+
+def _fit_axes(temperature_c, readings, reference, order, reference_temperature_c, t_min_c,
+              t_max_c):
+    """Return the TemperatureFit of checked, finite data (see ``fit_temperature``)."""
     coefficients, rms = [], []
     for axis in range(3):
         g_axis = reference[:, axis]

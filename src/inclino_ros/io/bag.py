@@ -290,7 +290,10 @@ def _frame_ids(frame_bytes, lengths):
         raw = np.ascontiguousarray(frame_bytes[index, :width]).view(f'S{width}').reshape(-1)
         strings = np.empty(raw.size, dtype=object)
         for name, where in _groups(raw):
-            strings[where] = name.decode()
+            try:
+                strings[where] = name.decode()
+            except UnicodeDecodeError as err:
+                raise BagError(f'a frame_id is not UTF-8 ({err}): a damaged message') from None
         frame_ids[index] = strings
     return frame_ids
 
