@@ -203,7 +203,7 @@ def plot(rows, path):
         ax.legend()
     ax_i.set_title('inclino_ros demo: node output before and after ~/calibrate_level')
     fig.tight_layout()
-    fig.savefig(path, dpi=110, format='png')
+    fig.savefig(path, dpi=110)
     pyplot.close(fig)
 
 

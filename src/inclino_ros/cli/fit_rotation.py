@@ -32,6 +32,7 @@ from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_file_arguments, finish_figure, is_bag, load_existing, new_figure, read_csv, read_topic,
     Refused, report_paths, run_fit, save, write_text)
+from inclino_ros.cli.options import finite
 from inclino_ros.core.cross_axial import apply_cross_axial, fit_cross_axial, RotationFitRefused
 import numpy as np
 
@@ -51,9 +52,9 @@ def register(subparsers):
     add_file_arguments(parser, 'CSV file with bx, by, bz [nT]')
     parser.add_argument('--mag-topic', default=MAG_TOPIC,
                         help='sensor_msgs/MagneticField topic of a bag (default: %(default)s)')
-    parser.add_argument('--start-s', type=float,
+    parser.add_argument('--start-s', type=finite,
                         help='bag: first reading, seconds after the first message (default: 0)')
-    parser.add_argument('--end-s', type=float,
+    parser.add_argument('--end-s', type=finite,
                         help='bag: last reading, seconds after the first message '
                              '(default: the last message)')
     parser.set_defaults(func=run)

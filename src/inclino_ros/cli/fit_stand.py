@@ -38,6 +38,7 @@ from inclino_ros.cli.fitting import (
     add_common_arguments, AXIS_COLUMNS, finish_figure, has_topic, is_bag, load_existing,
     matrix_lines, new_figure, read_csv, read_topic, Refused, report_paths, run_fit,
     sample_temperatures, save, write_text)
+from inclino_ros.cli.options import between, node_parameter
 from inclino_ros.cli.process import NODE_DEFAULTS
 from inclino_ros.core.attitude import angle_between, inclination
 from inclino_ros.core.stand import fit_sphere, fit_stand, stand_specific_force, StandFitRefused
@@ -57,16 +58,17 @@ def register(subparsers):
     parser.add_argument('--method', choices=('stand', 'sphere'), default='stand',
                         help='stand: known attitudes; sphere: |G| = g only (default: '
                              '%(default)s)')
-    parser.add_argument('--max-rms-deg', type=float, default=0.05,
+    parser.add_argument('--max-rms-deg', type=between(1e-6, 90.0), default=0.05,
                         help='largest RMS inclination residual accepted [deg] (default: '
                              '%(default)s)')
-    parser.add_argument('--max-std-deg', type=float, default=0.1,
+    parser.add_argument('--max-std-deg', type=between(1e-6, 90.0), default=0.1,
                         help='largest spread (RMS angle to their mean) of the samples of one '
                              'position [deg]: more means the tool moved (default: %(default)s)')
     parser.add_argument('--attitude-topic', default=ATTITUDE_TOPIC,
                         help='Vector3Stamped stand attitude topic of a bag (default: '
                              '%(default)s)')
-    parser.add_argument('--gravity-mps2', type=float, default=NODE_DEFAULTS['gravity_mps2'],
+    parser.add_argument('--gravity-mps2', type=node_parameter('gravity_mps2'),
+                        default=NODE_DEFAULTS['gravity_mps2'],
                         help='local gravity [m/s^2] (default: %(default)s)')
     parser.set_defaults(func=run)
 

@@ -35,12 +35,15 @@ from inclino_ros.cli.fitting import (
     add_common_arguments, AXIS_COLUMNS, finish_figure, is_bag, load_existing, matrix_lines,
     new_figure, read_csv, read_topic, Refused, report_paths, run_fit, sample_temperatures, save,
     write_text)
+from inclino_ros.cli.options import between
 from inclino_ros.core.attitude import inclination
 from inclino_ros.core.temperature import (
     AXES, fit_temperature, REFERENCE_TEMPERATURE_C, TemperatureFitRefused)
 import numpy as np
 
 REFERENCE_COLUMNS = ('ref_ax', 'ref_ay', 'ref_az')
+#: Highest order of K_T(T) (seed 001 fits order 2).
+MAX_ORDER = 6
 REPORT_NAME = 'fit_temperature'
 
 
@@ -51,9 +54,9 @@ def register(subparsers):
         help='fit the temperature drift K_T(T) (seed 001) into a calibration file',
         description=__doc__.split('\n\n', 1)[1])
     add_common_arguments(parser)
-    parser.add_argument('--order', type=int, default=2,
+    parser.add_argument('--order', type=between(1, MAX_ORDER, int), default=2,
                         help='polynomial order of K_T(T) (default: %(default)s)')
-    parser.add_argument('--reference-window-c', type=float, default=1.0,
+    parser.add_argument('--reference-window-c', type=between(1e-3, 100.0), default=1.0,
                         help='readings within this many deg C of 25 deg C give the reference '
                              'when the input has no ref columns (default: %(default)s)')
     parser.set_defaults(func=run)
@@ -66,8 +69,6 @@ def run(args):
 
 def fit(args, lines, outputs):
     """Fit the temperature stage of ``args.input`` into ``args.calibration``; see ``run_fit``."""
-    if args.order < 1:
-        raise CommandError('--order must be at least 1')
     existing = load_existing(args.calibration)
     temperature_c, readings, reference = load_input(args)
     check_accelerometer_readings(readings, STANDARD_GRAVITY_MPS2)

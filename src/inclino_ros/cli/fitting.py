@@ -143,13 +143,13 @@ def new_figure(rows, title):
     return pyplot, fig, axes
 
 
-def finish_figure(pyplot, fig, axes, path, fmt='png'):
-    """Grid and legend on every panel, then write the figure to ``path`` in ``fmt``."""
+def finish_figure(pyplot, fig, axes, path):
+    """Grid and legend on every panel, then write the figure to ``path``."""
     for ax in axes:
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize='small')
     fig.tight_layout()
-    fig.savefig(path, dpi=100, format=fmt)
+    fig.savefig(path, dpi=100)
     pyplot.close(fig)
 
 

@@ -340,7 +340,7 @@ def plot_report(args, table, result, path):
         plot_short_collar(axes[1 + has_truth:], station, result)
     else:
         plot_misfit(axes[1 + has_truth:], args, table, result)
-    finish_figure(pyplot, fig, axes, path, fmt=args.report.rsplit('.', 1)[-1].lower())
+    finish_figure(pyplot, fig, axes, path)
 
 
 def plot_misfit(axes, args, table, result):
