@@ -192,6 +192,18 @@ def test_fit_cross_axial(samples, noise, seed):
         assert np.all(np.isfinite(fit.offset_nT)) and np.all(np.isfinite(fit.correction))
 
 
+def test_zero_readings_and_a_subnormal_one_are_a_refusal():
+    """Zeros and one (1, 1e-310) nT reading: a LinAlgError out of fit_ellipse before."""
+    points = np.zeros((20, 3))
+    points[3] = (1.0, 1e-310, 0.0)
+    try:
+        fit_cross_axial(points)
+    except RotationFitRefused as refusal:
+        assert 'degenerate fit' in str(refusal)
+    else:
+        raise AssertionError('a fit of zeros was accepted')
+
+
 @FUZZ
 @given(gravity=vectors(rows=st.integers(0, 12)), field=vectors(rows=st.integers(0, 12)),
        reference=st.tuples(st.sampled_from([50000.0, 0.0, -1.0, math.nan, 1e300]),

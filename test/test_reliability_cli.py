@@ -199,9 +199,14 @@ def stand_csv(path, scale=1.0, extra=None):
     return path
 
 
-def test_fit_stand_sphere_with_a_huge_reading_ends(tmp_path):
-    """One reading >= 1e155 spun at 100 % CPU forever; now refused at once (bounded wait)."""
-    csv_path = stand_csv(tmp_path / 's.csv', extra=[[1e155, 0.0, 0.0]])
+@pytest.mark.parametrize('huge', [[1e200, 0.0, 0.0], [1e300, 1e300, 1e300]])
+def test_fit_stand_sphere_with_a_huge_reading_ends(tmp_path, huge):
+    """
+    One huge reading spun at 100 % CPU forever (1e200) or ended in a LinAlgError traceback.
+
+    Now refused at once; the wait is bounded by a timeout.
+    """
+    csv_path = stand_csv(tmp_path / 's.csv', extra=[huge])
     result = subprocess.run([INCLINO, 'fit-stand', str(csv_path), '--method', 'sphere',
                              '--calibration', str(tmp_path / 'cal.json')],
                             capture_output=True, text=True, timeout=120)
@@ -268,20 +273,6 @@ def test_a_corrupted_bag_is_read_whole_or_refused(bench, tmp_path_factory, where
         assert code == 2 and err.splitlines()[-1].startswith('inclino process: error: ')
         assert err.count('error:') == 1
         assert not (tmp / 'out').exists() and not leftovers(tmp)
-
-
-def test_a_truncated_bag_is_refused(bench, tmp_path):
-    """The last third of the mcap cut off: exit 2 naming the damage, no OUT."""
-    _, sim, calibration = bench
-    damaged = tmp_path / 'sim'
-    damaged.mkdir()
-    for name in os.listdir(sim):
-        content = file_bytes(os.path.join(sim, name))
-        (damaged / name).write_bytes(content[:2 * len(content) // 3]
-                                     if name.endswith('.mcap') else content)
-    code, _, err = quiet(['process', damaged, tmp_path / 'out', '--calibration', calibration])
-    assert code == 2 and 'Traceback' not in err
-    assert not (tmp_path / 'out').exists()
 
 
 def test_negative_stamps_are_a_message(tmp_path, bench):

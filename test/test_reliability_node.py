@@ -43,6 +43,12 @@ def magnetic_node(start_node, probe):
     return start
 
 
+def turned(force, angle_deg):
+    """Return ``force`` turned about the tool axis (another toolface, the same |G|)."""
+    c, s = math.cos(math.radians(angle_deg)), math.sin(math.radians(angle_deg))
+    return (c * force[0] - s * force[1], s * force[0] + c * force[1], force[2])
+
+
 def paired(probe, force, field_nT):
     """Return a sample function publishing ``field_nT`` paired with ``force``."""
     return lambda i: probe.mag_publisher.publish(mag_message(probe.sent, field_nT)) or force
@@ -83,7 +89,7 @@ def test_zero_readings_and_a_subnormal_one_are_refused(magnetic_node, tmp_path):
     node, probe = magnetic_node()
     force = readings(60.0, 90.0, 0.0)[0]
     answer = probe.calibrate(
-        lambda i: paired(probe, force, [5e-315 if i == 3 else 0.0, 0.0, 0.0])(i),  # 5e-324 T
+        lambda i: paired(probe, force, [1.0, 1e-310, 0.0] if i == 3 else DEAD)(i),
         service='capture_rotation')
     assert not answer.success and 'dead magnetometer' in answer.message
     assert node.process.poll() is None and not (tmp_path / 'calibration.json').exists()
@@ -155,39 +161,49 @@ def test_a_timed_capture_holds_a_bounded_spread_of_samples():
 
 HOSTILE_FORCE = st.sampled_from([
     (0.0, 0.0, G), (math.nan, 0.0, G), (math.inf, 0.0, 0.0), (0.0, 0.0, 0.0),
-    (5e-324, 0.0, 0.0), (1e300, 1e300, 1e300), (0.0, 0.0, 1.0), (3.0, -4.0, 8.5)])
+    (5e-324, 0.0, 0.0), (1e300, 1e300, 1e300), (0.0, 0.0, 1.0), (3.0, -4.0, 8.5),
+    (5.0, 0.0, 8.44), (0.0, 6.0, 7.75)])
 HOSTILE_FIELD = st.sampled_from([
-    (0.0, 0.0, 0.0), (5e-315 * 1e9, 0.0, 0.0), (1e200 * 1e9,) * 3, (math.nan, 0.0, 0.0),
+    (0.0, 0.0, 0.0), (5e-315, 0.0, 0.0), (1e209,) * 3, (math.nan, 0.0, 0.0),
     (20000.0, -10000.0, 40000.0), (2e6, 0.0, 0.0), (2e-5, 1e-5, 4e-5)])
 SERVICES = ['calibrate_level', 'capture_position', 'solve_stand_calibration',
             'clear_positions', 'capture_rotation', 'take_survey', 'solve_msa', 'clear_surveys']
 
 
-@settings(max_examples=20, deadline=None, derandomize=True,
+@settings(max_examples=25, deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
-@given(steps=st.lists(st.tuples(st.sampled_from(SERVICES), HOSTILE_FORCE, HOSTILE_FIELD,
-                                st.sampled_from(['improved', 'classic', 'axial'])),
-                      min_size=1, max_size=3))
-def test_every_service_under_hostile_readings(fuzz_node, steps):
-    """Any service, any reading: an answer, a live node, and on refusal both files unchanged."""
+@given(force=HOSTILE_FORCE, field=HOSTILE_FIELD, stations=st.integers(0, 8),
+       method=st.sampled_from(['improved', 'classic', 'axial']),
+       others=st.lists(st.tuples(st.sampled_from(SERVICES), HOSTILE_FORCE, HOSTILE_FIELD),
+                       max_size=3))
+def test_every_service_under_hostile_readings(fuzz_node, force, field, stations, method,
+                                              others):
+    """
+    Any service, any reading: an answer, a live node, and on refusal both files unchanged.
+
+    Each example takes ``stations`` surveys of one hostile reading (turned about the tool
+    axis by 137 deg each time), solves the MSA with ``method``, then calls ``others``.
+    """
     node, probe, folder = fuzz_node
-    calibration, stations = folder / 'calibration.json', folder / 'stations.json'
-    for service, force, field, method in steps:
-        probe.set_parameters(msa__method=method)
-        before = file_bytes(calibration), file_bytes(stations)
-        sample = (lambda i: probe.mag_publisher.publish(mag_message(probe.sent, field))
-                  or (force if i % 3 else (0.0, 0.0, G)))
+    probe.set_parameters(msa__method=method)
+    probe.call('clear_surveys')
+    steps = [('take_survey', turned(force, 137.0 * k), field)
+             for k in range(stations)] + [('solve_msa', force, field)] + others
+    for service, reading, reading_field in steps:
+        before = file_bytes(folder / 'calibration.json'), file_bytes(folder / 'stations.json')
         if service in ('clear_positions', 'solve_stand_calibration', 'solve_msa',
                        'clear_surveys'):
             answer = probe.call(service)
         else:
-            answer = probe.calibrate(sample, service=service, timeout_s=15.0)
+            answer = probe.calibrate(paired(probe, reading, reading_field), service=service,
+                                     timeout_s=15.0)
         assert answer is not None and isinstance(answer.message, str)
         assert node.process.poll() is None, node.log()[-2000:]
+        after = file_bytes(folder / 'calibration.json'), file_bytes(folder / 'stations.json')
         if not answer.success:
-            assert (file_bytes(calibration), file_bytes(stations)) == before, answer.message
-        elif file_bytes(calibration) is not None:
-            load_model(calibration)  # what was written loads
+            assert after == before, answer.message
+        elif after[0] is not None:
+            load_model(folder / 'calibration.json')  # what was written loads
 
 
 @pytest.fixture
@@ -196,9 +212,9 @@ def fuzz_node(start_node, probe, tmp_path):
     node = start_node(**{'magnetic.reference_total_nT': REFERENCE_TOTAL_NT,
                          'magnetic.reference_dip_deg': REFERENCE_DIP_DEG,
                          'rotation.duration_s': 1.0, 'survey.samples': 5,
-                         'survey.timeout_s': 2.0, 'level_capture.samples': 5,
-                         'level_capture.timeout_s': 2.0, 'stand.samples': 5,
-                         'stand.timeout_s': 2.0})
+                         'survey.timeout_s': 0.5, 'level_capture.samples': 5,
+                         'level_capture.timeout_s': 0.5, 'stand.samples': 5,
+                         'stand.timeout_s': 0.5})
     probe.wait_for_node()
     yield node, probe, tmp_path
     assert node.process.poll() is None
