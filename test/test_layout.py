@@ -1,7 +1,8 @@
 """
 The layers of ``inclino_ros`` and the one direction its imports run.
 
-cli, node -> pipeline -> calibration -> core; io beside (it may use core);
+cli, node -> pipeline -> calibration -> core; io beside (it may use core; the
+calibration files are written and read through it);
 sim (the virtual bench) is used by cli, tests and benchmarks only.  Every
 module's ``inclino_ros`` imports, module-level or inside functions, are read
 with ``ast`` from the source tree.
@@ -17,7 +18,7 @@ PACKAGE = pathlib.Path(__file__).resolve().parent.parent / 'src' / 'inclino_ros'
 #: What each layer may import from the package (besides itself).
 ALLOWED = {
     'core': set(),
-    'calibration': {'core'},
+    'calibration': {'core', 'io'},
     'io': {'core'},
     'sim': {'core', 'io'},
     'pipeline': {'core', 'calibration'},

@@ -122,7 +122,7 @@ def test_unwritable_folder_keeps_previous_file(tmp_path, monkeypatch):
         raise PermissionError(13, 'Permission denied')
 
     # Simulated so that the test also bites when run as root, who ignores chmod.
-    monkeypatch.setattr('tempfile.mkstemp', refuse)
+    monkeypatch.setattr('inclino_ros.io.files.open', refuse, raising=False)
     with pytest.raises(PermissionError):
         save_model(str(path), CalibrationModel(accelerometer_axes=3))
     monkeypatch.undo()
@@ -202,8 +202,8 @@ BAD_DOCUMENTS = {
     'count 0': (_edit_installation(sample_count=0), 'sample_count = 0'),
     'count 1.5': (_edit_installation(sample_count=1.5), 'sample_count = 1.5'),
     'count string': (_edit_installation(sample_count='100'), "sample_count = '100'"),
-    'negative std': (_edit_installation(std_deg=-0.1), 'std_deg must be >= 0'),
-    'zero g': (_edit_installation(g_total_mps2=0.0), 'g_total_mps2 > 0'),
+    'negative std': (_edit_installation(std_deg=-0.1), 'std_deg = -0.1 deg is outside'),
+    'zero g': (_edit_installation(g_total_mps2=0.0), 'g_total_mps2 = 0 m/s^2 is outside'),
     'naive time': (_edit_installation(captured_at='2026-03-01T10:20:30'), 'no time zone'),
     'bad time': (_edit_installation(captured_at='yesterday'), 'yesterday'),
     'number time': (_edit_installation(captured_at=1700000000), 'not an ISO 8601 time'),

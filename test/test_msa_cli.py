@@ -154,4 +154,4 @@ def test_unusable_input(stations, tmp_path):
     assert code == 2
     code, _, err = quiet(['msa', stations, '-o', tmp_path / 'o.csv',
                           '--reference-total-nT', '-5', '--reference-dip-deg', '60'])
-    assert code == 2 and 'positive' in err
+    assert code == 2 and '-5 is not between 20000 and 70000 nT' in err

@@ -12,6 +12,7 @@ what one executor wake-up finds queued, the command line 10 000.
 from dataclasses import dataclass
 import math
 
+from inclino_ros.calibration.plausibility import FIELD_NT
 from inclino_ros.core.attitude import (
     complete_two_axis, inclination, orientation_quaternion, TOOLFACE_CONVENTIONS)
 from inclino_ros.core.magnetics import (
@@ -23,8 +24,10 @@ from inclino_ros.core.uncertainty import (
     specific_force_covariance, toolface_std_rad)
 import numpy as np
 
-#: Smallest field [nT] taken for the Earth's (which is 22000-67000 nT at the surface).
-MIN_FIELD_NT = 1000.0
+#: Smallest field [nT] taken for the Earth's (which is 22000-67000 nT at the surface): below,
+#: a dead magnetometer (``plausibility.FIELD_NT``; a raw reading beyond its upper end is
+#: dropped before it is paired, ``plausibility.field_reading_ok``).
+MIN_FIELD_NT = FIELD_NT[0]
 #: Variance of a yaw that nothing observes: uniform on [-pi, pi).
 UNOBSERVED_YAW_VARIANCE = math.pi ** 2 / 3.0
 #: Per-sample QC limits are the station limits widened by this many sigma of the

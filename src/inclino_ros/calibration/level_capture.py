@@ -47,6 +47,8 @@ def solve_level_capture(samples, axes, limits, times_s=None, temperature_c=None)
     one tilt, so ``std_deg / sqrt(sample_count)`` is the angles' 1 sigma.
     """
     samples = np.asarray(samples, dtype=float)
+    if not np.isfinite(samples[:, :axes]).all():
+        raise CaptureRefused('the capture holds non-finite readings')
     if axes == 3:
         g_per_sample = np.linalg.norm(samples, axis=1)
     else:
@@ -55,13 +57,13 @@ def solve_level_capture(samples, axes, limits, times_s=None, temperature_c=None)
     stillness = require_still(np.column_stack([tilt_x, tilt_y]), times_s, limits.still)
     mean = samples.mean(axis=0)
     g_total = float(np.linalg.norm(mean)) if axes == 3 else limits.gravity_mps2
-    if abs(g_total - limits.gravity_mps2) > limits.g_total_tolerance_mps2:
+    if not abs(g_total - limits.gravity_mps2) <= limits.g_total_tolerance_mps2:
         raise CaptureRefused(
             f'implausible G-total {g_total:.4f} m/s^2: expected {limits.gravity_mps2} '
             f'+/- {limits.g_total_tolerance_mps2} m/s^2 (sensor scale or units wrong?)')
     gamma, beta = installation_angles(*level_axis_angles(mean, g_total))
     theta_deg = math.degrees(float(pseudo_inclination(gamma, beta)))
-    if theta_deg > limits.max_tilt_deg:
+    if not theta_deg <= limits.max_tilt_deg:
         raise CaptureRefused(
             f'bench is not level: tilt {theta_deg:.3f} deg exceeds '
             f'level_capture.max_tilt_deg {limits.max_tilt_deg} deg')

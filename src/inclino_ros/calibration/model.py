@@ -35,23 +35,25 @@ the temperature its readings stood for (``temperature_c``; None: unknown);
 the file names the sensor it belongs to (``sensor_id``).
 
 The file is JSON, versioned, written atomically (temporary file, fsync,
-rename) and validated on load; any defect raises ``CalibrationFileError``
-naming the file, never a silent zero correction.
+rename, ``io.files``) and validated on load and before every write: its
+structure here, what each stage can physically be in ``plausibility``; any
+defect raises ``CalibrationFileError`` naming the file, never a silent zero
+correction.
 """
 
 from dataclasses import asdict, dataclass, fields
 from datetime import datetime, timezone
 from functools import cached_property
-import json
 import math
 import os
-import tempfile
 
+from inclino_ros.calibration import plausibility
 from inclino_ros.core.cross_axial import apply_cross_axial
 from inclino_ros.core.installation import (
     inverse_installation_matrix, pseudo_inclination, to_tool_frame)
-from inclino_ros.core.stand import correct_stand, MAX_CONDITION_NUMBER, rotation_part
+from inclino_ros.core.stand import correct_stand, rotation_part
 from inclino_ros.core.temperature import compensate_temperature, TemperatureFit
+from inclino_ros.io.files import read_json, write_json
 import numpy as np
 
 #: Gravity [m/s^2] against which a temperature residual becomes an angle.
@@ -272,14 +274,17 @@ class _TemperatureStage:
             attitudes=self.attitudes)
 
     def clamp(self, temperature_c):
-        """Return the temperatures clamped to the fitted range."""
-        return np.clip(np.asarray(temperature_c, dtype=float), self.t_min_c, self.t_max_c)
+        """Return the temperatures clamped to the fitted range; NaN is the reference one."""
+        temperature_c = np.asarray(temperature_c, dtype=float)
+        return np.clip(np.where(np.isnan(temperature_c), self.reference_temperature_c,
+                                temperature_c), self.t_min_c, self.t_max_c)
 
     def apply(self, f, temperature_c=None):
         """
         Return ``(A_T - B_T(T)) / K_T(T)`` per axis (seed 001 Eq. 6), T clamped to the range.
 
-        Without a temperature, the reference temperature is used (no change).
+        Without a temperature (None, or NaN for a sample), the reference
+        temperature is used (no change).
         """
         f = np.asarray(f, dtype=float)
         if temperature_c is None:
@@ -519,31 +524,7 @@ def age_seconds(iso_time, now=None):
 def save_model(path, model):
     """Write ``model`` to ``path`` atomically: a reader sees old or new, whole."""
     model_from_dict(model.to_dict())  # never write what load_model would refuse
-    write_json_atomically(path, model.to_dict())
-
-
-def write_json_atomically(path, doc):
-    """Write ``doc`` as JSON to ``path``: temporary file, fsync, rename, fsync the folder."""
-    path = os.path.abspath(os.path.expanduser(path))
-    folder = os.path.dirname(path)
-    os.makedirs(folder, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f'.{os.path.basename(path)}-', suffix='.tmp', dir=folder)
-    try:
-        with os.fdopen(fd, 'w') as out:
-            json.dump(doc, out, indent=2)
-            out.write('\n')
-            out.flush()
-            os.fsync(out.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    dir_fd = os.open(folder, os.O_RDONLY)
-    try:
-        os.fsync(dir_fd)
-    finally:
-        os.close(dir_fd)
+    write_json(os.path.expanduser(path), model.to_dict())
 
 
 def load_model(path):
@@ -555,17 +536,9 @@ def load_model(path):
     """
     path = os.path.expanduser(path)
     try:
-        with open(path, 'rb') as stream:
-            data = stream.read()
-    except FileNotFoundError:
-        raise
-    except OSError as err:
-        raise CalibrationFileError(path, f'cannot be read ({err})') from None
-    try:
-        # From bytes, so undecodable garbage is a ValueError (UnicodeDecodeError) here too.
-        doc = json.loads(data)
-    except (ValueError, RecursionError) as err:
-        raise CalibrationFileError(path, f'not valid JSON ({err})') from None
+        doc = read_json(path)
+    except ValueError as err:
+        raise CalibrationFileError(path, str(err)) from None
     try:
         return model_from_dict(doc)
     except (KeyError, TypeError, ValueError, OverflowError) as err:
@@ -726,12 +699,11 @@ def common_stage_temperature(model, tolerance_c, names=('stand', 'installation')
 
 
 def _optional_temperature(section, name):
-    """Raise ValueError unless ``section['temperature_c']`` is None or a plausible deg C."""
+    """Raise ValueError unless ``section['temperature_c']`` is None or a sensor's deg C."""
     value = section['temperature_c']
     if value is not None:
         (value,) = _finite(section, name, 'temperature_c')
-        if not -273.15 < value < 1000.0:
-            raise ValueError(f'{name}.temperature_c = {value} is not a temperature')
+        plausibility.check_temperatures([value], f'{name}.temperature_c')
 
 
 def _check_fields(section, kind, name):
@@ -776,66 +748,47 @@ def _time(section, name, key):
 def installation_from_dict(section):
     """Return a validated Installation from its file section."""
     _check_fields(section, Installation, 'installation')
-    _angles(section, 'installation')
-    _finite(section, 'installation', 'std_deg', 'g_total_mps2')
+    _finite(section, 'installation', 'gamma_deg', 'beta_deg', 'std_deg', 'g_total_mps2')
     _count(section, 'installation', 'sample_count')
-    if section['std_deg'] < 0 or section['g_total_mps2'] <= 0:
-        raise ValueError('installation.std_deg must be >= 0 and g_total_mps2 > 0')
     _time(section, 'installation', 'captured_at')
     _optional_temperature(section, 'installation')
-    return Installation(**section)
-
-
-def _angles(section, name):
-    """Raise ValueError unless gamma_deg, beta_deg are finite installation-size angles."""
-    _finite(section, name, 'gamma_deg', 'beta_deg')
-    for key in ('gamma_deg', 'beta_deg'):
-        if abs(section[key]) >= 45.0:
-            raise ValueError(f'{name}.{key} = {section[key]} is not an installation error '
-                             '(|angle| must be < 45 deg)')
-
-
-def _plausible_matrix(k, name, hint=''):
-    """Raise ValueError unless K is invertible with every axis scale within 0.5 of 1."""
-    if np.linalg.cond(k) > MAX_CONDITION_NUMBER or np.any(np.abs(np.diag(k) - 1.0) > 0.5):
-        raise ValueError(f'{name}.scale_matrix {k.tolist()} is not a plausible sensor '
-                         f'(singular, or an axis scale far from 1{hint})')
+    stage = Installation(**section)
+    plausibility.check_installation(stage)
+    return stage
 
 
 def tool_axis_from_dict(section):
     """Return a validated ToolAxis from its file section."""
     _check_fields(section, ToolAxis, 'tool_axis')
-    _angles(section, 'tool_axis')
-    _finite(section, 'tool_axis', 'axial_rms_deg')
+    _finite(section, 'tool_axis', 'gamma_deg', 'beta_deg', 'axial_rms_deg')
     _count(section, 'tool_axis', 'roll_groups')
     _count(section, 'tool_axis', 'shots')
     _time(section, 'tool_axis', 'fitted_at')
-    return ToolAxis(**section)
+    stage = ToolAxis(**section)
+    plausibility.check_tool_axis(stage)
+    return stage
 
 
 def magnetometer_from_dict(section):
     """Return a validated Magnetometer from its file section."""
     _check_fields(section, Magnetometer, 'magnetometer')
     (k,) = _finite(section, 'magnetometer', 'scale_matrix', shape=(3, 3))
-    (bias,) = _finite(section, 'magnetometer', 'bias_nT', shape=(3,))
+    _finite(section, 'magnetometer', 'bias_nT', shape=(3,))
     _finite(section, 'magnetometer', 'condition_number', 'rms_residual_nT', 'field_nT')
     if section['method'] not in ('stand', 'ellipsoid'):
         raise ValueError(f'magnetometer.method = {section["method"]!r} is not stand or ellipsoid')
-    _plausible_matrix(k, 'magnetometer', ': readings not in nT?')
-    if np.max(np.abs(bias)) > 1e5 or not section['field_nT'] > 0:
-        raise ValueError('magnetometer.bias_nT exceeds 100000 nT or field_nT is not positive')
     _count(section, 'magnetometer', 'positions')
     _time(section, 'magnetometer', 'fitted_at')
-    return Magnetometer(**dict(section, scale_matrix=tuple(map(tuple, k.tolist())),
-                               bias_nT=tuple(section['bias_nT'])))
+    stage = Magnetometer(**dict(section, scale_matrix=tuple(map(tuple, k.tolist())),
+                                bias_nT=tuple(section['bias_nT'])))
+    plausibility.check_magnetometer(stage)
+    return stage
 
 
 def alignment_from_dict(section):
     """Return a validated MagnetometerAlignment from its file section."""
     _check_fields(section, MagnetometerAlignment, 'magnetometer_alignment')
     (r,) = _finite(section, 'magnetometer_alignment', 'rotation', shape=(3, 3))
-    if np.max(np.abs(r @ r.T - np.eye(3))) > 1e-6 or np.linalg.det(r) <= 0:
-        raise ValueError(f'magnetometer_alignment.rotation {r.tolist()} is not a rotation')
     if section['method'] not in ('dip', 'stand', 'given'):
         raise ValueError(f'magnetometer_alignment.method = {section["method"]!r} is not dip, '
                          'stand or given')
@@ -844,7 +797,9 @@ def alignment_from_dict(section):
             _finite(section, 'magnetometer_alignment', key)
     _count(section, 'magnetometer_alignment', 'shots')
     _time(section, 'magnetometer_alignment', 'fitted_at')
-    return MagnetometerAlignment(**dict(section, rotation=tuple(map(tuple, r.tolist()))))
+    stage = MagnetometerAlignment(**dict(section, rotation=tuple(map(tuple, r.tolist()))))
+    plausibility.check_magnetometer_alignment(stage)
+    return stage
 
 
 def stand_from_dict(section):
@@ -857,12 +812,13 @@ def stand_from_dict(section):
         raise ValueError(f'stand.method = {section["method"]!r} is not stand or sphere')
     if section['rms_inclination_deg'] is not None:
         _finite(section, 'stand', 'rms_inclination_deg')
-    _plausible_matrix(k, 'stand')
     _count(section, 'stand', 'positions')
     _time(section, 'stand', 'fitted_at')
     _optional_temperature(section, 'stand')
-    return Stand(**dict(section, scale_matrix=tuple(map(tuple, k.tolist())),
-                        bias_mps2=tuple(section['bias_mps2'])))
+    stage = Stand(**dict(section, scale_matrix=tuple(map(tuple, k.tolist())),
+                         bias_mps2=tuple(section['bias_mps2'])))
+    plausibility.check_stand(stage)
+    return stage
 
 
 def temperature_from_dict(section):
@@ -898,28 +854,16 @@ def _temperature_stage(section, kind, name, unit):
     stage = kind(**dict(section, coefficients=tuple(map(tuple, section['coefficients'])),
                         **{rms_key: tuple(section[rms_key]),
                            bias_key: None if bias is None else tuple(map(tuple, bias))}))
-    scale = stage.fit.scale_factor(np.linspace(t_min, t_max, 101))
-    if np.any(scale <= 0.5) or np.any(scale >= 1.5):
-        raise ValueError(f'{name}.coefficients give a scale factor outside 0.5..1.5 '
-                         'in the fitted range')
-    if np.max(np.abs(stage.fit.scale_factor([t_ref]) - 1.0)) > 1e-6:
-        raise ValueError(f'{name}.coefficients are not 1 at the reference temperature')
-    if bias is not None and np.max(np.abs(stage.fit.bias([t_ref]))) > 1e-6 * max(
-            1.0, np.max(np.abs(np.asarray(bias, dtype=float)))):
-        raise ValueError(f'{name}.{bias_key} are not 0 at the reference temperature')
+    plausibility.check_temperature(stage, name)
     return stage
 
 
 def magnetic_from_dict(section):
     """Return a validated Magnetic from its file section."""
     _check_fields(section, Magnetic, 'magnetic')
-    (w,) = _finite(section, 'magnetic', 'soft_iron', shape=(2, 2))
+    _finite(section, 'magnetic', 'soft_iron', shape=(2, 2))
     _finite(section, 'magnetic', 'hard_iron_nT', shape=(2,))
-    (eps,) = _finite(section, 'magnetic', 'interference_nT', shape=(3,))
-    if np.linalg.cond(w) > 2.0 or np.any(np.abs(np.diag(w) - 1.0) > 0.5):
-        raise ValueError(f'magnetic.soft_iron {w.tolist()} is not a plausible correction')
-    if np.max(np.abs(eps)) > 1e5:
-        raise ValueError(f'magnetic.interference_nT {eps.tolist()} exceeds 100000 nT')
+    _finite(section, 'magnetic', 'interference_nT', shape=(3,))
     for key in ('rotation_fitted_at', 'msa_fitted_at'):
         if section[key] is not None:
             _time(section, 'magnetic', key)
@@ -931,15 +875,15 @@ def magnetic_from_dict(section):
     std = section['interference_std_nT']
     if std is not None:
         (std,) = _finite(section, 'magnetic', 'interference_std_nT', shape=(3,))
-        if np.any(std < 0):
-            raise ValueError('magnetic.interference_std_nT must be >= 0')
         std = tuple(std.tolist())
     _optional_temperature({'temperature_c': section['rotation_temperature_c']},
                           'magnetic.rotation')
-    return Magnetic(**dict(section, hard_iron_nT=tuple(section['hard_iron_nT']),
-                           soft_iron=tuple(map(tuple, section['soft_iron'])),
-                           interference_nT=tuple(section['interference_nT']),
-                           interference_std_nT=std))
+    stage = Magnetic(**dict(section, hard_iron_nT=tuple(section['hard_iron_nT']),
+                            soft_iron=tuple(map(tuple, section['soft_iron'])),
+                            interference_nT=tuple(section['interference_nT']),
+                            interference_std_nT=std))
+    plausibility.check_magnetic(stage)
+    return stage
 
 
 #: A magnetic stage that changes nothing, to build the first correction on.

@@ -16,6 +16,7 @@ import math
 
 from inclino_ros.calibration.magnetometer import fit_field_stand, merge_repeated_attitudes
 from inclino_ros.calibration.model import Stand, utc_now_iso
+from inclino_ros.calibration.plausibility import check_accelerometer_readings
 from inclino_ros.calibration.still_capture import (
     CaptureRefused, require_still, require_still_vectors)
 from inclino_ros.core.attitude import angle_between
@@ -69,7 +70,7 @@ def check_new_attitude(positions, inclination_deg, toolface_deg, azimuth_deg=0.0
 
 
 def average_position(samples, inclination_deg, toolface_deg, limits, times_s=None,
-                     temperature_c=None, fields_nT=None, azimuth_deg=0.0):
+                     temperature_c=None, fields_nT=None, azimuth_deg=0.0, gravity_mps2=None):
     """
     Return the Position of a still capture; CaptureRefused if it moved or is too noisy.
 
@@ -78,9 +79,13 @@ def average_position(samples, inclination_deg, toolface_deg, limits, times_s=Non
     ``fields_nT``: the paired magnetometer readings (NaN rows unpaired) when
     the magnetometer is captured; fewer than two paired leave the position
     without a field.  The field must not move either: a turn about the
-    vertical (the azimuth axis of a stand) shows in it alone.
+    vertical (the azimuth axis of a stand) shows in it alone.  With
+    ``gravity_mps2``, raises Implausible for readings that are not a still
+    tool's in m/s^2 (``plausibility.check_accelerometer_readings``).
     """
     samples = np.asarray(samples, dtype=float)
+    if gravity_mps2 is not None:
+        check_accelerometer_readings(samples, gravity_mps2, "the position's samples")
     stillness = require_still_vectors(samples, times_s, limits)
     field, field_std_deg = None, None
     if fields_nT is not None:

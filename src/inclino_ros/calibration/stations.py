@@ -10,13 +10,12 @@ load like the calibration file.
 """
 
 from dataclasses import asdict, dataclass
-import json
 import math
 import os
 
-from inclino_ros.calibration.model import write_json_atomically
 from inclino_ros.core.cross_axial import apply_cross_axial
 from inclino_ros.core.magnetics import gravity_from_specific_force, iscwsa_from_tool
+from inclino_ros.io.files import read_json, write_json
 import numpy as np
 
 FORMAT = 'inclino_ros.calibration.stations'
@@ -69,20 +68,19 @@ def msa_inputs(stations, model):
 
 def save_stations(path, stations):
     """Write the station list to ``path`` atomically."""
-    write_json_atomically(path, {'format': FORMAT, 'schema_version': SCHEMA_VERSION,
-                                 'stations': [asdict(s) for s in stations]})
+    write_json(os.path.expanduser(path), {'format': FORMAT, 'schema_version': SCHEMA_VERSION,
+                                          'stations': [asdict(s) for s in stations]})
 
 
 def load_stations(path):
     """Return the stations of ``path``: [] if there is no file, StationsFileError if invalid."""
     path = os.path.expanduser(path)
     try:
-        with open(path, 'rb') as stream:
-            doc = json.loads(stream.read())
+        doc = read_json(path)
     except FileNotFoundError:
         return []
-    except (ValueError, RecursionError) as err:
-        raise StationsFileError(path, f'not valid JSON ({err})') from None
+    except ValueError as err:
+        raise StationsFileError(path, str(err)) from None
     try:
         return _stations_from_dict(doc)
     except (KeyError, TypeError, ValueError) as err:

@@ -9,7 +9,10 @@
 6. ``inclino process`` of the same bag with the new calibration file;
 7. prints raw vs corrected vs true per station and writes a PNG plot.
 
-DDS stays on this host on a domain of the demo's own.
+DDS stays on this host on a domain of the demo's own.  The demo's files in
+OUT (the bag, its truth, the calibration file, the processed bag, the
+results and the plot) are refused when they exist unless ``--force``
+(``scripts/demo`` passes it for its own ``demo_output`` folder only).
 """
 
 import json
@@ -20,9 +23,14 @@ import sys
 import tempfile
 import time
 
+from inclino_ros.cli.options import add_force_argument
+from inclino_ros.io.files import Outputs
 import numpy as np
 
 RATE = 2.0  # replay speed factor
+#: The demo's files in its folder.
+DEMO_FILES = ('bench', 'bench.truth.json', 'calibration.json', 'processed', 'results.json',
+              'demo.png')
 
 
 def register(subparsers):
@@ -32,6 +40,7 @@ def register(subparsers):
     parser.add_argument('out', nargs='?', default='demo_output',
                         help='folder for the bag, calibration, results and plot '
                              '(default: %(default)s)')
+    add_force_argument(parser)
     parser.set_defaults(func=run)
 
 
@@ -215,18 +224,19 @@ def run(args):
     from inclino_ros.cli.main import main as inclino
 
     out = os.path.abspath(args.out)
+    outputs = Outputs(force=args.force)
+    for name in DEMO_FILES:
+        outputs.check(os.path.join(out, name))
+    force = ['--force'] if args.force else []
     os.makedirs(out, exist_ok=True)
     isolate_dds(tempfile.mkdtemp(prefix='log-', dir=out))
     bag_path = os.path.join(out, 'bench')
     calibration_file = os.path.join(out, 'calibration.json')
-    for stale in (calibration_file,):
-        if os.path.exists(stale):
-            os.unlink(stale)
-    if os.path.exists(bag_path):
-        import shutil
-        shutil.rmtree(bag_path)
+    if os.path.exists(calibration_file):  # --force: the node must start uncalibrated
+        os.unlink(calibration_file)
     print('== 1. simulate')
-    inclino(['simulate', bag_path])
+    if inclino(['simulate', bag_path] + force) != 0:
+        return 2
     with open(f'{bag_path}.truth.json') as stream:
         truth = json.load(stream)
     series = concatenate(read(bag_path, '/imu/data_raw'))
@@ -255,11 +265,9 @@ def run(args):
         node.wait(timeout=10)
     print('== 6. inclino process (offline) with the new calibration')
     processed = os.path.join(out, 'processed')
-    if os.path.exists(processed):
-        import shutil
-        shutil.rmtree(processed)
-    inclino(['process', bag_path, processed, '--calibration', calibration_file,
-             '--noise-mps2', str(noise_std_mps2)])
+    if inclino(['process', bag_path, processed, '--calibration', calibration_file,
+                '--noise-mps2', str(noise_std_mps2)] + force) != 0:
+        return 2
     offline_series = concatenate(read(processed, '/survey'))
     offline_by_stamp = dict(zip(offline_series.stamps_ns.tolist(),
                                 map(tuple, offline_series.vector[:, :2])))
@@ -275,9 +283,10 @@ def run(args):
     print(f'worst inclination error: raw {worst["raw"]:.4f} deg, corrected '
           f'{worst["corrected"]:.4f} deg, offline {worst["offline"]:.4f} deg; '
           f'live vs offline differ by at most {live_vs_offline:.2e} deg')
-    with open(os.path.join(out, 'results.json'), 'w') as stream:
-        json.dump(rows, stream, indent=2)
     png = os.path.join(out, 'demo.png')
-    plot(rows, png)
+    with outputs:
+        with open(outputs.path(os.path.join(out, 'results.json')), 'x') as stream:
+            json.dump(rows, stream, indent=2)
+        plot(rows, outputs.path(png))
     print(f'wrote {png} and {os.path.join(out, "results.json")}')
     return 0 if worst['corrected'] < worst['raw'] else 1

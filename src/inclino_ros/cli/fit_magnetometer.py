@@ -42,7 +42,8 @@ from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_file_arguments, finish_figure, is_bag, load_existing, new_figure, read_topic, Refused,
     report_paths, run_fit, save, TEMPERATURE_TOPIC, write_text)
-from inclino_ros.cli.process import NODE_DEFAULTS
+from inclino_ros.cli.fitting import NODE_DEFAULTS
+from inclino_ros.cli.options import between, node_parameter, positive
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core import magnetics
 from inclino_ros.core.attitude import angle_between
@@ -64,14 +65,16 @@ def register(subparsers):
         help='calibrate magnetometer and accelerometer from shots in many orientations '
              '(no stand, no reference)', description=__doc__.split('\n\n', 1)[1])
     add_file_arguments(parser, 'CSV file (ax, ay, az, bx, by, bz [, roll_group])')
-    parser.add_argument('--gravity-mps2', type=float, default=NODE_DEFAULTS['gravity_mps2'],
+    parser.add_argument('--gravity-mps2', type=node_parameter('gravity_mps2'),
+                        default=NODE_DEFAULTS['gravity_mps2'],
                         help='local gravity [m/s^2] (default: %(default)s)')
     parser.add_argument('--plot', action='store_true',
                         help='also draw the report as fit_magnetometer.png')
-    parser.add_argument('--max-dip-rms-deg', type=float, default=ShotLimits.max_dip_rms_deg,
+    parser.add_argument('--max-dip-rms-deg', type=between(1e-6, 90.0),
+                        default=ShotLimits.max_dip_rms_deg,
                         help='largest RMS of the dip the fit may leave [deg] (default: '
                              '%(default)s)')
-    parser.add_argument('--max-b-rms-fraction', type=float,
+    parser.add_argument('--max-b-rms-fraction', type=between(1e-9, 1.0),
                         default=ShotLimits.max_b_rms_fraction,
                         help='largest RMS of |B| the fit may leave, a fraction of the field '
                              '(default: %(default)s)')
@@ -83,14 +86,15 @@ def register(subparsers):
     bag.add_argument('--temperature-topic', default=TEMPERATURE_TOPIC,
                      help='sensor_msgs/Temperature topic, if the bag has it (default: '
                           '%(default)s)')
-    bag.add_argument('--still-window-s', type=float, default=0.5,
+    bag.add_argument('--still-window-s', type=positive, default=0.5,
                      help='window of the stillness test [s] (default: %(default)s)')
-    bag.add_argument('--max-still-deg', type=float, default=0.5,
+    bag.add_argument('--max-still-deg', type=between(1e-6, 90.0), default=0.5,
                      help='largest spread of the directions in a still window [deg] '
                           '(default: %(default)s)')
-    bag.add_argument('--min-still-s', type=float, default=1.0,
+    bag.add_argument('--min-still-s', type=positive, default=1.0,
                      help='shortest still segment taken as a shot [s] (default: %(default)s)')
-    bag.add_argument('--max-pairing-s', type=float, default=0.05,
+    bag.add_argument('--max-pairing-s', type=node_parameter('magnetic.max_pairing_s'),
+                     default=0.05,
                      help='largest time between an Imu sample and its magnetometer message '
                           '[s] (default: %(default)s)')
     add_reference_arguments(parser.add_argument_group(
@@ -177,9 +181,9 @@ def read_bag_shots(args, lines):
     return shots_a, shots_b, None, None
 
 
-def fit(args, lines):
+def fit(args, lines, outputs):
     """Fit the shots of ``args.input`` into ``args.calibration``; see ``run_fit``."""
-    existing = load_existing(args.calibration)
+    existing = load_existing(args.calibration, args.sensor_id)
     try:
         total_nT, dip_ref, _, source = resolve_reference(args)
     except ValueError as err:
@@ -204,14 +208,15 @@ def fit(args, lines):
     lines += summary_lines(result, labels, before, after, total_nT, dip_ref, source)
     png, txt = report_paths(args, REPORT_NAME)
     if args.plot:
-        plot_report(png, labels, before, after, result.fit.field_nT, args.gravity_mps2)
+        plot_report(outputs.path(png), labels, before, after, result.fit.field_nT,
+                    args.gravity_mps2)
     save(args.calibration, result.model)
     written = ['magnetometer', 'magnetometer_alignment'] + (
         ['tool_axis'] if result.fit.tool_axis is not None else []) + (
         ['stand (method sphere)'] if result.fit.accel_matrix is not None else [])
     lines += [f'wrote the stages {", ".join(written)} to {args.calibration}',
               f'report: {txt}' + (f', {png}' if args.plot else '')]
-    write_text(txt, lines)
+    write_text(outputs.path(txt), lines)
 
 
 def survey_of(model, accel, field, temperature_c, g):

@@ -17,18 +17,22 @@ are kept.  Report: the readings before and after with the fitted ellipse and
 circle (seed 002 Fig. 4) in ``fit_rotation.png`` and the summary in
 ``fit_rotation.txt``.
 
-Refused (exit 1, the calibration file untouched): too few readings, a
-non-finite one, no ellipse, too flat an ellipse, too short an arc or too
-large a radial RMSE (``cross_axial.RotationLimits``).
+Refused (exit 1, the calibration file untouched): readings that are no
+Earth field in nT (``plausibility.check_field_readings``: a dead
+magnetometer, tesla or gauss named), too few readings, a non-finite one, no
+ellipse, too flat an ellipse, too short an arc or too large a radial RMSE
+(``cross_axial.RotationLimits``).
 """
 
 from dataclasses import replace
 
 from inclino_ros.calibration.model import NO_MAGNETIC_CORRECTION, utc_now_iso
+from inclino_ros.calibration.plausibility import check_field_readings
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_file_arguments, finish_figure, is_bag, load_existing, new_figure, read_csv, read_topic,
     Refused, report_paths, run_fit, save, write_text)
+from inclino_ros.cli.options import finite
 from inclino_ros.core.cross_axial import apply_cross_axial, fit_cross_axial, RotationFitRefused
 import numpy as np
 
@@ -48,9 +52,9 @@ def register(subparsers):
     add_file_arguments(parser, 'CSV file with bx, by, bz [nT]')
     parser.add_argument('--mag-topic', default=MAG_TOPIC,
                         help='sensor_msgs/MagneticField topic of a bag (default: %(default)s)')
-    parser.add_argument('--start-s', type=float,
+    parser.add_argument('--start-s', type=finite,
                         help='bag: first reading, seconds after the first message (default: 0)')
-    parser.add_argument('--end-s', type=float,
+    parser.add_argument('--end-s', type=finite,
                         help='bag: last reading, seconds after the first message '
                              '(default: the last message)')
     parser.set_defaults(func=run)
@@ -77,11 +81,13 @@ def load_readings(args):
     return series.field_nT[window]
 
 
-def fit(args, lines):
+def fit(args, lines, outputs):
     """Fit the rotation of ``args.input`` into ``args.calibration``; see ``run_fit``."""
     existing = load_existing(args.calibration, args.sensor_id)
+    raw = load_readings(args)
+    check_field_readings(raw)
     # Fitted in the tool frame: after the magnetometer's own stages and the shared mount.
-    readings = existing.apply_magnetic(load_readings(args), before='magnetic')
+    readings = existing.apply_magnetic(raw, before='magnetic')
     try:
         result = fit_cross_axial(readings)
     except RotationFitRefused as err:
@@ -93,11 +99,11 @@ def fit(args, lines):
                     soft_iron=tuple(map(tuple, result.correction.tolist())),
                     rotation_fitted_at=utc_now_iso())
     png, txt = report_paths(args, REPORT_NAME)
-    plot_rotation(png, readings, corrected, result)
+    plot_rotation(outputs.path(png), readings, corrected, result)
     save(args.calibration, replace(existing, magnetic=stage))
     lines += [f'wrote the magnetic stage (hard and soft iron) to {args.calibration}',
               f'report: {png}, {txt}']
-    write_text(txt, lines)
+    write_text(outputs.path(txt), lines)
 
 
 def summary_lines(result, readings):

@@ -30,18 +30,19 @@ other stages and drops the installation and tool-axis stages: a stand K
 contains the mounting misalignment, and after a sphere fit the level bench
 must be measured again on the stand-corrected readings.
 
-Refused (exit 1, the calibration file untouched): a fit ``stand`` refuses
-(too few positions, repeated attitudes, an ill-posed set), a position where
-the tool moved (its mean drifts faster than ``--max-drift-deg-per-s``
-against its own noise, or is not steady) or whose mean misses
-``--max-sem-deg`` (``still_capture``: positions of fewer than 6 samples, e.g.
-averaged CSV rows, are not tested; CSV times from an optional ``time_s``
-column), positions whose temperatures lie more than
-``--max-temperature-difference-c`` apart without a temperature stage, an RMS
-inclination residual above ``--max-rms-deg`` (for a sphere fit: the RMS of
-``|G| - g`` over g, as an angle).  The stage records the temperature its
-readings stood for (the temperature stage's reference, else their mean
-temperature).
+Refused (exit 1, the calibration file untouched): readings that are not
+those of a still tool in m/s^2 (``plausibility.check_accelerometer_readings``:
+g or mg named), a fit ``stand`` refuses (too few positions, repeated
+attitudes, an ill-posed set), a position where the tool moved (its mean
+drifts faster than ``--max-drift-deg-per-s`` against its own noise, or is
+not steady) or whose mean misses ``--max-sem-deg`` (``still_capture``:
+positions of fewer than 6 samples, e.g. averaged CSV rows, are not tested;
+CSV times from an optional ``time_s`` column), positions whose temperatures
+lie more than ``--max-temperature-difference-c`` apart without a
+temperature stage, an RMS inclination residual above ``--max-rms-deg`` (for
+a sphere fit: the RMS of ``|G| - g`` over g, as an angle).  The stage
+records the temperature its readings stood for (the temperature stage's
+reference, else their mean temperature).
 """
 
 from dataclasses import replace
@@ -50,12 +51,14 @@ from functools import partial
 from inclino_ros.calibration.magnetometer import fit_field_stand, merge_repeated_attitudes
 from inclino_ros.calibration.model import (
     CalibrationModel, readings_temperature_c, Stand, utc_now_iso)
+from inclino_ros.calibration.plausibility import check_accelerometer_readings
 from inclino_ros.calibration.still_capture import CaptureRefused, require_still_vectors
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_common_arguments, AXIS_COLUMNS, finish_figure, has_topic, is_bag, load_existing,
     matrix_lines, new_figure, NODE_DEFAULTS, node_option, read_csv, read_topic, Refused,
     report_paths, run_fit, sample_temperatures, save, write_text)
+from inclino_ros.cli.options import between, node_parameter
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core.attitude import inclination
 from inclino_ros.core.stand import (
@@ -80,7 +83,7 @@ def register(subparsers):
     parser.add_argument('--method', choices=('stand', 'sphere'), default='stand',
                         help='stand: known attitudes; sphere: |G| = g only (default: '
                              '%(default)s)')
-    parser.add_argument('--max-rms-deg', type=float, default=0.05,
+    parser.add_argument('--max-rms-deg', type=between(1e-6, 90.0), default=0.05,
                         help='largest RMS inclination residual accepted [deg] (default: '
                              '%(default)s)')
     node_option(parser, '--max-sem-deg', 'stand.max_sem_deg',
@@ -93,12 +96,13 @@ def register(subparsers):
     parser.add_argument('--attitude-topic', default=ATTITUDE_TOPIC,
                         help='Vector3Stamped stand attitude topic of a bag (default: '
                              '%(default)s)')
-    parser.add_argument('--gravity-mps2', type=float, default=NODE_DEFAULTS['gravity_mps2'],
+    parser.add_argument('--gravity-mps2', type=node_parameter('gravity_mps2'),
+                        default=NODE_DEFAULTS['gravity_mps2'],
                         help='local gravity [m/s^2] (default: %(default)s)')
     magnetic = parser.add_argument_group('magnetometer (seed 001 Eq. 12)')
     magnetic.add_argument('--mag-topic', default='/imu/mag',
                           help='sensor_msgs/MagneticField topic of a bag (default: %(default)s)')
-    magnetic.add_argument('--max-field-rms-deg', type=float,
+    magnetic.add_argument('--max-field-rms-deg', type=node_parameter('stand.max_field_rms_deg'),
                           default=NODE_DEFAULTS['stand.max_field_rms_deg'],
                           help='largest RMS angle between the corrected and the expected field '
                                '[deg] (default: %(default)s)')
@@ -111,10 +115,11 @@ def run(args):
     return run_fit('fit-stand', args, fit)
 
 
-def fit(args, lines):
+def fit(args, lines, outputs):
     """Fit the stand stage of ``args.input`` into ``args.calibration``; see ``run_fit``."""
     existing = load_existing(args.calibration, args.sensor_id)
     readings, attitude_deg, temperature_c, times_s, fields = load_input(args)
+    check_accelerometer_readings(readings, args.gravity_mps2)
     stood_for_c = readings_temperature_c(
         existing.temperature, None if temperature_c is None else float(np.mean(temperature_c)))
     if existing.temperature is None and temperature_c is not None \
@@ -143,9 +148,9 @@ def fit(args, lines):
                                               else f'{stood_for_c:.2f} C'))
     # A refused fit reports beside, not over, the report of the fit in the file.
     png, txt = report_paths(args, REPORT_NAME + ('_refused' if refusal else ''))
-    draw(png)
+    draw(outputs.path(png))
     lines.append(f'report: {png}')
-    write_text(txt, lines + ([f'REFUSED: {refusal}'] if refusal else []))
+    write_text(outputs.path(txt), lines + ([f'REFUSED: {refusal}'] if refusal else []))
     if refusal:
         raise Refused(refusal)
     dropped = existing.installation is not None

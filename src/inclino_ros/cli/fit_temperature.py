@@ -26,7 +26,9 @@ readings stood for (stand and installation; for the magnetometer the rotation
 fit), when they record one: a stand captured at 35 deg C keeps working.
 The new stage replaces the old one of its triad; the other stages are kept.
 
-Refused (exit 1, the calibration file untouched): no reading near 25 deg C
+Refused (exit 1, the calibration file untouched): readings not of a still
+tool in m/s^2 (accelerometer) or no Earth field in nT (magnetometer), or
+temperatures no sensor reads (``plausibility``), no reading near 25 deg C
 for a one-attitude fit without ref columns, a fit ``temperature`` refuses
 (too few distinct temperatures for the order, 25 deg C outside the data, an
 axis that sees no gravity / cannot be told apart), later stages captured at
@@ -37,17 +39,23 @@ from dataclasses import replace
 
 from inclino_ros.calibration.model import (
     common_stage_temperature, MagnetometerTemperature, Temperature, utc_now_iso)
+from inclino_ros.calibration.plausibility import (
+    check_accelerometer_readings, check_field_readings, check_temperatures,
+    STANDARD_GRAVITY_MPS2)
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_common_arguments, finish_figure, is_bag, load_existing, matrix_lines, new_figure,
     node_option, read_csv, read_topic, Refused, report_paths, run_fit, sample_temperatures,
     save, write_text)
+from inclino_ros.cli.options import between
 from inclino_ros.core.attitude import angle_between, inclination
 from inclino_ros.core.temperature import (
     AXES, fit_temperature, fit_temperature_drift, REFERENCE_TEMPERATURE_C,
     TemperatureFitRefused)
 import numpy as np
 
+#: Highest order of K_T(T) and B_T(T) (seed 001 fits order 2).
+MAX_ORDER = 6
 REPORT_NAME = 'fit_temperature'
 MAG_TOPIC = '/imu/mag'
 #: Per triad: CSV columns, reference columns, unit, calibration section, later stages.
@@ -71,13 +79,13 @@ def register(subparsers):
     parser.add_argument('--mag-topic', default=MAG_TOPIC,
                         help='sensor_msgs/MagneticField topic of a bag, --triad magnetometer '
                              '(default: %(default)s)')
-    parser.add_argument('--order', type=int, default=2,
+    parser.add_argument('--order', type=between(1, MAX_ORDER, int), default=2,
                         help='polynomial order of K_T(T) and B_T(T) (default: %(default)s)')
-    parser.add_argument('--reference-window-c', type=float, default=1.0,
+    parser.add_argument('--reference-window-c', type=between(1e-3, 100.0), default=1.0,
                         help='one attitude: readings within this many deg C of 25 deg C give '
                              'the reference when the input has no ref columns (default: '
                              '%(default)s)')
-    parser.add_argument('--attitude-separation-deg', type=float, default=20.0,
+    parser.add_argument('--attitude-separation-deg', type=between(1e-3, 180.0), default=20.0,
                         help='bag: readings further apart in direction belong to different '
                              'attitudes (default: %(default)s)')
     node_option(parser, '--max-temperature-difference-c', 'temperature.max_stage_difference_c',
@@ -91,13 +99,16 @@ def run(args):
     return run_fit('fit-temperature', args, fit)
 
 
-def fit(args, lines):
+def fit(args, lines, outputs):
     """Fit the temperature stage of ``args.input`` into ``args.calibration``; see ``run_fit``."""
-    if args.order < 1:
-        raise CommandError('--order must be at least 1')
     _, _, unit, section, later = TRIADS[args.triad]
     existing = load_existing(args.calibration, args.sensor_id)
     temperature_c, readings, reference, attitude = load_input(args)
+    if args.triad == 'accelerometer':
+        check_accelerometer_readings(readings, STANDARD_GRAVITY_MPS2)
+    else:
+        check_field_readings(readings)
+    check_temperatures(temperature_c)
     heated = heated_attitudes(temperature_c, attitude, args.order)
     try:
         if reference is None and heated >= 2:
@@ -129,7 +140,7 @@ def fit(args, lines):
     lines.append(f'{what} over the run (vs each attitude at the stage reference): largest '
                  f'{np.abs(before).max():.4f} deg uncompensated, {np.abs(after).max():.4f} deg '
                  'compensated')
-    plot(png, temperature_c, result, before, after, what)
+    plot(outputs.path(png), temperature_c, result, before, after, what)
     lines.append(f'report: {png}')
     save(args.calibration, model)
     kept = [name for name in later if getattr(model, name) is not None]
@@ -137,7 +148,7 @@ def fit(args, lines):
                  f'{result.attitudes} attitude(s), compensating to '
                  f'{result.reference_temperature_c:g} C)'
                  + (f', {" and ".join(kept)} stage kept' if kept else ''))
-    write_text(txt, lines)
+    write_text(outputs.path(txt), lines)
 
 
 def heated_attitudes(temperature_c, attitude, order):

@@ -16,9 +16,12 @@ import sys
 
 from inclino_ros.calibration.model import (
     CalibrationFileError, CalibrationModel, check_sensor, load_model, save_model)
+from inclino_ros.calibration.plausibility import Implausible
 from inclino_ros.cli.errors import CommandError
+from inclino_ros.cli.options import node_parameter
 from inclino_ros.io import tables
 from inclino_ros.io.bag import BagError, concatenate, read, topic_info
+from inclino_ros.io.files import Outputs
 from inclino_ros.node.parameters import PARAMETERS
 
 RAW_TOPIC = '/imu/data_raw'
@@ -100,7 +103,7 @@ def sample_temperatures(imu, path, topic):
 
 def node_option(parser, flag, parameter, help_text, **kwargs):
     """Add the float option ``flag`` defaulting to the node's ``parameter`` (said in its help)."""
-    parser.add_argument(flag, type=float, default=NODE_DEFAULTS[parameter],
+    parser.add_argument(flag, type=node_parameter(parameter), default=NODE_DEFAULTS[parameter],
                         help=f'{help_text} (default: %(default)s, as {parameter})', **kwargs)
 
 
@@ -178,30 +181,37 @@ def finish_figure(pyplot, fig, axes, path):
 
 def run_fit(command, args, fit):
     """
-    Run ``fit(args, lines)`` and report; return the exit code.
+    Run ``fit(args, lines, outputs)`` and report; return the exit code.
 
     ``fit`` appends the summary lines to ``lines`` (printed as they are, and
-    written to the text report by the fit); Refused gives 1, CommandError 2.
+    written to the text report by the fit) and writes its report files to
+    ``outputs.path(final)`` (``io.files.Outputs``): they replace the report
+    of the previous fit whole, never the input or the calibration file, and
+    are kept when the fit is refused (the refusal's report) but not when the
+    command fails.  Refused and Implausible (readings no sensor gives,
+    ``calibration.plausibility``) give 1; other errors propagate to ``main``.
     """
     lines = []
-    try:
-        fit(args, lines)
-    except Refused as err:
+    with Outputs(inputs=[args.input, args.calibration], force=True) as outputs:
+        try:
+            fit(args, lines, outputs)
+        except (Refused, Implausible) as err:
+            refusal = err
+        else:
+            refusal = None
+    if refusal is not None:
         if lines:
             print('\n'.join(lines))
-        print(f'inclino {command}: refused: {err}; {args.calibration} left unchanged',
+        print(f'inclino {command}: refused: {refusal}; {args.calibration} left unchanged',
               file=sys.stderr)
         return 1
-    except CommandError as err:
-        print(f'inclino {command}: error: {err}', file=sys.stderr)
-        return 2
     print('\n'.join(lines))
     return 0
 
 
 def write_text(path, lines):
-    """Write the summary ``lines`` to ``path``."""
-    with open(path, 'w') as stream:
+    """Write the summary ``lines`` to the new file ``path``."""
+    with open(path, 'x') as stream:
         stream.write('\n'.join(lines) + '\n')
 
 

@@ -4,22 +4,46 @@
 Each module in ``inclino_ros.cli`` named in COMMANDS (a dash in the command is an
 underscore in the module name) has ``register(subparsers)`` adding its parser (with
 ``func`` set to its ``run(args)`` returning an exit code).
+
+Errors are messages, never tracebacks, in one place (``main``): an input,
+option or output that cannot be used (``CommandError``, a bag, table or
+output error, an OSError such as a full or read-only disk) is one line
+``inclino CMD: error: ...`` and exit code 2; anything unexpected is one
+line and exit code 1 (``--debug`` shows its traceback); Ctrl-C stops the
+command with exit code 130, what it did so far said, and no output left
+half-written (``io.files.Outputs``).
 """
 
 import argparse
 import importlib
 import sys
 
+from inclino_ros.cli.errors import CommandError
+from inclino_ros.io.bag import BagError
+from inclino_ros.io.files import OutputError
+from inclino_ros.io.tables import TableError
+
 COMMANDS = ('simulate', 'process', 'play', 'calibrate', 'demo', 'fit-stand', 'fit-temperature',
             'msa', 'simulate-well', 'fit-rotation', 'fit-magnetometer', 'survey')
+#: Errors of an input, option or output that cannot be used: exit code 2.
+USAGE_ERRORS = (CommandError, BagError, OutputError, TableError, OSError)
+#: Exit code of a command stopped by Ctrl-C (128 + SIGINT, as a shell reports it).
+INTERRUPTED = 130
+
+
+def _top_parser():
+    """Return the ``inclino`` parser without subcommands, and its subparsers."""
+    parser = argparse.ArgumentParser(
+        prog='inclino',
+        description='Inclinometer correction tools of inclino_ros (no ros2 CLI needed).')
+    parser.add_argument('--debug', action='store_true',
+                        help='show the traceback of an unexpected error')
+    return parser, parser.add_subparsers(dest='command', required=True)
 
 
 def build_parser():
     """Return the ``inclino`` argument parser with every subcommand."""
-    parser = argparse.ArgumentParser(
-        prog='inclino',
-        description='Inclinometer correction tools of inclino_ros (no ros2 CLI needed).')
-    subparsers = parser.add_subparsers(dest='command', required=True)
+    parser, subparsers = _top_parser()
     for name in COMMANDS:
         module = name.replace('-', '_')
         importlib.import_module(f'inclino_ros.cli.{module}').register(subparsers)
@@ -32,20 +56,41 @@ def build_command_parser(argv):
 
     Loading every subcommand's module costs more than a quick command's work.
     """
-    if argv and argv[0] in COMMANDS:
-        parser = argparse.ArgumentParser(prog='inclino')
-        subparsers = parser.add_subparsers(dest='command', required=True)
-        importlib.import_module(f'inclino_ros.cli.{argv[0].replace("-", "_")}').register(
+    named = [word for word in argv if word != '--debug'][:1]
+    if named and named[0] in COMMANDS:
+        parser, subparsers = _top_parser()
+        importlib.import_module(f'inclino_ros.cli.{named[0].replace("-", "_")}').register(
             subparsers)
         return parser
     return build_parser()
 
 
 def main(argv=None):
-    """Run one subcommand; return its exit code."""
+    """Run one subcommand; return its exit code (2 unusable input, 1 unexpected, 130 Ctrl-C)."""
     argv = sys.argv[1:] if argv is None else list(argv)
-    args = build_command_parser(argv).parse_args(argv)
-    return args.func(args)
+    try:
+        args = build_command_parser(argv).parse_args(argv)
+    except SystemExit as done:  # --help, or a usage error argparse has printed
+        return done.code
+    command = f'inclino {args.command}'
+    try:
+        return args.func(args)
+    except KeyboardInterrupt as err:
+        done = f' {err}' if str(err) else ''
+        print(f'{command}: interrupted (Ctrl-C){done}; outputs not completed were removed, '
+              'files already written are whole', file=sys.stderr)
+        return INTERRUPTED
+    except USAGE_ERRORS as err:
+        if args.debug:
+            raise
+        print(f'{command}: error: {err}', file=sys.stderr)
+        return 2
+    except Exception as err:  # the last resort: a message, not a traceback
+        if args.debug:
+            raise
+        print(f'{command}: error: unexpected {type(err).__name__}: {err} (inclino --debug '
+              f'{args.command} ... shows where)', file=sys.stderr)
+        return 1
 
 
 if __name__ == '__main__':

@@ -51,6 +51,12 @@ with ``msa_method, msa_stations, msa_reference_*`` and ``msa_fitted_at``;
 its hard and soft iron and every other stage are kept, the file written
 atomically.  ``short-collar`` (one correction per station) cannot be stored.
 
+OUT, OUT.msa.json and the report are written under temporary names and
+renamed when all are complete; one that exists is refused unless
+``--force``, and STATIONS.csv or the calibration file never
+(``io.files.Outputs``).  Stations whose B is not an Earth field in nT are
+refused with the unit named (``plausibility.check_field_readings``).
+
 Exit codes: 0 corrected, 1 refused (the reason printed, nothing written,
 the calibration file untouched), 2 unusable input.
 """
@@ -60,9 +66,11 @@ import json
 import sys
 
 from inclino_ros.calibration.model import NO_MAGNETIC_CORRECTION, utc_now_iso
+from inclino_ros.calibration.plausibility import check_field_readings, Implausible
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
-    add_sensor_argument, finish_figure, load_existing, new_figure, read_csv, save)
+    add_sensor_argument, finish_figure, load_existing, new_figure, read_csv, Refused, save)
+from inclino_ros.cli.options import add_force_argument, between, non_negative, report_path
 from inclino_ros.cli.process import add_limit_arguments
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core import magnetics
@@ -71,6 +79,7 @@ from inclino_ros.core.msa import (
     azimuth_difference_deg, improved_cross_axial, MAX_INTERFERENCE_NT, misfit_nT2, MsaRefused,
     short_collar, solve_msa_axial, solve_msa_classic, solve_msa_improved, WMM_REFERENCE_STD)
 from inclino_ros.core.uncertainty import toolface_std_rad
+from inclino_ros.io.files import Outputs
 import numpy as np
 
 GRAVITY_COLUMNS = ('gx', 'gy', 'gz')
@@ -96,46 +105,46 @@ def register(subparsers):
     add_sensor_argument(parser)
     parser.add_argument('--method', choices=METHODS, default='improved',
                         help='correction method (default: %(default)s)')
-    parser.add_argument('--cross-axial-nT', type=float, nargs=2, metavar=('EX', 'EY'),
+    parser.add_argument('--cross-axial-nT', nargs=2, metavar=('EX', 'EY'),
+                        type=between(-MAX_INTERFERENCE_NT, MAX_INTERFERENCE_NT),
                         help='improved: known cross-axial interference [nT] (rotation fit)')
-    parser.add_argument('--reference-total-std-nT', type=float, default=WMM_REFERENCE_STD[0],
+    parser.add_argument('--reference-total-std-nT', type=non_negative,
+                        default=WMM_REFERENCE_STD[0],
                         help='1 sigma of the reference total field [nT] (default: WMM 2025, '
                              '%(default)s; an IFR model ~half)')
-    parser.add_argument('--reference-dip-std-deg', type=float, default=WMM_REFERENCE_STD[1],
+    parser.add_argument('--reference-dip-std-deg', type=non_negative, default=WMM_REFERENCE_STD[1],
                         help='1 sigma of the reference dip [deg] (default: WMM 2025, '
                              '%(default)s)')
     add_limit_arguments(parser)
     parser.add_argument('--exclude-failing', action='store_true',
                         help='leave stations failing QC out of the solve (named) instead of '
                              'refusing')
-    parser.add_argument('--report', metavar='PNG', help='write a report figure')
+    parser.add_argument('--report', metavar='PNG', type=report_path,
+                        help='write a report figure (.png, .pdf or .svg)')
+    add_force_argument(parser)
     parser.set_defaults(func=run)
 
 
 def run(args):
     """Correct, write OUT and OUT.msa.json, print the corrections; return the exit code."""
     lines = []
+    outputs = Outputs(inputs=[args.stations, args.calibration], force=args.force)
+    for path in (args.output, f'{args.output}.msa.json', args.report):
+        if path is not None:
+            outputs.check(path)
     try:
-        table = load_stations(args)
-        model = None if args.calibration is None else calibrated_field(args, table, lines)
-        output = correct(args, table, lines)
-    except MsaRefused as err:
-        print('\n'.join(lines + [f'inclino msa: refused: {err.reason}; nothing written']),
+        with outputs:
+            table = load_stations(args)
+            check_field_readings(table['B'], "the stations' B")
+            model = None if args.calibration is None else calibrated_field(args, table, lines)
+            output = correct(args, table, lines)
+            write_outputs(args, table, output, lines, outputs)
+            if model is not None:
+                store(args, model, output[0], lines)
+    except (MsaRefused, Refused, Implausible) as err:
+        print('\n'.join(lines + [f'inclino msa: refused: {err}; nothing written']),
               file=sys.stderr)
         return 1
-    except CommandError as err:
-        print(f'inclino msa: error: {err}', file=sys.stderr)
-        return 2
-    try:
-        write_outputs(args, table, output, lines)
-        if model is not None:
-            store(args, model, output[0], lines)
-    except OSError as err:
-        print(f'inclino msa: error: cannot write: {err}', file=sys.stderr)
-        return 2
-    except CommandError as err:
-        print(f'inclino msa: error: {err}', file=sys.stderr)
-        return 2
     print('\n'.join(lines))
     return 0
 
@@ -266,8 +275,8 @@ def result_lines(result):
     return lines
 
 
-def write_outputs(args, table, output, lines):
-    """Write OUT, OUT.msa.json and the report."""
+def write_outputs(args, table, output, lines, outputs):
+    """Write OUT, OUT.msa.json and the report to their temporaries in ``outputs``."""
     result, source = output
     G = table['G']
     columns = {}
@@ -294,14 +303,14 @@ def write_outputs(args, table, output, lines):
         columns[TRUTH_COLUMN] = table[TRUTH_COLUMN]
         columns['azimuth_error_deg'] = azimuth_difference_deg(
             result.azimuth_deg, table[TRUTH_COLUMN])
-    write_table(args.output, columns)
+    write_table(outputs.path(args.output), columns)
     json_path = f'{args.output}.msa.json'
-    with open(json_path, 'w') as stream:
+    with open(outputs.path(json_path), 'x') as stream:
         json.dump(summary(args, result, source), stream, indent=2)
         stream.write('\n')
     lines.append(f'wrote {args.output} ({G.shape[0]} stations) and {json_path}')
     if args.report:
-        plot_report(args, table, result)
+        plot_report(args, table, result, outputs.path(args.report))
         lines.append(f'report: {args.report}')
 
 
@@ -323,7 +332,7 @@ def write_table(path, columns):
     """Write ``{name: values}`` as CSV; booleans as 0/1, floats in full precision."""
     rows = np.column_stack([np.asarray(values, dtype=float) for values in columns.values()])
     flags = [np.asarray(values).dtype == bool for values in columns.values()]
-    with open(path, 'w') as stream:
+    with open(path, 'x') as stream:
         stream.write(','.join(columns) + '\n')
         for row in rows:
             stream.write(','.join(str(int(v)) if flag else repr(float(v))
@@ -358,8 +367,8 @@ def summary(args, result, source):
     return record
 
 
-def plot_report(args, table, result):
-    """Plot azimuths (and errors vs truth), then V(eps_z) wide and near the solution."""
+def plot_report(args, table, result, path):
+    """Plot azimuths (and errors vs truth), then V(eps_z) wide and near the solution, to path."""
     has_truth = int(TRUTH_COLUMN in table)
     pyplot, fig, axes = new_figure(3 + has_truth, f'inclino msa --method {args.method}')
     station = table.get('md', np.arange(1, table['G'].shape[0] + 1))
@@ -386,7 +395,7 @@ def plot_report(args, table, result):
         plot_short_collar(axes[1 + has_truth:], station, result)
     else:
         plot_misfit(axes[1 + has_truth:], args, table, result)
-    finish_figure(pyplot, fig, axes, args.report)
+    finish_figure(pyplot, fig, axes, path)
 
 
 def plot_misfit(axes, args, table, result):

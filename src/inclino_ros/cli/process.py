@@ -21,7 +21,9 @@ last value held outside their span); without it the stage compensates at
 its reference temperature.
 
 With ``--mag-topic`` (sensor_msgs/MagneticField, tesla, z-up tool frame)
-each Imu sample is paired with the magnetometer message nearest in time;
+each Imu sample is paired with the magnetometer message nearest in time
+(a reading no magnetometer gives, non-finite or beyond an Earth field plus
+interference, is dropped first and counted: ``mag_readings_dropped``);
 one further than ``--max-pairing-s`` away (or none) leaves the sample
 without a field: its azimuth is NaN and it is counted unpaired.  The field
 (in nT) goes through the calibration's magnetic stage to ``pipeline.run``,
@@ -31,6 +33,11 @@ dip, G-total), NaN elsewhere.  The reference is ``--reference-total-nT``,
 ``--reference-dip-deg`` or ``--site`` (WMM), else the one of the
 calibration's multi-station analysis; an azimuth is never written without
 one to check it against.
+
+OUT is written under a temporary name and renamed when complete; an OUT
+that exists is refused unless ``--force``, and IN or the calibration file
+never (``io.files.Outputs``).  A damaged IN (a read that fails or yields
+fewer messages than the bag says) is an error and leaves no OUT.
 """
 
 from dataclasses import dataclass
@@ -38,14 +45,17 @@ import math
 import sys
 
 from inclino_ros.calibration.model import CalibrationFileError, check_sensor, load_model
+from inclino_ros.calibration.plausibility import (
+    check_for_sensor, field_reading_ok, Implausible, temperature_ok)
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import add_sensor_argument, NODE_DEFAULTS, node_option
+from inclino_ros.cli.options import add_force_argument, between, node_parameter
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core.screening import count_reasons, REASONS
 from inclino_ros.io.bag import (
-    BagError, BagWriter, CHUNK_SIZE, concatenate, IMU, ImuSeries, MAGNETIC_FIELD,
-    not_measured_covariance, read, STORAGES, TEMPERATURE, topic_info, VECTOR3_STAMPED,
-    Vector3Series)
+    BagWriter, CHUNK_SIZE, concatenate, IMU, ImuSeries, MAGNETIC_FIELD, not_measured_covariance,
+    read, STORAGES, TEMPERATURE, TemperatureSeries, topic_info, VECTOR3_STAMPED, Vector3Series)
+from inclino_ros.io.files import Outputs
 from inclino_ros.io.timing import pair_nearest
 from inclino_ros.pipeline import (
     imu_covariances, MagneticSettings, run as run_pipeline, Settings)
@@ -77,11 +87,20 @@ class Magnetometer:
     field_nT: np.ndarray      # (M, 3) tool frame
     max_pairing_ns: int
     settings: MagneticSettings
+    dropped: int              # readings no magnetometer gives (non-finite, beyond an Earth field)
 
     @classmethod
     def from_series(cls, series, max_pairing_s, settings):
-        """Return the Magnetometer of a MagneticFieldSeries (any order; tesla -> nT)."""
-        return cls(series.stamps_ns, series.field_nT, round(max_pairing_s * 1e9), settings)
+        """
+        Return the Magnetometer of a MagneticFieldSeries (any order; tesla -> nT).
+
+        Readings ``plausibility.field_reading_ok`` refuses are dropped (and
+        counted): a sample is paired with the nearest reading that is left.
+        """
+        field_nT = series.field_nT
+        kept = field_reading_ok(field_nT)
+        return cls(series.stamps_ns[kept], field_nT[kept], round(max_pairing_s * 1e9), settings,
+                   int(kept.size - kept.sum()))
 
     def field_at(self, stamps_ns):
         """Return (field_nT (N, 3), paired (N,)) of the readings nearest ``stamps_ns``."""
@@ -157,14 +176,16 @@ class Summary:
             counts[name] += int((paired & ~ok).sum())
         self.magnetic = counts
 
-    def lines(self):
-        """Return the summary as ``name: value`` lines."""
+    def lines(self, magnetometer=None):
+        """Return the summary as ``name: value`` text, with what ``magnetometer`` dropped."""
         n = self.accepted
         lines = [f'samples_in: {self.samples_in}', f'accepted: {n}']
         lines += [f'dropped_{reason}: {count}' for reason, count in self.dropped.items()]
         lines.append(f'toolface_imprecise: {self.toolface_imprecise}')
         if self.magnetic is not None:
             lines += [f'{name}: {count}' for name, count in self.magnetic.items()]
+        if magnetometer is not None:
+            lines.append(f'mag_readings_dropped: {magnetometer.dropped}')
         if n == 0:
             return lines + ['inclination_deg: none accepted', 'g_total_mps2: none accepted']
         g_mean = self.gravity_mps2 + self._g_offset_sum / n
@@ -193,14 +214,16 @@ def register(subparsers):
                              'stage (default: none, compensate at the reference temperature)')
     parser.add_argument('--storage', choices=sorted(STORAGES), default='mcap',
                         help='storage format of OUT (default: %(default)s)')
+    add_force_argument(parser)
     parser.add_argument('--toolface-convention', choices=('seed000', 'iscwsa_highside'),
                         default=NODE_DEFAULTS['toolface_convention'],
                         help='gravity toolface definition (default: %(default)s)')
     parser.add_argument('--axes', type=int, choices=(2, 3),
                         help='accelerometer axes (default: those of the calibration file)')
-    parser.add_argument('--gravity-mps2', type=float, default=NODE_DEFAULTS['gravity_mps2'],
+    parser.add_argument('--gravity-mps2', type=node_parameter('gravity_mps2'),
+                        default=NODE_DEFAULTS['gravity_mps2'],
                         help='local gravity [m/s^2] (default: %(default)s)')
-    parser.add_argument('--range-mps2', type=float,
+    parser.add_argument('--range-mps2', type=node_parameter('accelerometer_range_mps2'),
                         default=NODE_DEFAULTS['accelerometer_range_mps2'],
                         help='sensor full scale [m/s^2]; samples at or beyond are dropped '
                              '(default: %(default)s)')
@@ -213,13 +236,14 @@ def register(subparsers):
                 'and dropped')
     node_option(parser, '--two-axis-max-inclination-deg', 'two_axis_max_inclination_deg',
                 'two axes: a steeper sample is dropped')
-    parser.add_argument('--chunk-size', type=int, default=CHUNK_SIZE,
+    parser.add_argument('--chunk-size', type=between(1, 1_000_000, int), default=CHUNK_SIZE,
                         help='samples processed per batch (default: %(default)s)')
     magnetic = parser.add_argument_group('magnetic azimuth (seed 002)')
     magnetic.add_argument('--mag-topic', metavar='TOPIC',
                           help='sensor_msgs/MagneticField topic of IN (tesla, tool frame): '
                                'adds the azimuth on /survey z (default: none, z NaN)')
-    magnetic.add_argument('--max-pairing-s', type=float, default=0.05, metavar='S',
+    magnetic.add_argument('--max-pairing-s', type=node_parameter('magnetic.max_pairing_s'),
+                          default=NODE_DEFAULTS['magnetic.max_pairing_s'], metavar='S',
                           help='largest time between an Imu sample and its magnetometer '
                                'message [s]; beyond it the azimuth is NaN (default: %(default)s)')
     node_option(magnetic, '--mag-noise-nT', 'magnetometer_noise_std_nT',
@@ -237,19 +261,22 @@ def add_limit_arguments(parser):
 
 
 def run(args):
-    """Process IN into OUT; return 0, 1 if most samples dropped or none accepted, 2 on an error."""
-    try:
+    """
+    Process IN into OUT; return 0, 1 if most samples dropped or none accepted.
+
+    An unusable input or OUT raises (``main`` reports it, exit code 2); OUT
+    is written under a temporary name and renamed only when complete.
+    """
+    with Outputs(inputs=[args.input, args.calibration], force=args.force) as outputs:
+        output = outputs.path(args.output)
         model, settings, count, temperature = _prepare(args)
         magnetometer = _magnetometer(args, model)
-        with BagWriter(args.output, args.storage) as out:
+        with BagWriter(output, args.storage) as out:
             summary = process(args.input, args.topic, out, model, settings,
                               args.chunk_size, count, temperature, magnetometer)
-    except (CommandError, BagError) as err:
-        print(f'inclino process: error: {err}', file=sys.stderr)
-        return 2
     print(f'wrote {args.output} ({args.storage}): {summary.accepted} messages on each of '
           f'{SURVEY_TOPIC} and {IMU_TOPIC}')
-    print('\n'.join(summary.lines()))
+    print('\n'.join(summary.lines(magnetometer)))
     loud = summary.mostly_dropped()
     if loud is not None:
         print(f'inclino process: ERROR: {loud}', file=sys.stderr)
@@ -276,8 +303,10 @@ def _prepare(args):
     if axes != model.accelerometer_axes:
         raise CommandError(f'{args.calibration} is for a {model.accelerometer_axes}-axis '
                            f'accelerometer, not {axes} axes')
-    if args.chunk_size < 1:
-        raise CommandError('--chunk-size must be at least 1')
+    try:
+        check_for_sensor(model, args.range_mps2)
+    except Implausible as err:
+        raise CommandError(f'{args.calibration}: {err} (--range-mps2)') from None
     try:
         settings = Settings(
             accelerometer_axes=axes, gravity_mps2=args.gravity_mps2,
@@ -301,15 +330,20 @@ def _prepare(args):
     if msgtype != TEMPERATURE or temperatures == 0:
         raise CommandError(f'{args.temperature_topic} in {args.input} holds {temperatures} '
                            f'{msgtype} messages, not {TEMPERATURE} ones')
-    return model, settings, count, concatenate(read(args.input, args.temperature_topic))
+    series = concatenate(read(args.input, args.temperature_topic))
+    kept = temperature_ok(series.temperature_c)
+    if not kept.any():
+        raise CommandError(f'{args.temperature_topic} in {args.input} holds no temperature a '
+                           'sensor reads')
+    return model, settings, count, TemperatureSeries(
+        series.stamps_ns[kept], series.frame_ids[kept], series.temperature_c[kept],
+        series.variance[kept])
 
 
 def _magnetometer(args, model):
     """Return the Magnetometer of --mag-topic, or None without it; CommandError if unusable."""
     if args.mag_topic is None:
         return None
-    if not args.max_pairing_s >= 0.0:
-        raise CommandError('--max-pairing-s must not be negative')
     stage = model.magnetic
     fallback = ((stage.msa_reference_total_nT, stage.msa_reference_dip_deg)
                 if stage is not None and stage.msa_method is not None else (None, None))
@@ -352,20 +386,30 @@ def process(in_path, topic, out, model, settings, chunk_size, count=None, temper
     out.add_topic(IMU_TOPIC, IMU)
     summary = Summary(settings.gravity_mps2)
     with tqdm(total=count, unit='msg', desc='inclino process', file=sys.stderr) as progress:
-        for batch in read(in_path, topic, chunk_size):
-            temperature_c = None if temperature is None else temperature.at(batch.stamps_ns)
-            if magnetometer is None:
-                survey = run_pipeline(batch.linear_acceleration_mps2, model, settings,
-                                      temperature_c)
-            else:
-                field_nT, paired = magnetometer.field_at(batch.stamps_ns)
-                survey = run_pipeline(batch.linear_acceleration_mps2, model, settings,
-                                      temperature_c, field_nT, magnetometer.settings)
-                summary.add_magnetic(survey, paired)
-            summary.add(survey)
-            out.write_series(_outputs(batch, survey))
-            progress.update(batch.stamps_ns.size)
+        try:
+            _process_batches(read(in_path, topic, chunk_size), out, model, settings,
+                             temperature, magnetometer, summary, progress)
+        except KeyboardInterrupt:
+            raise KeyboardInterrupt(f'after {summary.samples_in} of {count} messages') from None
     return summary
+
+
+def _process_batches(batches, out, model, settings, temperature, magnetometer, summary,
+                     progress):
+    """Correct each batch into ``out``, counting in ``summary`` (see ``process``)."""
+    for batch in batches:
+        temperature_c = None if temperature is None else temperature.at(batch.stamps_ns)
+        if magnetometer is None:
+            survey = run_pipeline(batch.linear_acceleration_mps2, model, settings,
+                                  temperature_c)
+        else:
+            field_nT, paired = magnetometer.field_at(batch.stamps_ns)
+            survey = run_pipeline(batch.linear_acceleration_mps2, model, settings,
+                                  temperature_c, field_nT, magnetometer.settings)
+            summary.add_magnetic(survey, paired)
+        summary.add(survey)
+        out.write_series(_outputs(batch, survey))
+        progress.update(batch.stamps_ns.size)
 
 
 def _outputs(batch, survey):

@@ -45,20 +45,27 @@ magnetometer message has the stamp of the accelerometer sample it goes with
 exactly.  ``--csv`` writes the accelerometer samples as CSV too (with
 ``--heating`` an ``attitude`` column, the segment of each row, which
 ``inclino fit-temperature`` reads as the attitude label).
+
+A run holds at most MAX_SAMPLES samples (about 0.6 GB of memory at the most);
+OUT, OUT.truth.json and the CSV are written under temporary names, renamed
+when all are complete, and refused when they exist unless ``--force``.
 """
 
 import csv
 import json
-import sys
 
+from inclino_ros.cli.errors import CommandError
+from inclino_ros.cli.options import add_force_argument, between, finite, reference_total_nT
+from inclino_ros.core.msa import MAX_INTERFERENCE_NT
 from inclino_ros.io.bag import (
     BagWriter, IMU, MAGNETIC_FIELD, MagneticFieldSeries, magnetometer, raw_imu, TEMPERATURE,
     TemperatureSeries, VECTOR3_STAMPED, Vector3Series)
+from inclino_ros.io.files import Outputs
 from inclino_ros.sim import sensor_model
 from inclino_ros.sim.bench import (
     DEMO_BETA_DEG, DEMO_GAMMA_DEG, DEMO_MAG_NOISE_NT, DEMO_NOISE_MPS2, HEATING_ATTITUDE_DEG,
-    make_tool, PRESETS, Scenario, simulate, simulate_heating, simulate_stand, StandRun,
-    tool_from_iscwsa)
+    make_tool, PRESETS, Scenario, simulate, simulate_heating, simulate_stand,
+    STAND_POSITIONS_DEG, StandRun, tool_from_iscwsa)
 from inclino_ros.sim.well import WellScenario
 import numpy as np
 
@@ -73,6 +80,10 @@ DEFAULT_SAMPLES = {'stand': 500, 'heating': 1601}
 #: Default preset per scenario (None: the bench).
 DEFAULT_SENSOR = {None: 'ideal', 'stand': 'mems', 'heating': 'mems'}
 FRAME_ID = 'inclinometer'
+#: Most samples of one run (1 000 000: 83 min of a 200 Hz bench).
+MAX_SAMPLES = 1_000_000
+#: Seconds a segment may last (a day).
+MAX_SEGMENT_S = 86_400.0
 
 
 def add_sensor_arguments(parser, gamma_deg, beta_deg, default_sensor):
@@ -87,10 +98,12 @@ def add_sensor_arguments(parser, gamma_deg, beta_deg, default_sensor):
             ('--gamma-deg', gamma_deg, 'mount: seed 000 gamma, the board turned about y'),
             ('--beta-deg', beta_deg, "mount: seed 000 beta, then about the new x'"),
             ('--roll-deg', 0.0, 'mount: the board turned about the tool axis first')):
-        group.add_argument(flag, type=float, default=default,
+        group.add_argument(flag, type=between(-360.0, 360.0) if flag == '--roll-deg' else
+                           between(-45.0, 45.0), default=default,
                            help=f'{meaning} [deg]; both triads sit on the board '
                                 '(default: %(default)s)')
-    group.add_argument('--magnetometer-deg', type=float, nargs=3, default=(0.0, 0.0, 0.0),
+    group.add_argument('--magnetometer-deg', type=between(-360.0, 360.0), nargs=3,
+                       default=(0.0, 0.0, 0.0),
                        metavar=('X', 'Y', 'Z'),
                        help='the magnetometer triad turned further relative to the board, '
                             'about x, then the new y, then the new z [deg] '
@@ -112,21 +125,24 @@ def register(subparsers):
     parser.add_argument('out', metavar='OUT', help='bag directory to create')
     group = add_sensor_arguments(parser, DEMO_GAMMA_DEG, DEMO_BETA_DEG,
                                  'ideal for the bench, mems for --stand and --heating')
-    group.add_argument('--noise-mps2', dest='noise_std_mps2', type=float, metavar='NOISE_MPS2',
+    group.add_argument('--noise-mps2', dest='noise_std_mps2', type=between(0.0, 10.0),
+                       metavar='NOISE_MPS2',
                        help='accelerometer noise per sample and axis, 1 sigma [m/s^2] '
                             f'(default: {DEMO_NOISE_MPS2} with --sensor ideal, else the '
                             "preset's own)")
     group.add_argument('--axes', type=int, choices=(2, 3), default=3,
                        help='accelerometer axes; a 2-axis sensor reads z = 0.0 '
                             '(default: %(default)s)')
-    for flag, name, meaning in (
-            ('--rate-hz', 'rate_hz', 'sample rate [Hz]'),
-            ('--level-s', 'level_s', 'duration of the level segment [s]'),
-            ('--station-s', 'station_s', 'duration of each tilted station [s]')):
-        parser.add_argument(flag, dest=name, type=float, default=getattr(defaults, name),
+    for flag, name, kind, meaning in (
+            ('--rate-hz', 'rate_hz', between(0.01, 100_000.0), 'sample rate [Hz]'),
+            ('--level-s', 'level_s', between(0.0, MAX_SEGMENT_S),
+             'duration of the level segment [s]'),
+            ('--station-s', 'station_s', between(0.0, MAX_SEGMENT_S),
+             'duration of each tilted station [s]')):
+        parser.add_argument(flag, dest=name, type=kind, default=getattr(defaults, name),
                             metavar=flag[2:].upper().replace('-', '_'),
                             help=f'{meaning} (default: %(default)s)')
-    parser.add_argument('--seed', type=int, default=defaults.seed,
+    parser.add_argument('--seed', type=between(0, 2 ** 63 - 1, int), default=defaults.seed,
                         help='seed of the noise generator (default: %(default)s)')
     parser.add_argument('--storage', choices=('mcap', 'sqlite3'), default='mcap',
                         help='bag storage format (default: %(default)s)')
@@ -137,14 +153,14 @@ def register(subparsers):
     mode.add_argument('--heating', dest='mode', action='store_const', const='heating',
                       help='seed 001 heating run: 20 -> 100 deg C on '
                            f'{TEMPERATURE_TOPIC} at --heating-attitudes')
-    parser.add_argument('--heating-attitudes', type=float, nargs='+',
+    parser.add_argument('--heating-attitudes', type=finite, nargs='+',
                         metavar='DEG',
                         help='--heating: the attitudes held in turn, INCLINATION TOOLFACE '
                              '[deg] pairs; the tool heats at the first, cools at the second, '
                              '...; e.g. 55 45 125 225 (turned over: every axis reads the '
                              'opposite) for a bias drift fit (default: '
                              f'{" ".join(f"{v:g}" for v in HEATING_ATTITUDE_DEG)})')
-    parser.add_argument('--samples', type=int,
+    parser.add_argument('--samples', type=between(1, MAX_SAMPLES, int),
                         help='--stand: samples per position (default: '
                              f'{DEFAULT_SAMPLES["stand"]}); --heating: samples over the ramp '
                              f'at each attitude (default: {DEFAULT_SAMPLES["heating"]})')
@@ -153,6 +169,7 @@ def register(subparsers):
                              'toolface_deg, [temperature_c, attitude (--heating),] ax, ay, '
                              'az [m/s^2]')
     add_magnetic_arguments(parser)
+    add_force_argument(parser)
     parser.set_defaults(func=run, mode=None)
 
 
@@ -162,32 +179,40 @@ def add_magnetic_arguments(parser):
     group = parser.add_argument_group('magnetometer (--magnetic, bench scenario only)')
     group.add_argument('--magnetic', action='store_true',
                        help=f'add the magnetometer on {MAG_TOPIC} and the azimuth truth')
-    group.add_argument('--reference-total-nT', type=float, default=well.reference_total_nT,
+    group.add_argument('--reference-total-nT', type=reference_total_nT,
+                       default=well.reference_total_nT,
                        metavar='F', help='reference total field [nT] (default: %(default)s)')
-    group.add_argument('--reference-dip-deg', type=float, default=well.reference_dip_deg,
+    group.add_argument('--reference-dip-deg', type=between(-89.999, 89.999),
+                       default=well.reference_dip_deg,
                        metavar='D', help='reference dip [deg] (default: %(default)s)')
-    group.add_argument('--azimuth-deg', type=float, nargs=2, default=well.azimuth_deg,
+    group.add_argument('--azimuth-deg', type=finite, nargs=2, default=well.azimuth_deg,
                        metavar=('FIRST', 'LAST'),
                        help='magnetic azimuth of the first and last station, linear between '
                             '(default: %(default)s)')
-    group.add_argument('--interference-nT', type=float, nargs=3,
+    group.add_argument('--interference-nT', type=interference_nT, nargs=3,
                        default=tuple(well.interference_iscwsa_nT.tolist()),
                        metavar=('EX', 'EY', 'EZ'),
                        help='drill-string interference in ISCWSA axes [nT]: cross-axial x, y '
                             'and axial z toward the bit, as inclino msa reports eps '
                             '(default: %(default)s, i.e. tool frame 80, 80, -2000)')
-    group.add_argument('--mag-noise-nT', type=float, metavar='NOISE_NT',
+    group.add_argument('--mag-noise-nT', type=between(0.0, 10_000.0), metavar='NOISE_NT',
                        help='magnetometer noise per sample and axis, 1 sigma [nT] '
                             f'(default: {DEMO_MAG_NOISE_NT:g} with --sensor ideal, else the '
                             "preset's own)")
-    group.add_argument('--rotation-s', type=float, default=0.0, metavar='S',
+    group.add_argument('--rotation-s', type=between(0.0, MAX_SEGMENT_S), default=0.0,
+                       metavar='S',
                        help='append a rotation segment of S seconds (default: none)')
-    group.add_argument('--rotation-turns', type=float, default=2.0,
+    group.add_argument('--rotation-turns', type=between(-1e6, 1e6), default=2.0,
                        help='turns of the tool about its axis in the rotation '
                             '(default: %(default)s)')
-    group.add_argument('--rotation-attitude-deg', type=float, nargs=2, default=(60.0, 90.0),
+    group.add_argument('--rotation-attitude-deg', type=finite, nargs=2,
+                       default=(60.0, 90.0),
                        metavar=('INCLINATION', 'AZIMUTH'),
                        help='attitude held while turning (default: %(default)s)')
+
+
+#: An interference [nT]: what the MSA may solve (``msa.MAX_INTERFERENCE_NT``).
+interference_nT = between(-MAX_INTERFERENCE_NT, MAX_INTERFERENCE_NT, why=' nT (a drill string)')
 
 
 def tool_of(args, sensor):
@@ -231,39 +256,81 @@ def bench_scenario(args, tool):
         level_s=args.level_s, station_s=args.station_s, seed=args.seed)
 
 
-def error(message):
-    """Print ``message`` as the command's error; return the usage exit code 2."""
-    print(f'inclino simulate: error: {message}', file=sys.stderr)
-    return 2
-
-
 def run(args):
     """Simulate and write the bag and its truth file; return the exit code."""
+    outputs = Outputs(force=args.force)
+    for path in (args.out, f'{args.out}.truth.json', args.csv):
+        if path is not None:
+            outputs.check(path)
+    sensor, tool, sim, what = simulated(args)
+    magnetic = None
+    if args.magnetic:
+        magnetic = magnetometer(sim.stamps_ns, FRAME_ID, sim.mag_nT,
+                                np.max(tool.magnetometer.noise_std))
+        what += (f'; magnetometer on {MAG_TOPIC}, interference '
+                 f'{", ".join(f"{v:g}" for v in args.interference_nT)} nT (ISCWSA x, y, z)')
+    truth_path = f'{args.out}.truth.json'
+    with outputs:
+        topics = write_bag(outputs.path(args.out), args.storage, sim,
+                           np.asarray(tool.accelerometer.noise_std), args.mode, magnetic)
+        extra = {'sensor': sensor, 'bag': args.out, 'storage': args.storage, 'topics': topics,
+                 'frame_id': FRAME_ID}
+        if args.magnetic:
+            extra['magnetic'] = {
+                'topic': MAG_TOPIC, 'frame': 'the magnetometer triad (tool frame turned by the '
+                                             'mount), tesla on the topic',
+                'pairing': 'one message per accelerometer sample, same stamp'}
+        with open(outputs.path(truth_path), 'x') as stream:
+            json.dump(dict(sim.truth, **extra), stream, indent=2)
+            stream.write('\n')
+        if args.csv:
+            write_csv(outputs.path(args.csv), sim, args.mode is not None,
+                      args.mode == 'heating')
+    print(f'wrote {args.out} ({args.storage}): {sim.stamps_ns.size} messages on each of '
+          f'{", ".join(topics.values())}; {what}')
+    print(f'wrote {truth_path}: {len(sim.truth["segments"])} segments, every error source')
+    if args.csv:
+        print(f'wrote {args.csv}: {sim.stamps_ns.size} rows')
+    return 0
+
+
+def simulated(args):
+    """
+    Return (preset, tool, the simulated run, what it is); CommandError if impossible.
+
+    A run of more than MAX_SAMPLES samples is refused before it is simulated.
+    """
     sensor = args.sensor or DEFAULT_SENSOR[args.mode]
     if args.mode is not None and args.magnetic:
-        return error('--magnetic goes with the bench scenario, not --stand or --heating')
+        raise CommandError('--magnetic goes with the bench scenario, not --stand or --heating')
     if args.mode is not None and args.axes != 3:
-        return error('--stand and --heating simulate a three-axis sensor')
-    samples = DEFAULT_SAMPLES.get(args.mode) if args.samples is None else args.samples
-    if args.mode is not None and samples < 1:
-        return error('--samples must be at least 1')
+        raise CommandError('--stand and --heating simulate a three-axis sensor')
     if args.heating_attitudes is not None and args.mode != 'heating':
-        return error('--heating-attitudes goes with --heating')
+        raise CommandError('--heating-attitudes goes with --heating')
     heating_attitudes = tuple(args.heating_attitudes or HEATING_ATTITUDE_DEG)
     if len(heating_attitudes) % 2:
-        return error('--heating-attitudes takes INCLINATION TOOLFACE pairs, '
-                     f'not {len(heating_attitudes)} numbers')
+        raise CommandError('--heating-attitudes takes INCLINATION TOOLFACE pairs, '
+                           f'not {len(heating_attitudes)} numbers')
+    pairs = tuple(zip(heating_attitudes[::2], heating_attitudes[1::2]))
+    samples = DEFAULT_SAMPLES.get(args.mode) if args.samples is None else args.samples
+    if args.mode is None:
+        total = args.rate_hz * (args.level_s + args.station_s * len(Scenario().stations_deg)
+                                + (args.rotation_s if args.magnetic else 0.0))
+    else:
+        total = samples * (len(STAND_POSITIONS_DEG) if args.mode == 'stand' else len(pairs))
+    if total > MAX_SAMPLES:
+        raise CommandError(f'{total:.0f} samples asked for, at most {MAX_SAMPLES} are '
+                           'simulated: shorten the segments or lower --rate-hz / --samples')
     try:
         tool = tool_of(args, sensor)
         if args.mode is None:
             sim = simulate(bench_scenario(args, tool))
         else:
             stand_run = StandRun(tool=tool, rate_hz=args.rate_hz, seed=args.seed)
-            pairs = tuple(zip(heating_attitudes[::2], heating_attitudes[1::2]))
             sim = (simulate_stand(stand_run, samples=samples) if args.mode == 'stand' else
                    simulate_heating(stand_run, pairs, samples=samples))
     except ValueError as err:
-        return error(err)
+        raise CommandError(str(err)) from None
     what = describe(sensor, tool)
     if args.mode is not None:
         what = f'{args.mode} run of a {what}'
@@ -271,32 +338,7 @@ def run(args):
         what += '; attitudes ' + ', '.join(
             f'{segment["inclination_deg"]:g}/{segment["toolface_deg"]:g}'
             for segment in sim.truth['segments']) + ' deg'
-    magnetic = None
-    if args.magnetic:
-        magnetic = magnetometer(sim.stamps_ns, FRAME_ID, sim.mag_nT,
-                                np.max(tool.magnetometer.noise_std))
-        what += (f'; magnetometer on {MAG_TOPIC}, interference '
-                 f'{", ".join(f"{v:g}" for v in args.interference_nT)} nT (ISCWSA x, y, z)')
-    topics = write_bag(args.out, args.storage, sim, np.asarray(tool.accelerometer.noise_std),
-                       args.mode, magnetic)
-    truth_path = f'{args.out}.truth.json'
-    extra = {'sensor': sensor, 'bag': args.out, 'storage': args.storage, 'topics': topics,
-             'frame_id': FRAME_ID}
-    if args.magnetic:
-        extra['magnetic'] = {
-            'topic': MAG_TOPIC, 'frame': 'the magnetometer triad (tool frame turned by the '
-                                         'mount), tesla on the topic',
-            'pairing': 'one message per accelerometer sample, same stamp'}
-    with open(truth_path, 'w') as stream:
-        json.dump(dict(sim.truth, **extra), stream, indent=2)
-        stream.write('\n')
-    print(f'wrote {args.out} ({args.storage}): {sim.stamps_ns.size} messages on each of '
-          f'{", ".join(topics.values())}; {what}')
-    print(f'wrote {truth_path}: {len(sim.truth["segments"])} segments, every error source')
-    if args.csv:
-        write_csv(args.csv, sim, args.mode is not None, args.mode == 'heating')
-        print(f'wrote {args.csv}: {sim.stamps_ns.size} rows')
-    return 0
+    return sensor, tool, sim, what
 
 
 def write_bag(path, storage, sim, noise_std_mps2, mode, magnetic=None):
@@ -343,7 +385,7 @@ def write_csv(path, sim, temperature, attitude=False):
     if attitude:
         columns['attitude'] = sim.segment
     columns.update(zip(('ax', 'ay', 'az'), sim.raw_mps2.T))
-    with open(path, 'w', newline='') as stream:
+    with open(path, 'x', newline='') as stream:
         writer = csv.writer(stream)
         writer.writerow(columns)
         writer.writerows(zip(*(values.tolist() for values in columns.values())))

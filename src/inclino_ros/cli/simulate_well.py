@@ -13,16 +13,27 @@ add sensor and mount errors.  The CSV (``md, gx, gy, gz`` in g, ``bx, by, bz``
 in nT, ISCWSA frame, and the truth ``true_inclination_deg, true_azimuth_deg,
 true_toolface_deg`` (high side)) is the input of ``inclino msa``;
 ``OUT.csv.truth.json`` holds every error source of the tool.
+
+At most MAX_STATIONS stations; OUT and its truth file are written under
+temporary names and renamed when complete, and refused when they exist
+unless ``--force``.
 """
 
 from dataclasses import replace
 import json
 
-from inclino_ros.cli.simulate import add_sensor_arguments
+from inclino_ros.cli.errors import CommandError
+from inclino_ros.cli.options import (
+    add_force_argument, between, dip_deg, finite, reference_total_nT)
+from inclino_ros.cli.simulate import add_sensor_arguments, interference_nT
+from inclino_ros.io.files import Outputs
 from inclino_ros.sim.bench import make_tool, tool_from_iscwsa
 from inclino_ros.sim.well import (
     simulate_well, WELL_FIELD_NOISE_NT, WELL_GRAVITY_NOISE_G, well_truth, WellScenario,
     write_stations_csv)
+
+#: Most stations of a simulated well (a survey every 30 m: 3000 km of hole).
+MAX_STATIONS = 100_000
 
 
 def register(subparsers):
@@ -33,37 +44,41 @@ def register(subparsers):
                               'interference (input of inclino msa)',
         description=__doc__.split('\n\n', 1)[1])
     parser.add_argument('out', metavar='OUT.csv', help='station CSV to write')
-    parser.add_argument('--stations', type=int, default=defaults.stations,
+    parser.add_argument('--stations', type=between(1, MAX_STATIONS, int),
+                        default=defaults.stations,
                         help='number of stations (default: %(default)s)')
     for flag, name, meaning in (
             ('--inclination-deg', 'inclination_deg', 'first and last inclination [deg]'),
             ('--azimuth-deg', 'azimuth_deg', 'first and last magnetic azimuth [deg]')):
-        parser.add_argument(flag, dest=name, type=float, nargs=2, default=getattr(defaults, name),
+        parser.add_argument(flag, dest=name, type=finite, nargs=2, default=getattr(defaults, name),
                             metavar=('FIRST', 'LAST'), help=f'{meaning} (default: %(default)s)')
-    parser.add_argument('--interference-nT', dest='interference_nT', type=float, nargs=3,
-                        default=tuple(defaults.interference_iscwsa_nT.tolist()),
+    parser.add_argument('--interference-nT', dest='interference_nT', type=interference_nT,
+                        nargs=3, default=tuple(defaults.interference_iscwsa_nT.tolist()),
                         metavar=('EX', 'EY', 'EZ'),
                         help='drill-string interference in ISCWSA axes [nT]: cross-axial x, y '
                              'and axial z toward the bit, as inclino msa reports eps '
                              '(default: %(default)s, i.e. tool frame 80, 80, -2000)')
-    for flag, name, meaning in (
-            ('--reference-total-nT', 'reference_total_nT', 'total field [nT]'),
-            ('--reference-dip-deg', 'reference_dip_deg', 'dip [deg]')):
-        parser.add_argument(flag, dest=name, type=float, default=getattr(defaults, name),
+    for flag, name, kind, meaning in (
+            ('--reference-total-nT', 'reference_total_nT', reference_total_nT,
+             'total field [nT]'),
+            ('--reference-dip-deg', 'reference_dip_deg', dip_deg, 'dip [deg]')):
+        parser.add_argument(flag, dest=name, type=kind, default=getattr(defaults, name),
                             help=f'{meaning} (default: %(default)s)')
     group = add_sensor_arguments(parser, 0.0, 0.0, 'ideal')
-    group.add_argument('--gravity-noise-g', dest='gravity_noise', type=float,
+    group.add_argument('--gravity-noise-g', dest='gravity_noise', type=between(0.0, 0.1),
                        help='accelerometer noise per reading and axis, 1 sigma [g] (default: '
                             f"{WELL_GRAVITY_NOISE_G:g} with --sensor ideal, else the preset's "
                             'own)')
-    group.add_argument('--field-noise-nT', dest='field_noise_nT', type=float,
+    group.add_argument('--field-noise-nT', dest='field_noise_nT', type=between(0.0, 10_000.0),
                        help='magnetometer noise per reading and axis, 1 sigma [nT] (default: '
                             f"{WELL_FIELD_NOISE_NT:g} with --sensor ideal, else the preset's "
                             'own)')
-    group.add_argument('--samples-per-station', type=int, default=defaults.samples_per_station,
+    group.add_argument('--samples-per-station', type=between(1, 100_000, int),
+                       default=defaults.samples_per_station,
                        help='readings averaged into each station (default: %(default)s)')
-    parser.add_argument('--seed', type=int, default=defaults.seed,
+    parser.add_argument('--seed', type=between(0, 2 ** 63 - 1, int), default=defaults.seed,
                         help='seed of the noise generator (default: %(default)s)')
+    add_force_argument(parser)
     parser.set_defaults(func=run)
 
 
@@ -87,6 +102,10 @@ def tool_of(args):
 
 def run(args):
     """Simulate the well and write its CSV and truth; return the exit code."""
+    truth_path = f'{args.out}.truth.json'
+    outputs = Outputs(force=args.force)
+    outputs.check(args.out)
+    outputs.check(truth_path)
     try:
         sensor, tool = tool_of(args)
         scenario = WellScenario(
@@ -97,14 +116,14 @@ def run(args):
             reference_dip_deg=args.reference_dip_deg, tool=tool,
             samples_per_station=args.samples_per_station, seed=args.seed)
     except ValueError as err:
-        print(f'inclino simulate-well: error: {err}')
-        return 2
+        raise CommandError(str(err)) from None
     well = simulate_well(scenario)
-    write_stations_csv(args.out, well)
-    truth_path = f'{args.out}.truth.json'
-    with open(truth_path, 'w') as stream:
-        json.dump(dict(well_truth(well), sensor=sensor, csv=str(args.out)), stream, indent=2)
-        stream.write('\n')
+    with outputs:
+        write_stations_csv(outputs.path(args.out), well)
+        with open(outputs.path(truth_path), 'x') as stream:
+            json.dump(dict(well_truth(well), sensor=sensor, csv=str(args.out)), stream,
+                      indent=2)
+            stream.write('\n')
     mount = tool.mount
     print(f'wrote {args.out}: {scenario.stations} stations, interference '
           f'{", ".join(f"{v:g}" for v in args.interference_nT)} nT (ISCWSA x, y, z), '

@@ -30,11 +30,13 @@ import sys
 from inclino_ros.calibration.model import CalibrationFileError, load_model
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import NODE_DEFAULTS, node_option
+from inclino_ros.cli.options import add_force_argument, node_parameter
 from inclino_ros.cli.process import add_limit_arguments
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core.magnetics import field_unit_problem, QcLimits, true_azimuth_deg
 from inclino_ros.core.screening import ACCEPTED, REASONS
 from inclino_ros.io import tables
+from inclino_ros.io.files import Outputs
 from inclino_ros.pipeline import MagneticSettings, run as run_pipeline, Settings
 import numpy as np
 
@@ -57,7 +59,8 @@ def register(subparsers):
     parser.add_argument('--toolface-convention', choices=('seed000', 'iscwsa_highside'),
                         default=NODE_DEFAULTS['toolface_convention'],
                         help='gravity toolface definition (default: %(default)s)')
-    parser.add_argument('--gravity-mps2', type=float, default=NODE_DEFAULTS['gravity_mps2'],
+    parser.add_argument('--gravity-mps2', type=node_parameter('gravity_mps2'),
+                        default=NODE_DEFAULTS['gravity_mps2'],
                         help='local gravity [m/s^2] (default: %(default)s)')
     node_option(parser, '--noise-mps2', 'accelerometer_noise_std_mps2',
                 'accelerometer noise per sample, 1 sigma [m/s^2]: the 1 sigma of the angles',
@@ -65,17 +68,17 @@ def register(subparsers):
     node_option(parser, '--mag-noise-nT', 'magnetometer_noise_std_nT',
                 'magnetometer noise per sample, 1 sigma [nT]')
     add_limit_arguments(parser)
+    add_force_argument(parser)
     add_reference_arguments(parser.add_argument_group('reference field (adds the QC columns)'))
     parser.set_defaults(func=run)
 
 
 def run(args):
     """Write the survey of IN to OUT; return the exit code."""
-    try:
-        rows, written = survey(args)
-    except CommandError as err:
-        print(f'inclino survey: error: {err}', file=sys.stderr)
-        return 2
+    outputs = Outputs(inputs=[args.input, args.calibration], force=args.force)
+    outputs.check(args.output)
+    with outputs:
+        rows, written = survey(args, outputs)
     print(f'wrote {args.output}: {rows} rows, {written} with an azimuth')
     return 0
 
@@ -102,7 +105,7 @@ def _model(path):
         raise CommandError(str(err)) from None
 
 
-def survey(args):
+def survey(args, outputs):
     """Compute and write the survey; return (rows, rows with an azimuth)."""
     try:
         header, rows = tables.read_rows(args.input)
@@ -147,7 +150,7 @@ def survey(args):
                                 azimuth_max_std_deg=args.azimuth_max_std_deg)
     result = run_pipeline(raw, model, settings, temperature_c, field, magnetic)
     columns = output_columns(result, declination_deg, total_nT is not None)
-    write(args.output, header, rows, result.codes, columns)
+    write(outputs.path(args.output), header, rows, result.codes, columns)
     return len(rows), int(np.isfinite(columns['azimuth_deg'][1]).sum())
 
 
@@ -191,7 +194,7 @@ def write(path, header, rows, codes, columns):
         column[accepted] = list(values)
         full[name] = column
     try:
-        with open(path, 'w', newline='') as stream:
+        with open(path, 'x', newline='') as stream:
             writer = csv.writer(stream)
             writer.writerow(renamed + names)
             for i, row in enumerate(rows):

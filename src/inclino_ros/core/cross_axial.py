@@ -84,15 +84,36 @@ def fit_ellipse(points):
     PAMI 21(5), 1999, in the numerically stable form of Halir & Flusser (WSCG
     1998): the conic ``a x^2 + b xy + c y^2 + d x + e y + f = 0`` minimising the
     algebraic residual under ``4ac - b^2 = 1``.  The points are centred and
-    scaled first.  The ellipse is ``(p - centre)^T Q (p - centre) = 1``.
-    Raises RotationFitRefused when no ellipse fits (e.g. collinear points).
+    scaled first (by the largest value, then by their spread: no square
+    overflows or underflows).  The ellipse is ``(p - centre)^T Q (p - centre) = 1``.
+    Raises RotationFitRefused when no ellipse fits (e.g. collinear points,
+    all zero, a numerical failure), never another error.
     """
     points = np.asarray(points, dtype=float)
-    mean = points.mean(axis=0)
-    scale = math.sqrt(np.mean(np.sum((points - mean) ** 2, axis=1)))
-    if not scale > 0.0:
+    # Scaled by the largest value first, so no square below overflows or vanishes.
+    largest = np.max(np.abs(points), initial=0.0)
+    if not 0.0 < largest < math.inf:
+        raise RotationFitRefused('degenerate fit: the samples are all zero or not finite')
+    unit = points / largest
+    mean = unit.mean(axis=0)
+    scale = math.sqrt(np.mean(np.sum((unit - mean) ** 2, axis=1)))
+    if not scale > 1e-12:
         raise RotationFitRefused('degenerate fit: all samples are the same point')
-    x, y = ((points - mean) / scale).T
+    try:
+        centre, q = _direct_ellipse((unit - mean) / scale)
+    except (np.linalg.LinAlgError, ValueError, FloatingPointError) as err:
+        raise RotationFitRefused(f'degenerate fit: numerical failure ({err})') from None
+    with np.errstate(over='ignore', under='ignore'):
+        size = largest * scale  # a numpy float: overflows to inf, never raises
+        centre, q = largest * (mean + scale * centre), q / size / size
+    if not (np.all(np.isfinite(centre)) and np.all(np.isfinite(q)) and np.all(q != 0.0)):
+        raise RotationFitRefused('degenerate fit: the fitted ellipse is not finite')
+    return centre, q
+
+
+def _direct_ellipse(points):
+    """Return (centre, Q) of the ellipse through centred, unit-scaled points (``fit_ellipse``)."""
+    x, y = points.T
     quadratic = np.stack([x * x, x * y, y * y], axis=1)
     linear = np.stack([x, y, np.ones_like(x)], axis=1)
     s1, s2, s3 = quadratic.T @ quadratic, quadratic.T @ linear, linear.T @ linear
@@ -103,6 +124,8 @@ def fit_ellipse(points):
     reduced = s1 + s2 @ t
     # C1^-1 reduced, C1 = [[0, 0, 2], [0, -1, 0], [2, 0, 0]] (the constraint matrix).
     reduced = np.stack([reduced[2] / 2.0, -reduced[1], reduced[0] / 2.0])
+    if not np.all(np.isfinite(reduced)):
+        raise RotationFitRefused('degenerate fit: the samples give no finite conic')
     _, vectors = np.linalg.eig(reduced)
     vectors = np.real(vectors)
     constraint = 4.0 * vectors[0] * vectors[2] - vectors[1] ** 2
@@ -114,9 +137,9 @@ def fit_ellipse(points):
     centre = np.linalg.solve(conic, [-d / 2.0, -e / 2.0])
     level = -(f + centre @ np.array([d, e]) / 2.0)
     q = conic / level
-    if not np.all(np.linalg.eigvalsh(q) > 0.0):
+    if not (np.all(np.isfinite(q)) and np.all(np.linalg.eigvalsh(q) > 0.0)):
         raise RotationFitRefused('degenerate fit: the fitted conic is not a real ellipse')
-    return mean + scale * centre, q / scale ** 2
+    return centre, q
 
 
 def _coverage_deg(points):
@@ -134,7 +157,9 @@ def fit_cross_axial(samples_nT, limits=RotationLimits()):
     magnetometer readings while the tool turns about its axis at one depth.
     Checks, in order: enough samples, all finite, an ellipse fits, its axis
     ratio, the angular coverage of the corrected samples about the centre, the
-    radial RMSE.
+    radial RMSE.  Raises nothing else, whatever the numbers (the units and
+    magnitudes of a magnetometer are checked by its callers,
+    ``calibration.plausibility.check_field_readings``).
     """
     samples = np.asarray(samples_nT, dtype=float)[:, :2]
     count = samples.shape[0]
@@ -159,7 +184,9 @@ def fit_cross_axial(samples_nT, limits=RotationLimits()):
             f'the rotation covers {coverage:.1f} deg about the fitted centre, '
             f'need at least {limits.min_coverage_deg} deg')
     rmse = float(np.sqrt(np.mean((np.linalg.norm(corrected, axis=1) - radius) ** 2)))
-    if rmse > limits.max_relative_rmse * radius:
+    if not (math.isfinite(radius) and math.isfinite(rmse) and np.all(np.isfinite(correction))):
+        raise RotationFitRefused('degenerate fit: the correction is not finite')
+    if not rmse <= limits.max_relative_rmse * radius:
         raise RotationFitRefused(
             f'the samples do not lie on an ellipse: radial RMSE {rmse:.1f} nT exceeds '
             f'{limits.max_relative_rmse} of the radius {radius:.1f} nT')

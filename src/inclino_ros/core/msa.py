@@ -84,9 +84,14 @@ STANDARD_GRAVITY_MPS2 = 9.80665
 #: Largest interference accepted [nT]: a drill string's magnetisation stays well below
 #: the Earth's field (seed 002 §3.2, Fig. 5 searches +-10000 nT).
 MAX_INTERFERENCE_NT = 10000.0
+#: Largest reference field [nT]: ten times the Earth's strongest, far from overflow.
+MAX_REFERENCE_NT = 1e6
+#: Largest | |B| - F | of a station [nT]: the interference on all three axes.
+MAX_FIELD_OFFSET_NT = math.sqrt(3.0) * MAX_INTERFERENCE_NT
 #: Gauss-Newton stops when a step changes eps by less than this [nT]...
 STEP_TOLERANCE_NT = 1e-4
-#: ...or after this many iterations (then refused: it does not converge).
+#: ...or after this many iterations (then refused: it does not converge); the bounded
+#: minimum of the improved method takes ten times as many evaluations at most.
 MAX_ITERATIONS = 50
 #: 1 sigma of the World Magnetic Model 2025 (formulas.md): total field [nT], dip [deg].
 #: An IFR model is roughly half; pass its own (``reference_std``).
@@ -331,6 +336,7 @@ def short_collar(G, B, reference_total_nT, reference_dip_deg, limits=MsaLimits()
     """
     G, B = as_vectors(G, 'G'), as_vectors(B, 'B')
     _refuse_non_finite(G, B)
+    _refuse_implausible(G, B, reference_total_nT, reference_dip_deg, np.arange(G.shape[0]))
     reference = reference_nT(reference_total_nT, reference_dip_deg)
     with np.errstate(divide='ignore', invalid='ignore'):
         eps_z, weight = _closed_form_axial_nT(G, B, reference_total_nT, reference[1],
@@ -350,11 +356,24 @@ def short_collar(G, B, reference_total_nT, reference_dip_deg, limits=MsaLimits()
 
 def _solve(method, G, B, reference_total_nT, reference_dip_deg, limits, exclude_failing_qc,
            cross_axial_nT, reference_std):
-    """Check, solve, QC and (optionally) solve again without the failing stations."""
+    """Check, solve, QC and (optionally) solve again; a numerical failure is a refusal."""
     G, B = as_vectors(G, 'G'), as_vectors(B, 'B')
     finite = _finite(G, B)
     if not exclude_failing_qc:
         _refuse_non_finite(G, B)
+    _refuse_implausible(G[finite], B[finite], reference_total_nT, reference_dip_deg,
+                        np.flatnonzero(finite))
+    try:
+        with np.errstate(all='ignore'):
+            return _solve_checked(method, G, B, reference_total_nT, reference_dip_deg, limits,
+                                  exclude_failing_qc, cross_axial_nT, reference_std, finite)
+    except (np.linalg.LinAlgError, FloatingPointError) as err:
+        raise MsaRefused(f'numerical failure of the solve ({err})') from None
+
+
+def _solve_checked(method, G, B, reference_total_nT, reference_dip_deg, limits,
+                   exclude_failing_qc, cross_axial_nT, reference_std, finite):
+    """Return the MsaResult of stations whose magnitudes were checked (``_solve``)."""
     used = finite & _g_total_ok(G, finite, limits)
     _check_qc(used, finite, 'G-total off (tool moving?)', exclude_failing_qc)
     solution = _solve_used(method, G[used], B[used], reference_total_nT, reference_dip_deg,
@@ -517,7 +536,8 @@ def _improved(G, B, reference_total_nT, reference, limits):
     from scipy.optimize import minimize_scalar
     found = minimize_scalar(
         lambda eps_z: np.sum(residual_nT(G, B - eps_z * axial, reference) ** 2),
-        bounds=interval, method='bounded', options={'xatol': min(1e-3, 1e-4 * half_width)})
+        bounds=interval, method='bounded',
+        options={'xatol': min(1e-3, 1e-4 * half_width), 'maxiter': 10 * MAX_ITERATIONS})
     # Brent's bounded search keeps ~sqrt(machine eps) |x| off the bounds: an edge is nearer.
     edge_nT = max(1e-2 * half_width, 1e-6 * max(1.0, abs(found.x)))
     if min(found.x - interval[0], interval[1] - found.x) < edge_nT:
@@ -624,6 +644,37 @@ def _numbers(mask):
 def _finite(G, B):
     """Return whether each station's readings are all finite."""
     return np.isfinite(G).all(axis=1) & np.isfinite(B).all(axis=1)
+
+
+def _refuse_implausible(G, B, reference_total_nT, reference_dip_deg, numbers):
+    """
+    Raise MsaRefused for a reference or stations no survey has, before any arithmetic.
+
+    The reference is a field (positive, at most MAX_REFERENCE_NT) with a dip
+    within +-90 deg;
+    each station's |G| is within half of the median's, and its |B| within
+    MAX_FIELD_OFFSET_NT of the reference's (the interference is below
+    MAX_INTERFERENCE_NT on each axis).  ``numbers``: the 0-based station
+    numbers of the rows, for the message.
+    """
+    if not (0.0 < reference_total_nT <= MAX_REFERENCE_NT and abs(reference_dip_deg) < 90.0):
+        raise MsaRefused(f'the reference field {reference_total_nT!r} nT, dip '
+                         f'{reference_dip_deg!r} deg is not a geomagnetic field')
+    g = np.hypot(np.hypot(G[:, 0], G[:, 1]), G[:, 2])
+    b = np.hypot(np.hypot(B[:, 0], B[:, 1]), B[:, 2])
+    g_median = float(np.median(g)) if g.size else 0.0
+    if g.size and not 0.0 < g_median < math.inf:
+        raise MsaRefused(f"the stations' gravity is {g_median:.4g} (median |G|): not a "
+                         'gravity vector')
+    bad = (np.abs(g - g_median) > 0.5 * g_median) \
+        | ~(np.abs(b - reference_total_nT) <= MAX_FIELD_OFFSET_NT)
+    if bad.any():
+        raise MsaRefused(
+            f'station(s) {(numbers[bad] + 1)[:10].tolist()} read |B| = '
+            f'{", ".join(f"{v:.4g}" for v in b[bad][:3])} nT or a |G| far from the others: the '
+            f'reference {reference_total_nT:g} nT plus an interference below '
+            f'{MAX_INTERFERENCE_NT:g} nT per axis is {MAX_FIELD_OFFSET_NT:.0f} nT away at '
+            'most (a dead magnetometer, or B not in nT?)')
 
 
 def _refuse_non_finite(G, B):

@@ -70,9 +70,18 @@ def reference_from_model(latitude_deg, longitude_deg, altitude_m, date):
     specified from -1 km to 850 km), ``date`` a date, datetime or decimal year.
     The model is chosen by epoch (WMM2015v2, WMM2020, WMM2025); a date outside
     every model's five-year life span raises ValueError rather than
-    extrapolating.  Raises ImportError when pygeomag is not installed.
+    extrapolating, and so does a site off the Earth (latitude beyond +-90 deg,
+    longitude beyond -180..360 deg, a height outside the model's) or a
+    non-finite number.  Raises ImportError when pygeomag is not installed.
     """
+    if not (-90.0 <= latitude_deg <= 90.0 and -180.0 <= longitude_deg <= 360.0
+            and -1000.0 <= altitude_m <= 850_000.0):
+        raise ValueError(f'{latitude_deg} N, {longitude_deg} E, {altitude_m} m is no site of '
+                         'the model (latitude -90..90, longitude -180..360 deg, height '
+                         '-1000..850000 m)')
     year = decimal_year(date)
+    if not math.isfinite(year):
+        raise ValueError(f'{date} is not a date')
     epoch = WMM_LIFE_SPAN_YEARS * math.floor(year / WMM_LIFE_SPAN_YEARS)
     if epoch not in WMM_FILES:
         last = max(WMM_FILES) + WMM_LIFE_SPAN_YEARS

@@ -36,6 +36,9 @@ MAX_CONDITION_NUMBER = 100.0
 #: Least readings of a sphere fit: 9 unknowns (upper-triangular K, b) plus 3
 #: redundant, so that the residual tests the fit.
 MIN_SPHERE_READINGS = 12
+#: No reading of a still sensor is this many times g: beyond it a fit refuses before
+#: any arithmetic (squares of 1e155 overflow, and LAPACK may not return on infinities).
+MAX_READING_RATIO = 10.0
 
 
 class StandFitRefused(Exception):
@@ -123,9 +126,11 @@ def fit_stand(readings, truth, min_separation_deg=MIN_SEPARATION_DEG):
     design ``[G / |G|, 1]``, solved together by ``numpy.linalg.lstsq``.
 
     Raises StandFitRefused, with the reason, for: fewer than MIN_POSITIONS
-    positions; non-finite values; two positions whose truth vectors are less
-    than ``min_separation_deg`` apart (a repeat adds no attitude); a design or
-    a fitted K with condition number above MAX_CONDITION_NUMBER.
+    positions; non-finite values; truth vectors not of one gravity, or readings
+    beyond MAX_READING_RATIO times it (checked before any arithmetic); two
+    positions whose truth vectors are less than ``min_separation_deg`` apart
+    (a repeat adds no attitude); a design or a fitted K with condition number
+    above MAX_CONDITION_NUMBER; a numerical failure of the solve.
     """
     readings, truth = as_vectors(readings, 'readings'), as_vectors(truth, 'truth')
     if readings.shape != truth.shape:
@@ -137,9 +142,21 @@ def fit_stand(readings, truth, min_separation_deg=MIN_SEPARATION_DEG):
             '(K and b have 12 unknowns; e.g. each axis up and down)')
     _refuse_non_finite(readings, 'readings')
     _refuse_non_finite(truth, 'truth')
+    g_scale = float(np.median(_norms(truth)))
+    if not 0.0 < g_scale < math.inf or np.any(_norms(truth) > MAX_READING_RATIO * g_scale):
+        raise StandFitRefused(f'the truth vectors are not of one gravity (median |G| '
+                              f'{g_scale:.4g}): every stand attitude has |G| = g')
+    _refuse_beyond(readings, g_scale)
     _refuse_repeated_attitudes(truth, min_separation_deg)
+    try:
+        return _fit_stand(readings, truth, g_scale)
+    except np.linalg.LinAlgError as err:
+        raise StandFitRefused(f'numerical failure of the fit ({err})') from None
 
-    g_scale = float(np.median(np.linalg.norm(truth, axis=1)))
+
+def _fit_stand(readings, truth, g_scale):
+    """Return the StandFit of checked, finite readings and truth (see ``fit_stand``)."""
+    count = readings.shape[0]
     design = np.column_stack([truth / g_scale, np.ones(count)])
     condition = _condition_number(design)
     if condition > MAX_CONDITION_NUMBER:
@@ -182,8 +199,10 @@ def fit_sphere(readings, g):
     is of order (noise / g)^2, negligible for a still, averaged capture.
 
     Raises StandFitRefused for fewer than MIN_SPHERE_READINGS readings,
-    non-finite ones, readings not spread over the sphere (design condition
-    number above MAX_CONDITION_NUMBER) and readings on no ellipsoid.
+    non-finite ones or ones beyond MAX_READING_RATIO g (checked before any
+    arithmetic), readings not spread over the sphere (design condition number
+    above MAX_CONDITION_NUMBER), readings on no ellipsoid and a numerical
+    failure of the solve.
     """
     readings = as_vectors(readings, 'readings')
     count = readings.shape[0]
@@ -192,6 +211,18 @@ def fit_sphere(readings, g):
             f'only {count} reading(s), need at least {MIN_SPHERE_READINGS} for a sphere fit '
             '(9 unknowns: upper-triangular K and b)')
     _refuse_non_finite(readings, 'readings')
+    if not 0.0 < g < math.inf:
+        raise ValueError(f'g must be a positive finite number, not {g!r}')
+    _refuse_beyond(readings, g)
+    try:
+        return _fit_sphere(readings, g)
+    except np.linalg.LinAlgError as err:
+        raise StandFitRefused(f'numerical failure of the fit ({err})') from None
+
+
+def _fit_sphere(readings, g):
+    """Return the SphereFit of checked, finite readings (see ``fit_sphere``)."""
+    count = readings.shape[0]
     u = readings / g
     x, y, z = u.T
     design = np.column_stack([x * x, y * y, z * z, 2 * x * y, 2 * x * z, 2 * y * z, x, y, z])
@@ -238,6 +269,20 @@ def _refuse_non_finite(values, name):
     bad = np.flatnonzero(~np.isfinite(values).all(axis=1))
     if bad.size:
         raise StandFitRefused(f'non-finite {name} at position(s) {(bad + 1).tolist()}')
+
+
+def _norms(vectors):
+    """Return |v| of each row, computed without overflow (``hypot``)."""
+    return np.hypot(np.hypot(vectors[:, 0], vectors[:, 1]), vectors[:, 2])
+
+
+def _refuse_beyond(readings, g):
+    """Raise StandFitRefused naming the readings (1-based) beyond MAX_READING_RATIO g."""
+    bad = np.flatnonzero(_norms(readings) > MAX_READING_RATIO * g)
+    if bad.size:
+        raise StandFitRefused(
+            f'reading(s) {(bad + 1)[:10].tolist()} exceed {MAX_READING_RATIO:g} times g '
+            f'(largest |A| {_norms(readings).max():.4g}): not a still sensor, or another unit')
 
 
 def _refuse_repeated_attitudes(truth, min_separation_deg):

@@ -55,6 +55,8 @@ REFERENCE_TEMPERATURE_C = 25.0
 #: An axis needs ``|G_i| >= MIN_AXIS_FRACTION |G|`` in some sample (0.3: the
 #: axis at least 17.5 deg out of the horizontal plane).
 MIN_AXIS_FRACTION = 0.3
+#: Largest ratio of a reading to its reference: far beyond any drift, checked first.
+MAX_SCALE_RATIO = 10.0
 #: Temperatures closer than this [deg C] count as one when counting distinct ones.
 TEMPERATURE_RESOLUTION_C = 0.1
 #: Bias and scale drift of an axis separate only when its reference readings at
@@ -134,17 +136,25 @@ def fit_temperature(temperature_c, readings, reference, order,
     ``temperature_c`` (M,), ``readings`` (M, 3) of a still tool, ``reference``
     the specific force at the fit attitude, (3,) or per sample (M, 3) for
     more than one attitude.  Raises TemperatureFitRefused, with the reason,
-    for: non-finite data; fewer than ``order + 2`` distinct temperatures (a
+    for: non-finite data; readings beyond MAX_SCALE_RATIO times the reference
+    (checked before any arithmetic); fewer than ``order + 2`` distinct temperatures (a
     polynomial of order n has n + 1 coefficients, and one more temperature
     leaves a residual to judge the fit by); a reference temperature outside
     the data; an axis that reads about 0 at every fit attitude; an axis whose
-    fitted K_T at the reference temperature is not positive.
+    fitted K_T at the reference temperature is not positive; a fit that is
+    not finite or fails numerically.
     """
     temperature_c, readings, _, t_min_c, t_max_c = _checked_run(
         temperature_c, readings, order, reference_temperature_c)
     reference = np.broadcast_to(np.asarray(reference, dtype=float), readings.shape)
     if not np.isfinite(reference).all():
         raise TemperatureFitRefused('non-finite temperature, readings or reference')
+    size = np.hypot(np.hypot(readings[:, 0], readings[:, 1]), readings[:, 2])
+    reference_size = np.hypot(np.hypot(reference[:, 0], reference[:, 1]), reference[:, 2])
+    if not np.all((reference_size > 0.0) & (size <= MAX_SCALE_RATIO * reference_size)):
+        raise TemperatureFitRefused(
+            f'readings up to {size.max():.4g} for a reference of {reference_size.min():.4g}: '
+            f'a scale factor beyond {MAX_SCALE_RATIO:g} is no temperature drift')
     fraction = np.max(np.abs(reference) / np.linalg.norm(reference, axis=1)[:, None], axis=0)
     weak = [AXES[i] for i in np.flatnonzero(fraction < MIN_AXIS_FRACTION)]
     if weak:
@@ -153,6 +163,20 @@ def fit_temperature(temperature_c, readings, reference, order,
             f'{fraction.min():.3f} of |G|, need {MIN_AXIS_FRACTION}): K_T = A_T / G is '
             'undefined there; tilt the tool so every axis sees gravity, or add an attitude')
 
+    try:
+        with np.errstate(all='ignore'):
+            fit = _fit_axes(temperature_c, readings, reference, order, reference_temperature_c,
+                            t_min_c, t_max_c)
+    except np.linalg.LinAlgError as err:
+        raise TemperatureFitRefused(f'numerical failure of the fit ({err})') from None
+    if not (np.all(np.isfinite(fit.coefficients)) and np.all(np.isfinite(fit.rms_residual))):
+        raise TemperatureFitRefused('the fit is not finite (temperatures or readings too large)')
+    return fit
+
+
+def _fit_axes(temperature_c, readings, reference, order, reference_temperature_c, t_min_c,
+              t_max_c):
+    """Return the TemperatureFit of checked, finite data (see ``fit_temperature``)."""
     coefficients, rms = [], []
     for axis in range(3):
         g_axis = reference[:, axis]
@@ -186,10 +210,32 @@ def fit_temperature_drift(temperature_c, readings, attitude, order,
     through ``order + 1`` distinct temperatures each (one attitude cannot
     tell a bias drift from a scale drift); an axis whose readings at those
     attitudes do not spread by ``MIN_AXIS_SPREAD_FRACTION`` of the vector;
-    a fit that does not converge.
+    readings beyond MAX_SCALE_RATIO times their median magnitude; a fit that
+    does not converge or is not finite.
     """
     temperature_c, readings, rounded, t_min_c, t_max_c = _checked_run(
         temperature_c, readings, order, reference_temperature_c)
+    size = np.hypot(np.hypot(readings[:, 0], readings[:, 1]), readings[:, 2])
+    typical = float(np.median(size))
+    if not np.all((typical > 0.0) & (size <= MAX_SCALE_RATIO * typical)):
+        raise TemperatureFitRefused(
+            f'readings up to {size.max():.4g} for a typical {typical:.4g}: a scale factor '
+            f'beyond {MAX_SCALE_RATIO:g} is no temperature drift')
+    try:
+        with np.errstate(all='ignore'):
+            fit = _drift_fit(temperature_c, readings, rounded, attitude, order,
+                             reference_temperature_c, t_min_c, t_max_c)
+    except np.linalg.LinAlgError as err:
+        raise TemperatureFitRefused(f'numerical failure of the fit ({err})') from None
+    if not (np.all(np.isfinite(fit.coefficients)) and np.all(np.isfinite(fit.bias_coefficients))
+            and np.all(np.isfinite(fit.rms_residual))):
+        raise TemperatureFitRefused('the fit is not finite (temperatures or readings too large)')
+    return fit
+
+
+def _drift_fit(temperature_c, readings, rounded, attitude, order, reference_temperature_c,
+               t_min_c, t_max_c):
+    """Return the bias and scale drift fit of checked data (``fit_temperature_drift``)."""
     labels, index = np.unique(np.asarray(attitude), return_inverse=True)
     index = index.reshape(-1)
     heated = [a for a in range(labels.size)

@@ -6,12 +6,20 @@ which).  All four message types are a ``std_msgs/Header`` followed by float64s
 only, so their CDR is encoded and decoded here for a whole batch at once with
 numpy structured arrays instead of message by message: byte-for-byte what
 rosbags' ``serialize_cdr`` gives (the tests check it), at a fraction of the
-cost.  Reading goes chunk by chunk, so a bag of any size streams.
+cost.  Reading goes chunk by chunk (at most CHUNK_SIZE messages and
+CHUNK_BYTES bytes), so a bag of any size, or of huge frame_ids, streams in
+bounded memory; frame_ids are kept as one Python string per distinct name.
+
+A damaged bag is an error, never a silent gap: every failure of the
+reader (rosbags, mcap, sqlite3, a truncated or overwritten record) is a
+BagError with the reason, and a topic that yields a different number of
+messages than the bag's own count (metadata.yaml) is one too, after the
+last message.  (Bags written by rosbags carry no chunk checksum: bytes
+changed inside a value cannot be told from a reading.)
 """
 
 from contextlib import contextmanager
 from dataclasses import dataclass, fields
-from itertools import islice
 
 import numpy as np
 from rosbags.rosbag2 import Reader, ReaderError, StoragePlugin, Writer, WriterError
@@ -25,6 +33,8 @@ MAGNETIC_FIELD = 'sensor_msgs/msg/MagneticField'
 NT_PER_TESLA = 1e9
 STORAGES = {'mcap': StoragePlugin.MCAP, 'sqlite3': StoragePlugin.SQLITE3}
 CHUNK_SIZE = 10_000
+#: Most bytes of messages read into one chunk.
+CHUNK_BYTES = 32 * 1024 * 1024
 
 #: CDR encapsulation header of little-endian plain CDR.
 _CDR_LE = (0, 1, 0, 0)
@@ -280,7 +290,10 @@ def _frame_ids(frame_bytes, lengths):
         raw = np.ascontiguousarray(frame_bytes[index, :width]).view(f'S{width}').reshape(-1)
         strings = np.empty(raw.size, dtype=object)
         for name, where in _groups(raw):
-            strings[where] = name.decode()
+            try:
+                strings[where] = name.decode()
+            except UnicodeDecodeError as err:
+                raise BagError(f'a frame_id is not UTF-8 ({err}): a damaged message') from None
         frame_ids[index] = strings
     return frame_ids
 
@@ -310,10 +323,15 @@ def decode(messages, msgtype):
         frame_ids.append((index, _frame_ids(records['frame_id'], lengths)))
         values.append((index, records['values']))
     n = sizes.size
-    series = ((_gather(stamps, n, np.int64), _gather(frame_ids, n, object).astype(str),
+    series = ((_gather(stamps, n, np.int64), _gather(frame_ids, n, object),
                _gather(values, n, float)) if n else
-              (np.empty(0, np.int64), np.empty(0, str), np.empty((0, n_values))))
+              (np.empty(0, np.int64), np.empty(0, object), np.empty((0, n_values))))
     return series_type.from_values(*series)
+
+
+def sliced(series, start, stop):
+    """Return messages ``start:stop`` of a series, as a series of the same type."""
+    return type(series)(*(getattr(series, f.name)[start:stop] for f in fields(series)))
 
 
 def concatenate(chunks):
@@ -329,12 +347,21 @@ def _open(path):
     try:
         reader = Reader(path)
         reader.open()
-    except (FileNotFoundError, ReaderError) as err:
-        raise BagError(f'cannot read the bag {path}: {err}') from None
+    except Exception as err:  # rosbags, mcap, sqlite3, YAML: whatever fails, it is unreadable
+        raise BagError(f'cannot read the bag {path}: {_reason(err)}') from None
     try:
         yield reader
     finally:
-        reader.close()
+        try:
+            reader.close()
+        except Exception:  # a damaged file may fail to close too; the reason is given already
+            pass
+
+
+def _reason(err):
+    """Return an exception of the reader as text: its type unless it is rosbags' own."""
+    return str(err) if isinstance(err, (ReaderError, FileNotFoundError)) \
+        else f'{type(err).__name__}: {err}'
 
 
 def _topic_connections(reader, topic):
@@ -357,22 +384,41 @@ def topic_info(path, topic):
         return msgtype, sum(c.msgcount for c in connections)
 
 
-def read(path, topic, chunk_size=CHUNK_SIZE):
+def read(path, topic, chunk_size=CHUNK_SIZE, chunk_bytes=CHUNK_BYTES):
     """
     Yield the messages of ``topic`` as series of at most ``chunk_size`` messages.
 
-    The topic must hold sensor_msgs/Imu, sensor_msgs/MagneticField,
+    A chunk also ends once it holds ``chunk_bytes`` of messages.  The topic
+    must hold sensor_msgs/Imu, sensor_msgs/MagneticField,
     geometry_msgs/Vector3Stamped or sensor_msgs/Temperature; raises BagError
-    naming the topics there are when it does not.
+    naming the topics there are when it does not, BagError for any failure
+    of the reader, and BagError after the last message when the topic held
+    another number of messages than the bag says it has (a damaged bag).
     """
     with _open(path) as reader:
         connections, msgtype = _topic_connections(reader, topic)
+        expected = sum(c.msgcount for c in connections)
         stream = reader.messages(connections=connections)
+        count = 0
         while True:
-            messages = [data for _, _, data in islice(stream, chunk_size)]
+            messages, size = [], 0
+            try:
+                for _, _, data in stream:
+                    messages.append(data)
+                    size += len(data)
+                    if len(messages) >= chunk_size or size >= chunk_bytes:
+                        break
+            except Exception as err:  # the reader's, on a damaged file: never a traceback
+                raise BagError(f'the bag {path} is damaged: reading {topic} failed after '
+                               f'{count + len(messages)} of its {expected} messages '
+                               f'({_reason(err)})') from None
             if not messages:
-                return
+                break
+            count += len(messages)
             yield decode(messages, msgtype)
+        if count != expected:
+            raise BagError(f'the bag {path} is damaged: {count} messages of {topic} could be '
+                           f'read, but the bag says it holds {expected}')
 
 
 class BagWriter:
@@ -421,14 +467,25 @@ class BagWriter:
         stamps_ns = np.asarray(stamps_ns, dtype=np.int64)
         if any(len(messages) != stamps_ns.size for messages in encoded.values()):
             raise ValueError('every topic needs exactly one message per stamp')
+        if stamps_ns.size and stamps_ns.min() < 0:
+            raise BagError(f'a header stamp of {int(stamps_ns.min())} ns lies before 1970: it '
+                           'cannot be the log time of a bag message')
         connections = [self._connections[topic] for topic in encoded]
         write = self._writer.write
         for stamp, *row in zip(stamps_ns.tolist(), *encoded.values()):
             for connection, data in zip(connections, row):
                 write(connection, stamp, data)
 
-    def write_series(self, series_by_topic):
-        """Encode and write ``{topic: series}``; all series share the same stamps."""
+    def write_series(self, series_by_topic, chunk_size=CHUNK_SIZE):
+        """
+        Encode and write ``{topic: series}``; all series share the same stamps.
+
+        Encoded ``chunk_size`` messages at a time, so that only one chunk's
+        bytes are held at once.
+        """
         stamps_ns = next(iter(series_by_topic.values())).stamps_ns
-        self.write(stamps_ns, {topic: encode(series)
-                               for topic, series in series_by_topic.items()})
+        for start in range(0, stamps_ns.size, chunk_size):
+            stop = start + chunk_size
+            self.write(stamps_ns[start:stop], {
+                topic: encode(sliced(series, start, stop))
+                for topic, series in series_by_topic.items()})

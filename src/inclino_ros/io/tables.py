@@ -2,15 +2,78 @@
 CSV tables with a header row: the station, stand and rotation inputs of the CLI.
 
 Values are floats; a column is found by its header name, whatever its place.
+A table is read row by row into float blocks, only the columns asked for,
+so memory stays bounded (MAX_ROWS rows, MAX_COLUMNS columns, lines of at
+most MAX_LINE_CHARS characters); anything that is not such a table, binary
+garbage included, is a TableError with the reason and the line.
 """
 
 import csv
 
 import numpy as np
 
+#: Most data rows of a table (an 80-minute stand at 1 kHz).
+MAX_ROWS = 5_000_000
+#: Most columns of a table.
+MAX_COLUMNS = 1000
+#: Longest line of a table [characters].
+MAX_LINE_CHARS = 100_000
+#: Rows converted per block.
+_BLOCK_ROWS = 65536
+
 
 class TableError(ValueError):
     """A CSV file that cannot be used, with the reason."""
+
+
+def _lines(stream, path):
+    """Yield the lines of ``stream``, none read whole beyond MAX_LINE_CHARS."""
+    while True:
+        line = stream.readline(MAX_LINE_CHARS + 1)
+        if not line:
+            return
+        if len(line) > MAX_LINE_CHARS:
+            raise TableError(f'{path} has a line longer than {MAX_LINE_CHARS} characters: '
+                             'not a table of numbers')
+        yield line
+
+
+def _open_reader(path, read):
+    """Return ``read(csv reader)`` of the CSV file ``path``; TableError if it is no table."""
+    try:
+        stream = open(path, newline='', encoding='utf-8-sig')
+    except OSError as err:
+        raise TableError(f'cannot read {path}: {err}') from None
+    try:
+        with stream:
+            return read(csv.reader(_lines(stream, path)))
+    except (csv.Error, UnicodeDecodeError, OSError) as err:
+        raise TableError(f'{path} is not a CSV table ({err})') from None
+
+
+def _header(reader, path):
+    """Return the stripped header names of an open csv reader; TableError if unusable."""
+    header = next(reader, None)
+    if not header:
+        raise TableError(f'{path} is empty')
+    header = [name.strip() for name in header]
+    if len(header) > MAX_COLUMNS:
+        raise TableError(f'{path} has {len(header)} columns, at most {MAX_COLUMNS} are read')
+    repeated = sorted({name for name in header if header.count(name) > 1})
+    if repeated:
+        raise TableError(f'{path} names the column(s) {", ".join(repeated)} more than once')
+    return header
+
+
+def _rows(reader, path, header, whole=True):
+    """Yield the data rows of an open csv reader, at most MAX_ROWS; ``whole``: len(header) each."""
+    for count, row in enumerate(reader, start=1):
+        if (len(row) != len(header)) if whole else len(row) > MAX_COLUMNS:
+            raise TableError(f'{path} line {reader.line_num}: every row needs {len(header)} '
+                             f'values, this one has {len(row)}')
+        if count > MAX_ROWS:
+            raise TableError(f'{path} has more than {MAX_ROWS} rows')
+        yield row
 
 
 def read_csv(path, required, optional=(), text=()):
@@ -19,37 +82,50 @@ def read_csv(path, required, optional=(), text=()):
 
     ``required`` columns must be present, ``optional`` ones are returned when
     present; ``text`` columns (optional) come back as lists of stripped
-    strings; other columns are ignored.  Raises TableError otherwise.
+    strings; other columns are ignored (but every row must have a value for
+    each).  Raises TableError otherwise.
     """
-    header, rows = read_rows(path)
-    missing = [name for name in required if name not in header]
-    if missing:
-        raise TableError(f'{path} lacks the column(s) {", ".join(missing)}; '
-                         f'it has {", ".join(header)}')
-    if any(len(row) != len(header) for row in rows):
-        raise TableError(f'{path}: every row needs {len(header)} values')
-    numeric = [name for name in (*required, *optional) if name in header and name not in text]
-    try:
-        values = np.array([[row[header.index(name)] for name in numeric] for row in rows],
-                          dtype=float).reshape(len(rows), len(numeric))
-    except ValueError as err:
-        raise TableError(f'{path}: every row needs {len(header)} numbers ({err})') from None
-    columns = {name: values[:, k] for k, name in enumerate(numeric)}
-    columns.update({name: [row[header.index(name)].strip() for row in rows]
-                    for name in text if name in header})
-    return columns
+    return _open_reader(path, lambda reader: _read_table(reader, path, required, optional,
+                                                         text))
 
 
 def read_rows(path):
     """Return (header names, data rows as lists of strings) of a CSV file; TableError if empty."""
-    try:
-        with open(path, newline='') as stream:
-            rows = list(csv.reader(stream))
-    except OSError as err:
-        raise TableError(f'cannot read {path}: {err}') from None
-    if not rows:
-        raise TableError(f'{path} is empty')
-    header = [name.strip() for name in rows[0]]
-    if len(rows) == 1:
+    def read(reader):
+        header = _header(reader, path)
+        rows = list(_rows(reader, path, header, whole=False))
+        if not rows:
+            raise TableError(f'{path} has no data rows')
+        return header, rows
+    return _open_reader(path, read)
+
+
+def _read_table(reader, path, required, optional, text):
+    """Return the columns of an open csv reader (see ``read_csv``)."""
+    header = _header(reader, path)
+    missing = [name for name in required if name not in header]
+    if missing:
+        raise TableError(f'{path} lacks the column(s) {", ".join(missing)}; '
+                         f'it has {", ".join(header)}')
+    names = [name for name in (*required, *optional) if name in header and name not in text]
+    used = [header.index(name) for name in names]
+    words = {name: [] for name in text if name in header}
+    blocks, block, filled = [], np.empty((_BLOCK_ROWS, len(used))), 0
+    for row in _rows(reader, path, header):
+        try:
+            block[filled] = [float(row[i]) for i in used]
+        except ValueError as err:
+            raise TableError(f'{path} line {reader.line_num}: {err}') from None
+        for name, values in words.items():
+            values.append(row[header.index(name)].strip())
+        filled += 1
+        if filled == _BLOCK_ROWS:
+            blocks.append(block)
+            block, filled = np.empty_like(block), 0
+    blocks.append(block[:filled])
+    values = np.concatenate(blocks)
+    if values.shape[0] == 0:
         raise TableError(f'{path} has no data rows')
-    return header, rows[1:]
+    columns = {name: values[:, k] for k, name in enumerate(names)}
+    columns.update(words)
+    return columns

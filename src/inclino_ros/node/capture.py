@@ -5,17 +5,29 @@ One Collector per node runs at most one capture at a time.  The services
 ``await`` it in a reentrant callback group, so the node keeps processing and
 publishing every sample meanwhile.  The Collector also holds the answers the
 services share: commit a model (write atomically, then apply), succeed,
-refuse (nothing changed).
+refuse (nothing changed), and ``guarded``, which turns any failure of a
+service into a refusal with the reason: no request crashes the node.
+
+A capture's memory is bounded: a counted one holds its ``count`` samples in
+one array (at most the parameters' 1 000 000), a timed one (the rotation) at
+most MAX_TIMED_ROWS, every other sample dropped whenever it is full, so what
+it holds stays spread over the whole capture at any rate.
 """
 
 from dataclasses import dataclass, replace
+import functools
+import inspect
+import traceback
 
 from inclino_ros.calibration.model import save_model
+from inclino_ros.calibration.plausibility import check_for_sensor, Implausible
 from inclino_ros.calibration.still_capture import CaptureRefused
 from inclino_ros.core.screening import REASONS
 import numpy as np
 from rclpy.task import Future
 
+#: Most samples a timed capture holds (even: halved when full).
+MAX_TIMED_ROWS = 65536
 #: Columns of a captured row: raw (3), temperature, field (3), stamp.
 COLUMNS = 8
 
@@ -38,24 +50,64 @@ class Captured:
 class Capture:
     """Samples collected for one service call: ``count`` of them, or all within a time."""
 
-    def __init__(self, count):
+    def __init__(self, count, max_timed_rows=MAX_TIMED_ROWS):
         """Collect ``count`` samples (None: until ``expire``), then complete ``self.future``."""
         self.count = count
         self.future = Future()
-        self.rows = []
+        self._rows = np.empty((count if count is not None else max_timed_rows, COLUMNS))
+        self.size = 0     # rows held
+        self.seen = 0     # samples offered
+        self.stride = 1   # a timed capture holds every stride-th sample
 
     def add(self, raw, temperature_c, field_nT, stamp_s):
         """Add one accepted sample; complete the future when enough are in."""
-        self.rows.append((*raw, np.nan if temperature_c is None else temperature_c, *field_nT,
-                          stamp_s))
-        if len(self.rows) == self.count and not self.future.done():
-            self.future.set_result(np.array(self.rows))
+        if self.future.done():
+            return
+        index, self.seen = self.seen, self.seen + 1
+        if index % self.stride:
+            return
+        if self.size == self._rows.shape[0]:  # a full timed capture: keep every other row
+            half = (self.size + 1) // 2
+            self._rows[:half] = self._rows[:self.size:2]
+            self.size, self.stride = half, 2 * self.stride
+            if index % self.stride:
+                return
+        self._rows[self.size] = (*raw, np.nan if temperature_c is None else temperature_c,
+                                 *field_nT, stamp_s)
+        self.size += 1
+        if self.size == self.count:
+            self.future.set_result(self._rows[:self.size])
 
     def expire(self):
         """Time is up: complete with what a timed capture holds, None for a counted one."""
         if not self.future.done():
-            self.future.set_result(np.array(self.rows).reshape(-1, COLUMNS)
-                                   if self.count is None else None)
+            self.future.set_result(self._rows[:self.size] if self.count is None else None)
+
+
+def guarded(collector, callback):
+    """
+    Return ``callback`` (a service callback, plain or async) with failures made refusals.
+
+    Every expected refusal is answered by the service itself; anything else
+    (a bug, a numerical failure nobody foresaw) is logged with its traceback
+    and answered as a refusal naming it, instead of ending the node.
+    """
+    if inspect.iscoroutinefunction(callback):
+        @functools.wraps(callback)
+        async def run_async(request, response):
+            try:
+                return await callback(request, response)
+            except Exception as err:  # the last resort: a refusal, not a dead node
+                return collector.fail(response, err)
+        return run_async
+
+    @functools.wraps(callback)
+    def run(request, response):
+        try:
+            return callback(request, response)
+        except Exception as err:  # the last resort: a refusal, not a dead node
+            return collector.fail(response, err)
+    return run
 
 
 class Collector:
@@ -97,7 +149,7 @@ class Collector:
             dropped = {reason: after - before for reason, after, before in zip(
                 REASONS, node.stats.dropped_total, dropped_before) if after > before}
             raise CaptureRefused(
-                f'no data: {len(capture.rows)} of {count or "any"} samples arrived on '
+                f'no data: {capture.size} of {count or "any"} samples arrived on '
                 f'{node.resolve_topic_name("imu/data_raw")} within {wait_s} s'
                 + (f' ({sum(dropped.values())} dropped: '
                    + ', '.join(f'{n} {reason}' for reason, n in dropped.items()) + ')'
@@ -115,10 +167,11 @@ class Collector:
         """Write ``model`` atomically, then apply it; CaptureRefused if it is not written."""
         model = replace(model, sensor_id=self.node.sensor_id or model.sensor_id)
         try:
+            check_for_sensor(model, self.node.settings.accelerometer_range_mps2)
             save_model(self.node.calibration_file, model)
         except OSError as err:
             raise CaptureRefused(f'cannot write {self.node.calibration_file}: {err}') from None
-        except ValueError as err:  # save_model refuses what load_model would refuse
+        except (ValueError, Implausible) as err:  # what load_model would refuse
             raise CaptureRefused(f'the result is not a plausible calibration: {err}') from None
         self.node.model = model
 
@@ -129,6 +182,13 @@ class Collector:
             else message
         self.node.get_logger().info(response.message)
         return response
+
+    def fail(self, response, error):
+        """Answer an unexpected failure of a service as a refusal (logged with its traceback)."""
+        self.node.get_logger().error(
+            f'a service failed unexpectedly: {error!r}\n'
+            + ''.join(traceback.format_exception(error)))
+        return self.refuse(response, f'internal error ({type(error).__name__}: {error})')
 
     def refuse(self, response, reason, kept='previous calibration kept'):
         """Fill a refusal: nothing was changed (and log it)."""

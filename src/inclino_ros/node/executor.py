@@ -10,7 +10,9 @@ without its own signal handlers (``init``), because those shut the context
 down while a message may be half taken, and rclpy then fails inside the take.
 """
 
+import os
 import signal
+import sys
 import threading
 
 import rclpy
@@ -45,9 +47,16 @@ def run_node(make_node, args=None, refusals=()):
     Initialise rclpy, build a node with ``make_node()`` and spin it; return the exit code.
 
     An exception of a type in ``refusals`` while building is logged as fatal
-    and gives exit code 1 (e.g. a corrupt calibration file).
+    and gives exit code 1 (e.g. a corrupt calibration file); so does a command
+    line rclpy cannot parse (``--ros-args`` with a malformed rule or file),
+    said in one line on stderr.
     """
-    init(args)
+    try:
+        init(args)
+    except Exception as err:  # rcl's own error type is private: its message is the point
+        name = os.path.basename(sys.argv[0]) if sys.argv and sys.argv[0] else 'node'
+        print(f'{name}: error: {err}; refusing to start', file=sys.stderr)
+        return 1
     try:
         node = make_node()
     except refusals as err:

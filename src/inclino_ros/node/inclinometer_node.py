@@ -17,6 +17,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Vector3Stamped
 from inclino_ros.calibration.model import (
     CalibrationFileError, CalibrationModel, check_sensor, load_model, stage_ages_s, stale_stages)
+from inclino_ros.calibration.plausibility import check_for_sensor, Implausible
 from inclino_ros.calibration.stations import load_stations, StationsFileError
 from inclino_ros.core.magnetics import QcLimits
 from inclino_ros.core.screening import ACCEPTED
@@ -30,6 +31,7 @@ from inclino_ros.pipeline import imu_covariances, MagneticSettings, run, Setting
 import numpy as np
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
+from rclpy.exceptions import NameValidationException, ParameterException
 from rclpy.node import Node
 from rclpy.qos import (
     DurabilityPolicy, HistoryPolicy, qos_profile_sensor_data, QoSProfile, ReliabilityPolicy)
@@ -136,6 +138,10 @@ class InclinometerNode(Node):
                 self.calibration_file,
                 f'made for a {model.accelerometer_axes}-axis accelerometer, but '
                 f'accelerometer_axes is {axes}')
+        try:
+            check_for_sensor(model, self.settings.accelerometer_range_mps2)
+        except Implausible as err:
+            raise CalibrationFileError(self.calibration_file, err.reason) from None
         self.get_logger().info(
             f'loaded {self.calibration_file}: stages {", ".join(model.stages) or "none"}')
         return model
@@ -314,9 +320,10 @@ def stamp_ns(stamp):
 
 
 def main(args=None):
-    """Run the node until shutdown; exit non-zero on a bad calibration or stations file."""
+    """Run the node until shutdown; exit 1 on a bad parameter, calibration or stations file."""
     return run_node(InclinometerNode, args,
-                    refusals=(CalibrationFileError, StationsFileError, ValueError))
+                    refusals=(CalibrationFileError, StationsFileError, ValueError,
+                              ParameterException, NameValidationException))
 
 
 if __name__ == '__main__':

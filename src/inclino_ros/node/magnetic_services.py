@@ -21,6 +21,7 @@ from dataclasses import replace
 
 from inclino_ros.calibration.model import (
     NO_MAGNETIC_CORRECTION, readings_temperature_c, utc_now_iso)
+from inclino_ros.calibration.plausibility import check_field_readings, Implausible
 from inclino_ros.calibration.stations import msa_inputs, save_stations, Station
 from inclino_ros.calibration.still_capture import (
     CaptureRefused, require_axis_still, require_still_vectors)
@@ -29,6 +30,7 @@ from inclino_ros.core.magnetics import iscwsa_from_tool
 from inclino_ros.core.msa import (
     azimuth_difference_deg, improved_cross_axial, MsaRefused, solve_msa_axial, solve_msa_classic,
     solve_msa_improved)
+from inclino_ros.node.capture import guarded
 from inclino_ros.pipeline import run
 import numpy as np
 from rclpy.callback_groups import ReentrantCallbackGroup
@@ -50,7 +52,8 @@ class MagneticServices:
                                ('~/take_survey', self.take_survey),
                                ('~/solve_msa', self.solve_msa),
                                ('~/clear_surveys', self.clear_surveys)):
-            node.create_service(Trigger, name, callback, callback_group=group)
+            node.create_service(Trigger, name, guarded(collector, callback),
+                                callback_group=group)
 
     def _stage(self):
         return self.node.model.magnetic or NO_MAGNETIC_CORRECTION
@@ -64,6 +67,8 @@ class MagneticServices:
             require_axis_still(node.model.apply(captured.raw, captured.temperatures_c),
                                captured.times_s, node.calibration.still_limits('survey'))
             paired = np.isfinite(captured.field_nT).all(axis=1)
+            check_field_readings(captured.field_nT[paired],
+                                 "the rotation's magnetometer readings")
             temperatures_c = (None if captured.temperatures_c is None
                               else captured.temperatures_c[paired])
             # The ellipse is fitted in the tool frame: after the magnetometer's own stages
@@ -77,7 +82,7 @@ class MagneticServices:
                             msa_fitted_at=None, rotation_temperature_c=readings_temperature_c(
                                 node.model.magnetometer_temperature, captured.temperature_c))
             self.collector.commit(replace(node.model, magnetic=stage))
-        except (CaptureRefused, RotationFitRefused) as err:
+        except (CaptureRefused, RotationFitRefused, Implausible) as err:
             return self.collector.refuse(response, str(err))
         return self.collector.answer(response, (
             f'rotation fit of {fit.sample_count} samples: hard iron '
@@ -98,6 +103,11 @@ class MagneticServices:
             return self.collector.refuse(
                 response, f'only {paired.sum()} of {paired.size} samples had a paired imu/mag '
                 'reading', kept)
+        field_nT = captured.field_nT[paired].mean(axis=0)
+        try:
+            check_field_readings(field_nT[None], "the station's field")
+        except Implausible as err:
+            return self.collector.refuse(response, err.reason, kept)
         try:
             require_still_vectors(captured.raw[paired], captured.times_s[paired],
                                   node.calibration.still_limits('survey'))
@@ -106,14 +116,14 @@ class MagneticServices:
         temperatures_c = (None if captured.temperatures_c is None
                           else captured.temperatures_c[paired].mean())
         survey = run(captured.raw[paired].mean(axis=0), node.model, node.settings,
-                     temperatures_c, captured.field_nT[paired].mean(axis=0)[None],
-                     node.magnetic_settings, averaged=int(paired.sum()))
+                     temperatures_c, field_nT[None], node.magnetic_settings,
+                     averaged=int(paired.sum()))
         if not survey.accepted.all():
             return self.collector.refuse(response, 'the averaged station is not a valid '
                                          'reading', kept)
         station = Station(
             specific_force_mps2=tuple(survey.corrected_mps2[0].tolist()),
-            field_nT=tuple(captured.field_nT[paired].mean(axis=0).tolist()),
+            field_nT=tuple(field_nT.tolist()),
             samples=int(paired.sum()), captured_at=utc_now_iso(),
             temperature_c=captured.temperature_c)
         try:

@@ -6,10 +6,14 @@ parameter table is made from this list (``python -m inclino_ros.node.parameters`
 """
 
 from dataclasses import dataclass
+import math
 
+from inclino_ros.calibration.plausibility import EARTH_FIELD_NT
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 
 GRAVITY_MPS2 = 9.80665
+#: Longest frame_id [characters] the node stamps on its outputs.
+MAX_FRAME_ID = 256
 
 
 @dataclass(frozen=True)
@@ -199,10 +203,26 @@ PARAMETERS = (
 
 
 def refusal(name, value):
-    """Return why ``value`` is not allowed for parameter ``name``, or None if it is."""
+    """
+    Return why ``value`` is not allowed for parameter ``name``, or None if it is.
+
+    What the declared type and range (checked by rclpy) do not say: a choice
+    among fixed ones, a finite number, a file name that is not empty, a
+    bounded frame_id, a reference field that is unknown (0) or an Earth field.
+    """
+    if isinstance(value, float) and not math.isfinite(value):
+        return f'{name} must be a finite number, not {value!r}'
     for parameter in PARAMETERS:
         if parameter.name == name and parameter.choices and value not in parameter.choices:
             return f'{name} must be one of {", ".join(parameter.choices)}, not {value!r}'
+    if name in ('calibration_file', 'stations_file') and not str(value).strip():
+        return f'{name} must name a file'
+    if name == 'frame_id' and len(value) > MAX_FRAME_ID:
+        return f'frame_id must be at most {MAX_FRAME_ID} characters, not {len(value)}'
+    if name == 'magnetic.reference_total_nT' and value != 0.0 \
+            and not EARTH_FIELD_NT[0] <= value <= EARTH_FIELD_NT[1]:
+        return (f'magnetic.reference_total_nT must be 0 (unknown) or an Earth field, '
+                f'{EARTH_FIELD_NT[0]:g} .. {EARTH_FIELD_NT[1]:g} nT, not {value!r}')
     return None
 
 

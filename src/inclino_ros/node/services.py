@@ -11,10 +11,12 @@ import math
 
 from inclino_ros.calibration.level_capture import CaptureRefused, LevelLimits, solve_level_capture
 from inclino_ros.calibration.model import readings_temperature_c, temperature_conflict
+from inclino_ros.calibration.plausibility import Implausible
 from inclino_ros.calibration.stand_capture import (
     average_position, check_new_attitude, solve_positions)
 from inclino_ros.core.stand import StandFitRefused
 from inclino_ros.core.stillness import StillLimits
+from inclino_ros.node.capture import guarded
 import numpy as np
 from rclpy.callback_groups import ReentrantCallbackGroup
 from std_srvs.srv import Trigger
@@ -35,7 +37,8 @@ class CalibrationServices:
                                ('~/capture_position', self.capture_position),
                                ('~/solve_stand_calibration', self.solve_stand_calibration),
                                ('~/clear_positions', self.clear_positions)):
-            node.create_service(Trigger, name, callback, callback_group=group)
+            node.create_service(Trigger, name, guarded(collector, callback),
+                                callback_group=group)
 
     def still_limits(self, prefix):
         """Return the StillLimits of the captures of ``prefix`` (its max_sem_deg)."""
@@ -106,8 +109,8 @@ class CalibrationServices:
                 node.model.apply(captured.raw, captured.temperatures_c, before='stand'),
                 inclination_deg, toolface_deg, self.still_limits('stand'), captured.times_s,
                 readings_temperature_c(node.model.temperature, captured.temperature_c),
-                fields, azimuth_deg)
-        except CaptureRefused as err:
+                fields, azimuth_deg, gravity_mps2=node.settings.gravity_mps2)
+        except (CaptureRefused, Implausible) as err:
             return self.collector.refuse(
                 response, str(err), f'{len(self.positions)} positions kept')
         self.positions.append(position)

@@ -1,11 +1,11 @@
 """Input health for /diagnostics: samples accepted, dropped and why, rate, G-total."""
 
 from collections import deque
-import math
 
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 
 from inclino_ros.calibration.model import age_seconds, MOUNT_STAGES
+from inclino_ros.calibration.plausibility import field_reading_ok, temperature_ok
 from inclino_ros.core.screening import REASONS
 from inclino_ros.core.temperature import in_range
 from inclino_ros.io.bag import NT_PER_TESLA
@@ -90,8 +90,8 @@ class TemperatureInput:
         self.rejected = 0
 
     def update(self, temperature_c, now_s):
-        """Keep a finite temperature as the latest; count a non-finite one."""
-        if math.isfinite(temperature_c):
+        """Keep a temperature a sensor reads as the latest; count one it cannot (NaN, 1e300)."""
+        if temperature_ok(temperature_c):
             self.value_c = float(temperature_c)
             self.received_s = now_s
         else:
@@ -108,7 +108,7 @@ class TemperatureInput:
         """
         status = DiagnosticStatus(name=f'{node_name}: temperature', level=DiagnosticStatus.OK)
         values = {'temperature_c': 'none' if self.value_c is None else f'{self.value_c:.2f}',
-                  'rejected_non_finite': str(self.rejected)}
+                  'rejected_implausible': str(self.rejected)}
         age_s = None if self.received_s is None else now_s - self.received_s
         if age_s is not None:
             values['age_s'] = f'{age_s:.1f}'
@@ -173,9 +173,15 @@ class MagneticInput:
         return self.recent[-1][0] if self.recent else None
 
     def update(self, stamp_ns, field_tesla):
-        """Keep a finite reading (converted to nT); count a non-finite one."""
-        if all(math.isfinite(v) for v in field_tesla):
-            self.recent.append((stamp_ns, tuple(v * NT_PER_TESLA for v in field_tesla)))
+        """
+        Keep a reading (converted to nT) to pair with; count one no magnetometer gives.
+
+        Dropped: a non-finite one, and one beyond an Earth field plus
+        interference (``plausibility.field_reading_ok``).
+        """
+        field_nT = tuple(v * NT_PER_TESLA for v in field_tesla)
+        if field_reading_ok(field_nT)[0]:
+            self.recent.append((stamp_ns, field_nT))
         else:
             self.rejected += 1
 
@@ -207,7 +213,7 @@ class MagneticInput:
         values = {key: str(n) for key, n in self._period.items()}
         if model is not None:
             values.update(magnetometer_stage_values(model, now))
-        values.update(rejected_non_finite=str(self.rejected), stations_held=str(stations),
+        values.update(rejected_implausible=str(self.rejected), stations_held=str(stations),
                       reference_total_nT=f'{settings.reference_total_nT:g}',
                       reference_dip_deg=f'{settings.reference_dip_deg:g}',
                       rotation_fitted_at=str(model_stage and model_stage.rotation_fitted_at),
