@@ -27,8 +27,11 @@ from inclino_ros.core.stand import fit_sphere, fit_stand, StandFitRefused
 from inclino_ros.core.temperature import fit_temperature, TemperatureFitRefused
 from inclino_ros.io.tables import read_csv, TableError
 import numpy as np
+import pytest
 from test_model_stages import MODEL
 
+#: Overflow and invalid-value warnings of numpy are what the hostile values are for.
+pytestmark = pytest.mark.filterwarnings('ignore::RuntimeWarning')
 G = 9.80665
 FUZZ = settings(max_examples=150, deadline=None,
                 suppress_health_check=[HealthCheck.function_scoped_fixture,
