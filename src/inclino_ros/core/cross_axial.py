@@ -106,7 +106,7 @@ def fit_ellipse(points):
     with np.errstate(over='ignore', under='ignore'):
         size = largest * scale  # a numpy float: overflows to inf, never raises
         centre, q = largest * (mean + scale * centre), q / size / size
-    if not (np.all(np.isfinite(centre)) and np.all(np.isfinite(q)) and np.all(q != 0.0)):
+    if not (np.all(np.isfinite(centre)) and np.all(np.isfinite(q))):
         raise RotationFitRefused('degenerate fit: the fitted ellipse is not finite')
     return centre, q
 
