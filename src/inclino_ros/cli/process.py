@@ -47,9 +47,10 @@ from tqdm import tqdm
 SURVEY_TOPIC = '/survey'
 IMU_TOPIC = '/imu/data'
 NODE_DEFAULTS = {parameter.name: parameter.default for parameter in PARAMETERS}
-#: Azimuth counts of the summary (accepted samples only).
-MAGNETIC_COUNTS = ('mag_paired', 'mag_unpaired', 'azimuth_trusted', 'azimuth_untrusted',
-                   'qc_failed', 'qc_failed_b_total', 'qc_failed_dip', 'qc_failed_g_total')
+#: Azimuth counts of the summary (accepted samples; mag_non_finite: magnetometer messages).
+MAGNETIC_COUNTS = ('mag_non_finite', 'mag_paired', 'mag_unpaired', 'azimuth_trusted',
+                   'azimuth_untrusted', 'qc_failed', 'qc_failed_b_total', 'qc_failed_dip',
+                   'qc_failed_g_total')
 
 
 @dataclass(frozen=True)
@@ -57,7 +58,7 @@ class Magnetometer:
     """A magnetometer topic read whole, and how its readings pair with the Imu samples."""
 
     stamps_ns: np.ndarray     # (M,) int64
-    field_nT: np.ndarray      # (M, 3) tool frame
+    field_nT: np.ndarray      # (M, 3) sensor axes, NaN where the driver sent no value
     max_pairing_ns: int
     settings: MagneticSettings
 
@@ -65,6 +66,11 @@ class Magnetometer:
     def from_series(cls, series, max_pairing_s, settings):
         """Return the Magnetometer of a MagneticFieldSeries (any order; tesla -> nT)."""
         return cls(series.stamps_ns, series.field_nT, round(max_pairing_s * 1e9), settings)
+
+    @property
+    def non_finite(self):
+        """Return how many readings hold a NaN or infinite value (never paired)."""
+        return int(np.count_nonzero(~np.isfinite(self.field_nT).all(axis=1)))
 
     def field_at(self, stamps_ns):
         """Return (field_nT (N, 3), paired (N,)) of the readings nearest ``stamps_ns``."""
@@ -106,14 +112,16 @@ class Summary:
             self._g_offset_sum += float(offset.sum())
             self._g_offset_sum_sq += float(offset @ offset)
 
-    def add_magnetic(self, survey, paired):
+    def add_magnetic(self, survey, paired, non_finite):
         """
         Count the azimuths of one batch: ``paired`` (N,) says which input samples had a field.
 
         Counts (of accepted samples): paired, unpaired, trusted, untrusted,
-        and the paired ones failing QC, in all and per test.
+        and the paired ones failing QC, in all and per test; ``non_finite``
+        is the number of magnetometer messages without a value (never paired).
         """
         counts = self.magnetic or dict.fromkeys(MAGNETIC_COUNTS, 0)
+        counts['mag_non_finite'] = non_finite
         paired = np.asarray(paired)[survey.accepted]
         azimuth = survey.magnetic
         counts['mag_paired'] += int(paired.sum())
@@ -306,7 +314,7 @@ def process(in_path, topic, out, model, settings, noise_std_mps2, chunk_size, co
                 field_nT, paired = magnetometer.field_at(batch.stamps_ns)
                 survey = run_pipeline(batch.linear_acceleration_mps2, model, settings,
                                       temperature_c, field_nT, magnetometer.settings)
-                summary.add_magnetic(survey, paired)
+                summary.add_magnetic(survey, paired, magnetometer.non_finite)
             summary.add(survey)
             out.write_series(_outputs(batch, survey, model, settings, noise_std_mps2))
             progress.update(batch.stamps_ns.size)
