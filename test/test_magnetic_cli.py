@@ -53,11 +53,11 @@ def summary_values(stdout):
     return dict(line.split(': ', 1) for line in stdout.splitlines() if ': ' in line)
 
 
-def simulate_bench(path, storage='mcap'):
+def simulate_bench(path, storage='mcap', *mounting):
     """Simulate the test bench into ``path``; return its truth record."""
     code, _, err = quiet(['simulate', path, '--magnetic', '--rotation-s', 10, '--storage', storage,
                           '--station-s', SAMPLES / 200.0, '--noise-mps2', NOISE_MPS2,
-                          '--mag-noise-nT', NOISE_NT])
+                          '--mag-noise-nT', NOISE_NT, *mounting])
     assert code == 0, err
     with open(f'{path}.truth.json') as stream:
         return json.load(stream)
@@ -279,6 +279,31 @@ def test_nan_between_readings_pairs_the_nearest_finite_one(chain, tmp_path):
     assert np.count_nonzero(np.isfinite(azimuth)) > 150   # 12 stations of 16 samples
     both = np.isfinite(azimuth)
     assert np.max(np.abs(azimuth_difference_deg(azimuth[both], reference[both]))) < 1.0
+
+
+def test_a_mounted_board_read_through_its_axes_maps(chain, tmp_path):
+    """The bench on a board mounted any way round: with its maps, the same results exactly."""
+    mounted = str(tmp_path / 'mounted')
+    maps = ('--accelerometer-axes-map', '+X-Z+Y', '--magnetometer-axes-map', '+Y+X-Z')
+    simulate_bench(mounted, 'mcap', *maps)
+    imu = bag.concatenate(bag.read(mounted, '/imu/data_raw')).linear_acceleration_mps2
+    assert np.mean(imu[:600, 1]) > 9.7      # the level segment reads gravity on sensor +y
+    start_s, end_s = rotation_window_s(chain['truth'])
+    code, _, err = quiet(['fit-rotation', mounted, '--calibration', tmp_path / 'cal.json',
+                          '--start-s', start_s, '--end-s', end_s, maps[2], maps[3]])
+    assert code == 0, err
+    np.testing.assert_allclose(load_model(tmp_path / 'cal.json').magnetic.hard_iron_nT,
+                               load_model(chain['calibration']).magnetic.hard_iron_nT, atol=1e-9)
+    out = str(tmp_path / 'out')
+    code, _, err = quiet(['process', mounted, out, '--calibration', chain['calibration'],
+                          '--mag-topic', '/imu/mag', *maps])
+    assert code == 0, err
+    np.testing.assert_allclose(bag.concatenate(bag.read(out, '/survey')).vector,
+                               bag.concatenate(bag.read(chain['out'], '/survey')).vector,
+                               atol=1e-9)
+    code, _, err = quiet(['process', mounted, out + '2', '--calibration', chain['calibration'],
+                          '--accelerometer-axes-map', '+X+Y-Z'])
+    assert code == 2 and 'left-handed' in err
 
 
 def file_bytes(path):

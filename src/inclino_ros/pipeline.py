@@ -1,13 +1,15 @@
 """
 The processing chain shared by the node and the command line.
 
-raw specific force -> screening -> (two-axis completion) -> calibration model
--> inclination, gravity toolface, orientation (and, with magnetometer
-readings, the azimuth and its QC).  One batch of N samples at a time: the
-node passes what one executor wake-up finds queued, the command line 10 000.
+raw specific force -> screening -> sensor axes to tool axes -> (two-axis
+completion) -> calibration model -> inclination, gravity toolface,
+orientation (and, with magnetometer readings turned into the tool axes too,
+the azimuth and its QC).  One batch of N samples at a time: the node passes
+what one executor wake-up finds queued, the command line 10 000.
 """
 
 from dataclasses import dataclass
+from functools import cached_property
 import math
 
 from inclino_ros.core.attitude import (
@@ -15,6 +17,7 @@ from inclino_ros.core.attitude import (
 from inclino_ros.core.magnetics import (
     azimuth_deg, b_total_nT, dip_deg, gravity_from_specific_force, iscwsa_from_tool, QcLimits,
     survey_qc, SurveyQc, true_azimuth_deg)
+from inclino_ros.core.mounting import axes_map_matrix, IDENTITY, keeps_axial, to_tool_axes
 from inclino_ros.core.screening import ACCEPTED, screen
 import numpy as np
 
@@ -33,6 +36,9 @@ class Settings:
     accelerometer_range_mps2: float = 2.0 * 9.80665
     toolface_convention: str = 'seed000'
     toolface_min_inclination_deg: float = 0.01
+    accelerometer_axes_map: str = IDENTITY  # core.mounting: sensor axes -> tool axes
+    magnetometer_axes_map: str = IDENTITY
+    allow_left_handed_axes: bool = False
 
     def __post_init__(self):
         """Refuse settings the chain cannot honour."""
@@ -41,6 +47,27 @@ class Settings:
         if self.toolface_convention not in TOOLFACE_CONVENTIONS:
             raise ValueError(f'toolface_convention must be one of '
                              f'{sorted(TOOLFACE_CONVENTIONS)}, not {self.toolface_convention!r}')
+        # Both maps are checked now, not at the first sample (ValueError naming the map).
+        accelerometer, _ = self.accelerometer_matrix, self.magnetometer_matrix
+        if self.accelerometer_axes == 2 and not keeps_axial(accelerometer):
+            raise ValueError(f'accelerometer_axes_map {self.accelerometer_axes_map!r}: a '
+                             'two-axis sensor has to have its unmeasured z along the tool axis')
+
+    @cached_property
+    def accelerometer_matrix(self):
+        """Return M of ``v_tool = M v_sensor`` for the accelerometer (ValueError if invalid)."""
+        return self._axes_matrix('accelerometer_axes_map')
+
+    @cached_property
+    def magnetometer_matrix(self):
+        """Return M of ``v_tool = M v_sensor`` for the magnetometer (ValueError if invalid)."""
+        return self._axes_matrix('magnetometer_axes_map')
+
+    def _axes_matrix(self, name):
+        try:
+            return axes_map_matrix(getattr(self, name), self.allow_left_handed_axes)
+        except ValueError as err:
+            raise ValueError(f'{name}: {err}') from None
 
 
 @dataclass(frozen=True)
@@ -58,6 +85,7 @@ class MagneticSettings:
 class AzimuthSurvey:
     """Azimuth of the accepted samples that came with a magnetometer reading."""
 
+    uncorrected_nT: np.ndarray    # (M, 3) field in the tool axes before correction, NaN unpaired
     azimuth_deg: np.ndarray       # (M,) magnetic azimuth, NaN where not trusted
     true_azimuth_deg: np.ndarray  # (M,) azimuth_deg + declination
     b_total_nT: np.ndarray        # (M,) of the corrected field
@@ -71,6 +99,7 @@ class Survey:
     """Results for the accepted samples of a batch, in input order."""
 
     codes: np.ndarray            # (N,) screening code per input sample
+    uncorrected_mps2: np.ndarray  # (M, 3) in the tool axes, before any correction (captures)
     corrected_mps2: np.ndarray   # (M, 3) corrected specific force, tool frame
     inclination_deg: np.ndarray  # (M,)
     toolface_deg: np.ndarray     # (M,), NaN below the minimum inclination
@@ -84,19 +113,19 @@ class Survey:
         return self.codes == ACCEPTED
 
 
-def sensor_vectors(raw, settings):
-    """Return full 3-vectors from raw readings (two-axis: z completed)."""
-    raw = np.asarray(raw, dtype=float)
+def sensor_vectors(tool_mps2, settings):
+    """Return full 3-vectors of readings in the tool axes (two-axis: z completed)."""
+    tool_mps2 = np.asarray(tool_mps2, dtype=float)
     if settings.accelerometer_axes == 2:
-        return complete_two_axis(raw[:, 0], raw[:, 1], settings.gravity_mps2)
-    return raw
+        return complete_two_axis(tool_mps2[:, 0], tool_mps2[:, 1], settings.gravity_mps2)
+    return tool_mps2
 
 
 def resolve_azimuth(corrected_mps2, field_nT, model, settings, magnetic_settings):
     """
-    Return the AzimuthSurvey of corrected accelerometer and raw magnetometer readings.
+    Return the AzimuthSurvey of corrected accelerometer and uncorrected magnetometer readings.
 
-    Both in the z-up tool frame, (M, 3); a NaN field row (no paired reading)
+    Both in the z-up tool axes, (M, 3); a NaN field row (no paired reading)
     gives a NaN azimuth.  The field is corrected by the model's magnetic stage
     and turned into the ISCWSA frame with the gravity vector
     (``magnetics.gravity_from_specific_force``) for the azimuth of seed 001
@@ -119,7 +148,7 @@ def resolve_azimuth(corrected_mps2, field_nT, model, settings, magnetic_settings
         trusted &= qc.ok
     azimuth = np.where(trusted, azimuth, math.nan)
     return AzimuthSurvey(
-        azimuth_deg=azimuth,
+        uncorrected_nT=field_nT, azimuth_deg=azimuth,
         true_azimuth_deg=true_azimuth_deg(azimuth, magnetic_settings.declination_deg),
         b_total_nT=field_total_nT, dip_deg=dip_deg(gravity, field), qc=qc,
         trusted=trusted)
@@ -128,28 +157,51 @@ def resolve_azimuth(corrected_mps2, field_nT, model, settings, magnetic_settings
 def run(raw, model, settings, temperature_c=None, field_nT=None,
         magnetic_settings=MagneticSettings()):
     """
-    Screen, correct and resolve a batch of raw readings (N x 3, m/s^2).
+    Screen, correct and resolve a batch of raw readings (N x 3, m/s^2, sensor axes).
 
     ``temperature_c`` (scalar or (N,)) feeds the model's temperature stage;
     None compensates at the reference temperature.  ``field_nT`` (N x 3,
-    tool frame, NaN rows where no reading is paired) adds the azimuth.
+    magnetometer axes, NaN rows where no reading is paired) adds the azimuth.
+    Screening looks at the sensor's own axes (its range is per axis); the
+    axes maps of ``settings`` then turn both sensors into the tool axes.
     """
     raw = np.asarray(raw, dtype=float).reshape(-1, 3)
     codes = screen(raw, settings.accelerometer_axes,
                    settings.accelerometer_range_mps2, settings.gravity_mps2)
     accepted = codes == ACCEPTED
+    if field_nT is not None:
+        field_nT = np.asarray(field_nT, dtype=float).reshape(-1, 3)
     if not accepted.all():
         raw = raw[accepted]
         if np.ndim(temperature_c) == 1:
             temperature_c = np.asarray(temperature_c)[accepted]
         if field_nT is not None:
-            field_nT = np.asarray(field_nT, dtype=float).reshape(-1, 3)[accepted]
-    corrected = model.apply(sensor_vectors(raw, settings), temperature_c)
+            field_nT = field_nT[accepted]
+    return correct(to_tool_axes(raw, settings.accelerometer_matrix), model, settings,
+                   temperature_c,
+                   None if field_nT is None else to_tool_axes(field_nT,
+                                                              settings.magnetometer_matrix),
+                   magnetic_settings, codes)
+
+
+def correct(tool_mps2, model, settings, temperature_c=None, field_nT=None,
+            magnetic_settings=MagneticSettings(), codes=None):
+    """
+    Correct and resolve accepted readings already in the tool axes (M x 3).
+
+    What ``run`` does after screening and the axes maps; a capture that
+    averages the Survey's ``uncorrected_mps2`` (and ``uncorrected_nT``)
+    corrects its mean here.  ``codes`` default to all accepted.
+    """
+    tool_mps2 = np.asarray(tool_mps2, dtype=float).reshape(-1, 3)
+    corrected = model.apply(sensor_vectors(tool_mps2, settings), temperature_c)
     incl_deg = np.degrees(inclination(corrected))
     toolface_deg = np.degrees(TOOLFACE_CONVENTIONS[settings.toolface_convention](corrected))
     toolface_deg[incl_deg < settings.toolface_min_inclination_deg] = math.nan
-    return Survey(codes=codes, corrected_mps2=corrected, inclination_deg=incl_deg,
-                  toolface_deg=toolface_deg,
+    return Survey(codes=np.full(tool_mps2.shape[0], ACCEPTED, dtype=np.int8)
+                  if codes is None else codes,
+                  uncorrected_mps2=tool_mps2, corrected_mps2=corrected,
+                  inclination_deg=incl_deg, toolface_deg=toolface_deg,
                   orientation_wxyz=orientation_quaternion(corrected),
                   g_total_mps2=np.sqrt(np.einsum('ij,ij->i', corrected, corrected)),
                   magnetic=None if field_nT is None else resolve_azimuth(

@@ -17,9 +17,11 @@ are kept.  Report: the readings before and after with the fitted ellipse and
 circle (seed 002 Fig. 4) in ``fit_rotation.png`` and the summary in
 ``fit_rotation.txt``.
 
-Refused (exit 1, the calibration file untouched): too few readings, a
-non-finite one, no ellipse, too flat an ellipse, too short an arc or too
-large a radial RMSE (``cross_axial.RotationLimits``).
+Readings without a value (NaN, as some drivers publish between two
+measurements) are left out and counted.  Refused (exit 1, the calibration
+file untouched): too few readings, none finite, no ellipse, too flat an
+ellipse, too short an arc or too large a radial RMSE
+(``cross_axial.RotationLimits``).
 """
 
 from dataclasses import replace
@@ -28,7 +30,8 @@ from inclino_ros.calibration.model import NO_MAGNETIC_CORRECTION, utc_now_iso
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_file_arguments, finish_figure, is_bag, load_existing, new_figure, read_csv, read_topic,
-    Refused, report_paths, run_fit, save, write_text)
+    Refused, report_paths, run_fit, save, tool_axes, write_text)
+from inclino_ros.cli.mounting import add_axes_map_arguments
 from inclino_ros.core.cross_axial import apply_cross_axial, fit_cross_axial, RotationFitRefused
 import numpy as np
 
@@ -53,6 +56,7 @@ def register(subparsers):
     parser.add_argument('--end-s', type=float,
                         help='bag: last reading, seconds after the first message '
                              '(default: the last message)')
+    add_axes_map_arguments(parser, 'magnetometer')
     parser.set_defaults(func=run)
 
 
@@ -80,7 +84,11 @@ def load_readings(args):
 def fit(args, lines):
     """Fit the rotation of ``args.input`` into ``args.calibration``; see ``run_fit``."""
     existing = load_existing(args.calibration)
-    readings = load_readings(args)
+    readings = tool_axes(args, load_readings(args), 'magnetometer')
+    finite = np.isfinite(readings).all(axis=1)
+    if finite.any() and not finite.all():  # a driver's NaN between two measurements
+        lines.append(f'left out {np.count_nonzero(~finite)} readings without a value (NaN)')
+        readings = readings[finite]
     try:
         result = fit_cross_axial(readings)
     except RotationFitRefused as err:

@@ -34,7 +34,7 @@ from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_common_arguments, AXIS_COLUMNS, finish_figure, has_topic, is_bag, load_existing,
     matrix_lines, new_figure, read_csv, read_topic, Refused, report_paths, run_fit,
-    sample_temperatures, save, write_text)
+    sample_temperatures, save, tool_axes, write_text)
 from inclino_ros.cli.process import NODE_DEFAULTS
 from inclino_ros.core.attitude import angle_between, inclination
 from inclino_ros.core.stand import fit_sphere, fit_stand, stand_specific_force, StandFitRefused
@@ -77,6 +77,7 @@ def fit(args, lines):
     """Fit the stand stage of ``args.input`` into ``args.calibration``; see ``run_fit``."""
     existing = load_existing(args.calibration)
     readings, attitude_deg, temperature_c = load_input(args)
+    readings = tool_axes(args, readings)
     if existing.temperature is not None:
         readings = CalibrationModel(3, temperature=existing.temperature).apply(
             readings, temperature_c)

@@ -31,7 +31,7 @@ from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_common_arguments, AXIS_COLUMNS, finish_figure, is_bag, load_existing, matrix_lines,
     new_figure, read_csv, read_topic, Refused, report_paths, run_fit, sample_temperatures, save,
-    write_text)
+    tool_axes, write_text)
 from inclino_ros.core.attitude import inclination
 from inclino_ros.core.temperature import (
     AXES, fit_temperature, REFERENCE_TEMPERATURE_C, TemperatureFitRefused)
@@ -67,6 +67,7 @@ def fit(args, lines):
         raise CommandError('--order must be at least 1')
     existing = load_existing(args.calibration)
     temperature_c, readings, reference = load_input(args)
+    readings, reference = tool_axes(args, readings), tool_axes(args, reference)
     if reference is None:
         near = np.abs(temperature_c - REFERENCE_TEMPERATURE_C) <= args.reference_window_c
         if not near.any():

@@ -16,6 +16,8 @@ import sys
 from inclino_ros.calibration.model import (
     CalibrationFileError, CalibrationModel, load_model, save_model)
 from inclino_ros.cli.errors import CommandError
+from inclino_ros.cli.mounting import add_axes_map_arguments, axes_matrix
+from inclino_ros.core.mounting import to_tool_axes
 from inclino_ros.io import tables
 from inclino_ros.io.bag import BagError, concatenate, read, topic_info
 
@@ -45,6 +47,12 @@ def add_common_arguments(parser):
                         help='sensor_msgs/Imu topic of a bag (default: %(default)s)')
     parser.add_argument('--temperature-topic', default=TEMPERATURE_TOPIC,
                         help='sensor_msgs/Temperature topic of a bag (default: %(default)s)')
+    add_axes_map_arguments(parser, 'accelerometer')
+
+
+def tool_axes(args, readings, sensor='accelerometer'):
+    """Return sensor readings (N, 3) turned into the tool axes by ``--<sensor>-axes-map``."""
+    return None if readings is None else to_tool_axes(readings, axes_matrix(args, sensor))
 
 
 def is_bag(path):

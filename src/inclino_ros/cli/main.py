@@ -10,6 +10,8 @@ import argparse
 import importlib
 import sys
 
+from inclino_ros.cli.mounting import attach_map_values
+
 COMMANDS = ('simulate', 'process', 'play', 'calibrate', 'demo', 'fit-stand', 'fit-temperature',
             'msa', 'simulate-well', 'fit-rotation')
 
@@ -28,7 +30,7 @@ def build_parser():
 
 def main(argv=None):
     """Run one subcommand; return its exit code."""
-    args = build_parser().parse_args(argv)
+    args = build_parser().parse_args(attach_map_values(sys.argv[1:] if argv is None else argv))
     return args.func(args)
 
 

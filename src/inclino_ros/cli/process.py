@@ -31,6 +31,7 @@ import sys
 
 from inclino_ros.calibration.model import CalibrationFileError, load_model
 from inclino_ros.cli.errors import CommandError
+from inclino_ros.cli.mounting import add_axes_map_arguments, settings_maps
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core.screening import count_reasons, REASONS
 from inclino_ros.io.bag import (
@@ -185,6 +186,7 @@ def register(subparsers):
                              'covariances (default: %(default)s)')
     parser.add_argument('--chunk-size', type=int, default=CHUNK_SIZE,
                         help='samples processed per batch (default: %(default)s)')
+    add_axes_map_arguments(parser, 'accelerometer', 'magnetometer')
     magnetic = parser.add_argument_group('magnetic azimuth (seed 002)')
     magnetic.add_argument('--mag-topic', metavar='TOPIC',
                           help='sensor_msgs/MagneticField topic of IN (tesla, tool frame): '
@@ -239,7 +241,8 @@ def _prepare(args):
             accelerometer_axes=axes, gravity_mps2=args.gravity_mps2,
             accelerometer_range_mps2=args.range_mps2,
             toolface_convention=args.toolface_convention,
-            toolface_min_inclination_deg=NODE_DEFAULTS['toolface_min_inclination_deg'])
+            toolface_min_inclination_deg=NODE_DEFAULTS['toolface_min_inclination_deg'],
+            **settings_maps(args))
     except ValueError as err:
         raise CommandError(str(err)) from None
     msgtype, count = topic_info(args.input, args.topic)

@@ -32,11 +32,14 @@ import json
 import math
 import sys
 
+from inclino_ros.cli.mounting import add_axes_map_arguments, settings_maps
 from inclino_ros.core import magnetics
 from inclino_ros.core.attitude import specific_force
+from inclino_ros.core.mounting import to_sensor_axes
 from inclino_ros.io.bag import (
     BagWriter, IMU, MAGNETIC_FIELD, MagneticFieldSeries, magnetometer, raw_imu, TEMPERATURE,
     TemperatureSeries, VECTOR3_STAMPED, Vector3Series)
+from inclino_ros.pipeline import Settings
 from inclino_ros.sim.bench import (
     Scenario, sensor_matrix, SensorErrors, SensorRun, simulate, simulate_heating,
     simulate_stand)
@@ -95,6 +98,7 @@ def register(subparsers):
                         help='also write the samples to FILE: stamp_ns, inclination_deg, '
                              'toolface_deg, [temperature_c,] ax, ay, az [m/s^2]')
     add_magnetic_arguments(parser)
+    add_axes_map_arguments(parser, 'accelerometer', 'magnetometer', writing=True)
     parser.set_defaults(func=run, mode=None)
 
 
@@ -248,6 +252,11 @@ def add_magnetics(sim, scenario, bench):
 def run(args):
     """Simulate and write the bag and its truth file; return the exit code."""
     magnetic = None
+    try:
+        mounting = Settings(accelerometer_axes=args.axes, **settings_maps(args))
+    except ValueError as err:
+        print(f'inclino simulate: error: {err}', file=sys.stderr)
+        return 2
     if args.mode is None:
         scenario = Scenario(
             gamma_deg=args.gamma_deg, beta_deg=args.beta_deg,
@@ -263,6 +272,7 @@ def run(args):
                 print(f'inclino simulate: error: {err}', file=sys.stderr)
                 return 2
             sim, azimuth_deg, field_nT = add_magnetics(sim, scenario, bench)
+            field_nT = to_sensor_axes(field_nT, mounting.magnetometer_matrix)
             magnetic = (azimuth_deg, magnetometer(sim.stamps_ns, FRAME_ID, field_nT,
                                                   bench.noise_nT))
             what += (f'; magnetometer on {MAG_TOPIC}, interference '
@@ -286,11 +296,16 @@ def run(args):
         sim = (simulate_stand(sensor_run, samples=samples) if args.mode == 'stand' else
                simulate_heating(sensor_run, samples=samples))
         what = f'{args.mode} run of a three-axis sensor (K, bias, K_T(T) in the truth file)'
+    # The bag holds what a board mounted so reads: sensor = M^-1 tool.
+    sim = replace(sim, raw_mps2=to_sensor_axes(sim.raw_mps2, mounting.accelerometer_matrix))
     topics = write_bag(args.out, args.storage, sim, args.noise_std_mps2, args.mode, magnetic)
     truth_path = f'{args.out}.truth.json'
     with open(truth_path, 'w') as stream:
         json.dump(dict(sim.truth, bag=args.out, storage=args.storage, topics=topics,
-                       frame_id=FRAME_ID), stream, indent=2)
+                       frame_id=FRAME_ID, mounting={
+                           'accelerometer_axes_map': args.accelerometer_axes_map,
+                           'magnetometer_axes_map': args.magnetometer_axes_map}),
+                  stream, indent=2)
         stream.write('\n')
     print(f'wrote {args.out} ({args.storage}): {sim.stamps_ns.size} messages on each of '
           f'{", ".join(topics.values())}; {what}, noise {args.noise_std_mps2} m/s^2')

@@ -20,9 +20,10 @@ from rclpy.task import Future
 class Captured:
     """The samples of one capture, aligned."""
 
-    raw: np.ndarray             # (N, 3) raw accepted accelerometer readings [m/s^2]
+    raw: np.ndarray             # (N, 3) accepted accelerometer readings [m/s^2], tool axes
     temperatures_c: np.ndarray  # (N,), or None when the model has no temperature stage
-    field_nT: np.ndarray        # (N, 3) raw paired magnetometer readings, NaN rows unpaired
+    field_nT: np.ndarray        # (N, 3) paired magnetometer readings, tool axes, NaN unpaired
+    # raw and field: the axes maps applied, no correction (pipeline.Survey.uncorrected_*)
 
 
 class Capture:

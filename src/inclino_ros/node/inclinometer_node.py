@@ -57,7 +57,10 @@ class InclinometerNode(Node):
             gravity_mps2=self.param('gravity_mps2'),
             accelerometer_range_mps2=self.param('accelerometer_range_mps2'),
             toolface_convention=self.param('toolface_convention'),
-            toolface_min_inclination_deg=self.param('toolface_min_inclination_deg'))
+            toolface_min_inclination_deg=self.param('toolface_min_inclination_deg'),
+            accelerometer_axes_map=self.param('accelerometer_axes_map'),
+            magnetometer_axes_map=self.param('magnetometer_axes_map'),
+            allow_left_handed_axes=self.param('allow_left_handed_axes'))
         self.noise_std_mps2 = self.param('accelerometer_noise_std_mps2')
         self.frame_id = self.param('frame_id')
         self.calibration_file = os.path.expanduser(self.param('calibration_file'))
@@ -186,15 +189,16 @@ class InclinometerNode(Node):
                      self.magnetic_settings)
         covariances = imu_covariances(survey, self.model, self.settings, self.noise_std_mps2)
         row = 0
-        for index, (message, code) in enumerate(zip(messages, survey.codes.tolist())):
+        for message, code in zip(messages, survey.codes.tolist()):
             if code != ACCEPTED:
                 self.stats.drop(code)
                 continue
             self.stats.accept(float(survey.g_total_mps2[row]))
-            field = (math.nan,) * 3 if field_nT is None else tuple(field_nT[index])
+            field = (math.nan,) * 3
             if survey.magnetic is not None:
+                field = tuple(survey.magnetic.uncorrected_nT[row])
                 self.magnetometer.count(survey.magnetic, row, math.isfinite(field[0]))
-            self.collector.add_sample(tuple(raw[index]), temperature_c, field)
+            self.collector.add_sample(tuple(survey.uncorrected_mps2[row]), temperature_c, field)
             self._publish(message.header, survey, row, covariances)
             row += 1
 

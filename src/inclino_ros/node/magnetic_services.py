@@ -23,7 +23,7 @@ from inclino_ros.core.cross_axial import fit_cross_axial, RotationFitRefused
 from inclino_ros.core.magnetics import iscwsa_from_tool
 from inclino_ros.core.msa import (
     azimuth_difference_deg, MsaRefused, solve_msa_axial, solve_msa_classic, solve_msa_improved)
-from inclino_ros.pipeline import run
+from inclino_ros.pipeline import correct
 import numpy as np
 from rclpy.callback_groups import ReentrantCallbackGroup
 from std_srvs.srv import Trigger
@@ -91,12 +91,9 @@ class MagneticServices:
                 f'survey.max_std_deg {node.param("survey.max_std_deg")} deg', kept)
         temperatures_c = (None if captured.temperatures_c is None
                           else captured.temperatures_c[paired].mean())
-        survey = run(captured.raw[paired].mean(axis=0), node.model, node.settings,
-                     temperatures_c, captured.field_nT[paired].mean(axis=0)[None],
-                     node.magnetic_settings)
-        if not survey.accepted.all():
-            return self.collector.refuse(response, 'the averaged station is not a valid '
-                                         'reading', kept)
+        survey = correct(captured.raw[paired].mean(axis=0), node.model, node.settings,
+                         temperatures_c, captured.field_nT[paired].mean(axis=0)[None],
+                         node.magnetic_settings)
         station = Station(
             specific_force_mps2=tuple(survey.corrected_mps2[0].tolist()),
             field_nT=tuple(captured.field_nT[paired].mean(axis=0).tolist()),
