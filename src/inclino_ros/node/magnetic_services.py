@@ -26,7 +26,6 @@ from inclino_ros.core.msa import (
 from inclino_ros.pipeline import correct
 import numpy as np
 from rclpy.callback_groups import ReentrantCallbackGroup
-from std_srvs.srv import Trigger
 
 SOLVERS = {'improved': solve_msa_improved, 'classic': solve_msa_classic,
            'axial': solve_msa_axial}
@@ -41,11 +40,11 @@ class MagneticServices:
         self.collector = collector
         self.stations = stations
         group = ReentrantCallbackGroup()
-        for name, callback in (('~/capture_rotation', self.capture_rotation),
-                               ('~/take_survey', self.take_survey),
-                               ('~/solve_msa', self.solve_msa),
-                               ('~/clear_surveys', self.clear_surveys)):
-            node.create_service(Trigger, name, callback, callback_group=group)
+        for name, callback in (('capture_rotation', self.capture_rotation),
+                               ('take_survey', self.take_survey),
+                               ('solve_msa', self.solve_msa),
+                               ('clear_surveys', self.clear_surveys)):
+            collector.create_service(name, callback, group)
 
     def _stage(self):
         return self.node.model.magnetic or NO_MAGNETIC_CORRECTION

@@ -14,7 +14,6 @@ from inclino_ros.calibration.stand_capture import (
 from inclino_ros.core.stand import StandFitRefused
 import numpy as np
 from rclpy.callback_groups import ReentrantCallbackGroup
-from std_srvs.srv import Trigger
 
 
 class CalibrationServices:
@@ -28,11 +27,11 @@ class CalibrationServices:
         # Reentrant: a capture awaits samples without holding the default group
         # (the subscriptions keep running) and a second call is answered at once.
         group = ReentrantCallbackGroup()
-        for name, callback in (('~/calibrate_level', self.calibrate_level),
-                               ('~/capture_position', self.capture_position),
-                               ('~/solve_stand_calibration', self.solve_stand_calibration),
-                               ('~/clear_positions', self.clear_positions)):
-            node.create_service(Trigger, name, callback, callback_group=group)
+        for name, callback in (('calibrate_level', self.calibrate_level),
+                               ('capture_position', self.capture_position),
+                               ('solve_stand_calibration', self.solve_stand_calibration),
+                               ('clear_positions', self.clear_positions)):
+            collector.create_service(name, callback, group)
 
     async def calibrate_level(self, request, response):
         """Capture the tool on a level bench and apply gamma, beta (seed 000 Eqs. 11-14)."""
