@@ -101,17 +101,23 @@ def sample_temperatures(imu, path, topic):
     return series.at(imu.stamps_ns), inside
 
 
-def load_existing(path):
-    """Return the model in ``path``, a new three-axis one if there is none."""
+def load_existing(path, axes=3):
+    """
+    Return the model in ``path``, a new ``axes``-axis one if there is none.
+
+    CommandError for a file that cannot be used, or that is for another
+    number of accelerometer axes (``axes`` None: any).
+    """
     try:
         model = load_model(path)
     except FileNotFoundError:
-        return CalibrationModel(accelerometer_axes=3)
+        return CalibrationModel(accelerometer_axes=axes or 3)
     except (CalibrationFileError, OSError) as err:
         raise CommandError(str(err)) from None
-    if model.accelerometer_axes != 3:
-        raise CommandError(f'{path} is for a {model.accelerometer_axes}-axis accelerometer; '
-                           'stand and temperature stages need three axes')
+    if axes is not None and model.accelerometer_axes != axes:
+        raise CommandError(f'{path} is for a {model.accelerometer_axes}-axis accelerometer, '
+                           f'not {axes} axes' + ('; stand and temperature stages need three'
+                                                 if axes == 3 else ''))
     return model
 
 

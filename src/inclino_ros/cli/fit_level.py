@@ -1,0 +1,130 @@
+"""
+``inclino fit-level``: the level-bench calibration (seed 000) of recorded samples.
+
+What ``inclino calibrate`` asks the running node to do, offline: the tool
+lay still on a levelled bench while the samples were recorded; their mean
+gives the sensor's mounting error, gamma and beta (seed 000 Eqs. 11-14),
+with the same checks as the node (still, plausible G-total, bench level).
+Input: a bag (the raw sensor on ``/imu/data_raw``, the samples from
+``--start-s`` to ``--end-s`` seconds after its first message) or a CSV with
+the columns ``ax, ay, az`` (m/s^2, sensor axes) and optionally
+``temperature_c``.  The stages already in the file (temperature, stand) are
+applied first, as the node does; the installation stage is replaced, every
+other stage kept, the file written atomically.
+
+Refused (exit 1, the calibration file untouched): the tool moved, an
+implausible G-total or a bench that is not level.
+"""
+
+from dataclasses import replace
+
+from inclino_ros.calibration.level_capture import (
+    CaptureRefused, LevelLimits, solve_level_capture)
+from inclino_ros.cli.errors import CommandError
+from inclino_ros.cli.fitting import (
+    add_common_arguments, AXIS_COLUMNS, finish_figure, has_topic, is_bag, load_existing,
+    new_figure, read_csv, read_topic, Refused, report_paths, run_fit, sample_temperatures,
+    save, tool_axes, write_text)
+from inclino_ros.cli.process import NODE_DEFAULTS
+from inclino_ros.core.installation import level_axis_angles
+import numpy as np
+
+REPORT_NAME = 'fit_level'
+
+
+def register(subparsers):
+    """Add the ``fit-level`` subcommand."""
+    parser = subparsers.add_parser(
+        'fit-level', help='level-bench calibration (mounting error) of recorded samples',
+        description=__doc__.split('\n\n', 1)[1].replace('``', ''))
+    add_common_arguments(parser)
+    parser.add_argument('--start-s', type=float, default=0.0, metavar='S',
+                        help='bag: first sample, seconds after the first message (default: 0)')
+    parser.add_argument('--end-s', type=float, metavar='S',
+                        help='bag: last sample, seconds after the first message (default: '
+                             'the last message)')
+    parser.add_argument('--axes', type=int, choices=(2, 3),
+                        help='accelerometer axes (default: those of the file, else 3)')
+    for name, meaning in (
+            ('max_std_deg', 'largest spread (1 sigma) of the axis tilts of a still tool [deg]'),
+            ('max_tilt_deg', 'largest false tilt accepted as a mounting error [deg]'),
+            ('g_total_tolerance_mps2', 'largest deviation of G-total from gravity [m/s^2]')):
+        parser.add_argument(f'--{name.replace("_", "-")}', type=float,
+                            default=NODE_DEFAULTS[f'level_capture.{name}'],
+                            help=f'{meaning} (default: %(default)s)')
+    parser.add_argument('--gravity-mps2', type=float, default=NODE_DEFAULTS['gravity_mps2'],
+                        help='local gravity [m/s^2] (default: %(default)s)')
+    parser.set_defaults(func=run)
+
+
+def run(args):
+    """Solve, report and write the installation stage; return the exit code."""
+    return run_fit('fit-level', args, fit)
+
+
+def load_input(args):
+    """Return (readings (N, 3) in sensor axes, temperature_c (N,) or None) of the level window."""
+    if not is_bag(args.input):
+        table = read_csv(args.input, AXIS_COLUMNS, optional=('temperature_c',))
+        return np.column_stack([table[name] for name in AXIS_COLUMNS]), table.get(
+            'temperature_c')
+    imu = read_topic(args.input, args.raw_topic)
+    seconds = (imu.stamps_ns - imu.stamps_ns.min()) * 1e-9
+    window = seconds >= args.start_s
+    if args.end_s is not None:
+        window &= seconds <= args.end_s
+    if not window.any():
+        raise CommandError(f'no {args.raw_topic} message between {args.start_s} and '
+                           f'{args.end_s} s (the topic spans 0 .. {seconds.max():.3f} s)')
+    temperature_c = (sample_temperatures(imu, args.input, args.temperature_topic)[0][window]
+                     if has_topic(args.input, args.temperature_topic) else None)
+    return imu.linear_acceleration_mps2[window], temperature_c
+
+
+def fit(args, lines):
+    """Solve the installation stage of ``args.input`` into ``args.calibration``."""
+    existing = load_existing(args.calibration, axes=args.axes)
+    axes = args.axes or existing.accelerometer_axes
+    readings, temperature_c = load_input(args)
+    readings = tool_axes(args, readings)
+    if axes == 2:
+        readings[:, 2] = 0.0   # a two-axis sensor has no z reading
+    level = existing.apply(readings, None if existing.temperature is None else temperature_c,
+                           before='installation')
+    limits = LevelLimits(max_std_deg=args.max_std_deg, max_tilt_deg=args.max_tilt_deg,
+                         gravity_mps2=args.gravity_mps2,
+                         g_total_tolerance_mps2=args.g_total_tolerance_mps2)
+    try:
+        installation = solve_level_capture(level, axes, limits)
+    except CaptureRefused as err:
+        raise Refused(str(err)) from None
+    applied = [name for name in ('temperature', 'stand') if getattr(existing, name)]
+    lines += [
+        f'level capture: {installation.sample_count} samples'
+        + (f' after the {" and ".join(applied)} stage of the file' if applied else ''),
+        f'gamma_deg={installation.gamma_deg:.4f} beta_deg={installation.beta_deg:.4f} '
+        f'theta_deg={installation.theta_deg:.4f} (spread {installation.std_deg:.4f} deg, '
+        f'G-total {installation.g_total_mps2:.4f} m/s^2)']
+    png, txt = report_paths(args, REPORT_NAME)
+    plot_level(png, level, installation, args.gravity_mps2 if axes == 2 else None)
+    save(args.calibration, replace(existing, installation=installation))
+    lines += [f'wrote {args.calibration}: installation stage'
+              + (f', {" and ".join(applied)} stage kept' if applied else ''),
+              f'report: {png}, {txt}']
+    write_text(txt, lines)
+
+
+def plot_level(path, level, installation, two_axis_g):
+    """Plot the axis tilts of every sample and their mean (seed 000 Eqs. 11-12)."""
+    g = np.full(level.shape[0], two_axis_g) if two_axis_g else np.linalg.norm(level, axis=1)
+    tilts_deg = np.degrees(np.stack(level_axis_angles(level, g), axis=1))
+    pyplot, fig, axes = new_figure(2, f'inclino fit-level: gamma {installation.gamma_deg:.4f} '
+                                      f'deg, beta {installation.beta_deg:.4f} deg')
+    sample = np.arange(level.shape[0])
+    for ax, column, name in zip(axes, tilts_deg.T, ("theta'_x1", "theta'_y1")):
+        ax.plot(sample, column, '.', markersize=3, label=f'{name} per sample')
+        ax.axhline(column.mean(), color='black',
+                   label=f'mean {column.mean():.4f} deg (spread {column.std():.4f} deg)')
+        ax.set_ylabel(f'{name} [deg]')
+    axes[1].set_xlabel('sample of the level capture')
+    finish_figure(pyplot, fig, axes, path)
