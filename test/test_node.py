@@ -218,23 +218,12 @@ def test_an_unwritable_calibration_file_refuses_and_keeps_the_correction(start_n
         math.degrees(math.acos(reading[2] / np.linalg.norm(reading))), abs=1e-6)
 
 
-def latched_listener(probe, topic):
-    """Subscribe the probe to a latched String topic; return the list its JSON goes to."""
-    from rclpy.qos import DurabilityPolicy, QoSProfile
-    from std_msgs.msg import String
-    received = []
-    probe.node.create_subscription(
-        String, topic, lambda msg: received.append(json.loads(msg.data)),
-        QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL))
-    return received
-
-
 def test_capture_progress_and_calibration_are_latched_topics(start_node, probe, tmp_path):
     """A late subscriber sees the calibration; a capture reports its progress, then its answer."""
     start_node(**{'level_capture.samples': 200})
     probe.wait_for_node()
-    calibration = latched_listener(probe, '/inclinometer/calibration')
-    progress = latched_listener(probe, '/inclinometer/capture_progress')
+    calibration = probe.listen_latched('/inclinometer/calibration')
+    progress = probe.listen_latched('/inclinometer/capture_progress')
     probe.spin_for(1.0)
     assert calibration[-1]['stages'] == [] and calibration[-1]['model']['accelerometer_axes'] == 3
     assert calibration[-1]['calibration_file'] == str(tmp_path / 'calibration.json')

@@ -97,9 +97,11 @@ class LiveSession:
 
     def replay(self, series):
         """Publish an ImuSeries with its timing; return the node's surveys of it."""
-        from inclino_ros.cli.play import publish_timed
+        from inclino_ros.cli.play import publish_timed, Timeline
+        from inclino_ros.io.bag import IMU
         self.surveys = {}
-        publish_timed(self.publisher, [series], RATE, lambda s: self.spin(min(s, 0.01)))
+        publish_timed(Timeline.of([('imu/data_raw', IMU, series)]),
+                      {'imu/data_raw': self.publisher}, RATE, lambda s: self.spin(min(s, 0.01)))
         self.spin(0.5)
         answers = [self.surveys.get(stamp, (np.nan, np.nan)) for stamp in series.stamps_ns]
         received = sum(not np.isnan(a[0]) for a in answers)
@@ -108,9 +110,11 @@ class LiveSession:
 
     def calibrate_during(self, series):
         """Call ~/calibrate_level while the level segment plays; return the answer."""
-        from inclino_ros.cli.play import publish_timed
+        from inclino_ros.cli.play import publish_timed, Timeline
+        from inclino_ros.io.bag import IMU
         future = self.client.call_async(self.trigger())
-        publish_timed(self.publisher, [series], RATE, lambda s: self.spin(min(s, 0.01)))
+        publish_timed(Timeline.of([('imu/data_raw', IMU, series)]),
+                      {'imu/data_raw': self.publisher}, RATE, lambda s: self.spin(min(s, 0.01)))
         end = time.monotonic() + 15.0
         while not future.done() and time.monotonic() < end:
             self.spin(0.05)

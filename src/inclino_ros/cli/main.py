@@ -12,8 +12,9 @@ import sys
 
 from inclino_ros.cli.mounting import attach_map_values
 
-COMMANDS = ('simulate', 'process', 'compare', 'play', 'calibrate', 'demo', 'fit-level',
-            'fit-stand', 'fit-temperature', 'msa', 'simulate-well', 'fit-rotation')
+COMMANDS = ('simulate', 'process', 'compare', 'play', 'calibrate', 'call', 'param', 'monitor',
+            'demo', 'fit-level', 'fit-stand', 'fit-temperature', 'msa', 'simulate-well',
+            'fit-rotation')
 
 
 def build_parser():
