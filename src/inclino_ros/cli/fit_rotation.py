@@ -122,10 +122,17 @@ def summary_lines(result, readings):
 
 
 def plot_rotation(path, readings, corrected, result):
-    """Plot the cross-axial readings before (with the ellipse) and after (with the circle)."""
+    """
+    Plot the rotation: the cross-axial readings, then their distance from the circle.
+
+    On the first panel the correction (tens of nT on a circle of tens of
+    thousands) cannot be seen; the second shows, per reading, its radius minus
+    the circle's before (about the origin: what the raw magnetometer gives) and
+    after the correction (the fit's residual), against the angle it was read at.
+    """
     pyplot, fig, axes = new_figure(2, 'inclino fit-rotation: cross-axial readings of one '
                                       'rotation (seed 002 Fig. 4)')
-    fig.set_size_inches(7, 13)
+    fig.set_size_inches(8, 12)
     angle = np.linspace(0.0, 2.0 * np.pi, CURVE_POINTS)
     unit = np.stack([np.cos(angle), np.sin(angle)], axis=1) * result.radius_nT
     ellipse = result.offset_nT + unit @ np.linalg.inv(result.correction).T
@@ -135,12 +142,21 @@ def plot_rotation(path, readings, corrected, result):
                  label=f'fitted ellipse, axis ratio {result.axis_ratio:.4f}')
     axes[0].plot(*result.offset_nT, 'k+', markersize=12,
                  label=f'centre c = ({result.offset_nT[0]:.1f}, {result.offset_nT[1]:.1f}) nT')
-    axes[1].plot(corrected[:, 0], corrected[:, 1], '.', color='tab:green', markersize=3,
-                 label='W (m - c)')
-    axes[1].plot(unit[:, 0], unit[:, 1], color='black', linewidth=1,
-                 label=f'circle r = {result.radius_nT:.1f} nT, RMSE {result.rmse_nT:.2f} nT')
-    for ax in axes:
-        ax.set_aspect('equal', adjustable='datalim')
-        ax.set_xlabel('Bx (tool) [nT]')
-        ax.set_ylabel('By (tool) [nT]')
+    axes[0].plot(corrected[:, 0], corrected[:, 1], '.', color='tab:green', markersize=2,
+                 label='corrected, W (m - c)')
+    axes[0].set_aspect('equal', adjustable='datalim')
+    axes[0].set_xlabel('Bx (tool) [nT]')
+    axes[0].set_ylabel('By (tool) [nT]')
+    read_at_deg = np.degrees(np.arctan2(corrected[:, 1], corrected[:, 0])) % 360.0
+    before = np.hypot(readings[:, 0], readings[:, 1]) - result.radius_nT
+    after = np.hypot(corrected[:, 0], corrected[:, 1]) - result.radius_nT
+    axes[1].plot(read_at_deg, before, '.', color='tab:red', markersize=3,
+                 label=f'raw: |m| - r (hard iron |c| = {np.hypot(*result.offset_nT):.1f} nT)')
+    axes[1].plot(read_at_deg, after, '.', color='tab:green', markersize=3,
+                 label=f'corrected: |W (m - c)| - r, residual RMSE {result.rmse_nT:.1f} nT')
+    axes[1].axhline(0.0, color='black', linewidth=0.8)
+    axes[1].set_xlim(0.0, 360.0)
+    axes[1].set_xticks(np.arange(0, 361, 45))
+    axes[1].set_xlabel('direction of the corrected cross-axial field [deg]')
+    axes[1].set_ylabel(f'distance from the circle r = {result.radius_nT:.0f} nT [nT]')
     finish_figure(pyplot, fig, axes, path)

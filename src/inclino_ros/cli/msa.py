@@ -4,7 +4,7 @@
 Input: a CSV with a header row and the columns ``gx, gy, gz`` (gravity
 vector, any consistent unit) and ``bx, by, bz`` (nT), one row per station,
 in the ISCWSA survey frame (x, y cross-axial, z toward the bit); optional
-``md`` and ``true_azimuth_deg`` (the magnetic azimuth known otherwise, e.g.
+``md`` (measured depth, m) and ``true_azimuth_deg`` (the magnetic azimuth known otherwise, e.g.
 of a simulation: the report then plots the error).
 
 Methods (``inclino_ros.core.msa``): ``improved`` (default, seed 002 Eqs. 23-33:
@@ -326,7 +326,8 @@ def plot_report(args, table, result):
             axes[1].plot(station, error, 'o-', color=colour, label=f'{name}: max |error| ' + (
                 f'{np.max(np.abs(error[usable])):.3f} deg' if usable.any() else 'none usable'))
         axes[1].set_ylabel('azimuth - truth [deg]')
-    axes[has_truth].set_xlabel('md' if 'md' in table else 'station')
+    for ax in axes[:1 + has_truth]:
+        ax.set_xlabel('measured depth [m]' if 'md' in table else 'station [number]')
     if hasattr(result, 'east_west'):
         plot_short_collar(axes[1 + has_truth:], station, result)
     else:
