@@ -52,7 +52,7 @@ def finish(process, sig=None):
 
 @pytest.fixture
 def bench(tmp_path):
-    """The simulated bench (level segment 0-3 s, then 12 stations) in ``tmp_path``."""
+    """Simulate the virtual bench into ``tmp_path``: a level segment of 3 s, 12 stations."""
     code, _, err = inclino('simulate', 'bench_bag', cwd=tmp_path)
     assert code == 0, err
     return tmp_path

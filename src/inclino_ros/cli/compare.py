@@ -48,7 +48,7 @@ def angle_error_deg(a, b):
 
 
 def stations(truth):
-    """Return (start, stop) of each run of equal rows of ``truth`` (N, 3); NaN equals NaN."""
+    """Return (start, stop) of each run of equal rows of ``truth`` (N, 3), NaN equal to NaN."""
     marked = np.where(np.isnan(truth), np.inf, truth)
     change = np.flatnonzero(np.any(marked[1:] != marked[:-1], axis=1)) + 1
     bounds = np.concatenate([[0], change, [truth.shape[0]]])
@@ -62,8 +62,8 @@ def station_rows(truth, result, min_inclination_deg=5.0):
     ``truth`` and ``result`` are (N, 3) aligned rows of (inclination,
     toolface, azimuth) [deg]; NaN results (not received, not trusted) are
     left out of the means and counted.  The station inclination is that of
-    the mean direction, the toolface and azimuth errors are circular means.  The toolface and azimuth errors are
-    NaN below ``min_inclination_deg`` of true inclination.
+    the mean direction; the toolface and azimuth errors are means of the
+    wrapped differences, NaN below ``min_inclination_deg`` of true inclination.
     """
     rows = []
     for start, stop in stations(truth):
