@@ -7,11 +7,11 @@ samples (from the node's ``~/capture_progress``).  ``inclino calibrate`` is
 ``inclino call calibrate_level``.
 """
 
-import argparse
 import json
 import sys
 import time
 
+from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.live import (
     add_node_arguments, LiveSession, node_name, SERVICES)
 
@@ -22,14 +22,14 @@ ALIVE_CHECK_S = 1.0
 def register(subparsers):
     """Add the ``call`` subcommand."""
     listing = '\n'.join(f'  {name:<24} {meaning}' for name, meaning in SERVICES.items())
-    parser = subparsers.add_parser(
-        'call', help="call one of the running node's services (calibrate, capture, solve)",
-        description='Call a service of the running inclinometer node and print its answer; '
-                    'a capture shows its progress (samples, time left, spread) meanwhile. '
-                    'Exit 0 when the node did it, 1 when it refused (the reason is printed; '
-                    'nothing was changed), 2 when the node cannot be reached, 130 on Ctrl-C.',
-        epilog=f'services of inclinometer_node:\n{listing}',
-        formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = add_command(
+        subparsers, 'call', "call one of the running node's services (calibrate, capture, solve)",
+        'Call a service of the running inclinometer node and print its answer, as ros2 '
+        'service call does on a full ROS 2 install; while a capture collects its samples a '
+        'progress bar shows them (samples, time left, spread).',
+        'Exit 0 when the node did it, 1 when it refused (the reason is printed; nothing was '
+        'changed), 2 when no node answers within --wait-s, 130 on Ctrl-C.',
+        epilog=f'services of inclinometer_node:\n{listing}')
     parser.add_argument('service', metavar='SERVICE',
                         help='one of the services below, or a full service name')
     add_node_arguments(parser)

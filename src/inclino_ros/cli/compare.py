@@ -14,6 +14,7 @@ not compared.
 
 import sys
 
+from inclino_ros.cli.helptext import add_command
 from inclino_ros.io.bag import BagError, concatenate, read
 import numpy as np
 
@@ -23,10 +24,17 @@ TRUTH_TOPIC = '/truth/survey'
 
 def register(subparsers):
     """Add the ``compare`` subcommand."""
-    parser = subparsers.add_parser(
-        'compare', help='corrected angles against the truth of a simulation, per station',
-        description=__doc__.split('\n\n', 1)[1].replace('``', '') + ' Exit 0, or 1 when a '
-        'station mean is off by more than --max-error-deg.')
+    parser = add_command(
+        subparsers, 'compare', 'corrected angles against the truth of a simulation, per station',
+        'Compare the corrected angles of RESULT (/survey, what inclino process writes) with '
+        'the truth of TRUTH (/truth/survey, what inclino simulate writes), sample by sample '
+        '(same stamps), and print per station (samples of one true attitude) the truth and '
+        'the signed error of the station mean, then the worst.',
+        'Toolface and azimuth are compared where the true inclination is at least '
+        '--min-inclination-deg (near vertical both are ill-defined); an azimuth that was not '
+        'trusted (NaN) is counted, not compared.',
+        'Exit 0, or 1 when a station mean inclination or azimuth is off by more than '
+        '--max-error-deg.')
     parser.add_argument('result', metavar='RESULT', help='bag written by inclino process')
     parser.add_argument('truth', metavar='TRUTH', help='bag written by inclino simulate')
     parser.add_argument('--topic', default=RESULT_TOPIC,

@@ -25,6 +25,7 @@ import tempfile
 import time
 
 from inclino_ros.cli.compare import angle_error_deg, station_rows
+from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.live import LiveSession
 from inclino_ros.cli.play import publish_timed, Timeline
 from inclino_ros.io.bag import concatenate, IMU, read
@@ -41,16 +42,16 @@ LISTEN_S = 1.0
 
 def register(subparsers):
     """Add the ``demo`` subcommand."""
-    parser = subparsers.add_parser(
-        'demo', help='the whole loop on simulated data: calibrate the live node, correct, '
-                     'compare, plot',
-        description='Simulate a tool whose sensor is mounted 0.8 and -1.2 deg off, start the '
-                    'inclinometer node, replay the stations into it, calibrate it on the '
-                    'level segment through its service, replay the stations again, correct '
-                    'the same recording offline, and print and plot raw, corrected and true '
-                    'angles per station. Runs on a ROS domain of its own (one where no other '
-                    'ROS node is seen), unless --domain-id says which. Exit 0 when the '
-                    'corrected answers beat the raw ones.')
+    parser = add_command(
+        subparsers, 'demo',
+        'the whole loop on simulated data: calibrate the live node, correct, compare, plot',
+        'Simulate a tool whose sensor is mounted 0.8 and -1.2 deg off, start the inclinometer '
+        'node, replay the stations into it, calibrate it on the level segment through its '
+        'service, replay the stations again, correct the same recording offline, and print '
+        'and plot raw, corrected and true angles per station.',
+        'Runs on a ROS domain of its own, one where no other ROS node is seen, on this host '
+        'only (it says which), unless --domain-id names one. Exit 0 when the corrected '
+        'answers beat the raw ones.')
     parser.add_argument('out', nargs='?', default='demo_output',
                         help='folder for the bag, calibration, results and plot '
                              '(default: %(default)s)')

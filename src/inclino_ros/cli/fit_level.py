@@ -25,6 +25,7 @@ from inclino_ros.cli.fitting import (
     add_common_arguments, AXIS_COLUMNS, finish_figure, has_topic, is_bag, load_existing,
     new_figure, read_csv, read_topic, Refused, report_paths, run_fit, sample_temperatures,
     save, tool_axes, write_text)
+from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.process import NODE_DEFAULTS
 from inclino_ros.core.installation import level_axis_angles
 import numpy as np
@@ -34,9 +35,20 @@ REPORT_NAME = 'fit_level'
 
 def register(subparsers):
     """Add the ``fit-level`` subcommand."""
-    parser = subparsers.add_parser(
-        'fit-level', help='level-bench calibration (mounting error) of recorded samples',
-        description=__doc__.split('\n\n', 1)[1].replace('``', ''))
+    parser = add_command(
+        subparsers, 'fit-level', 'level-bench calibration (mounting error) of recorded samples',
+        'Measure the mounting error of the sensor, gamma and beta (seed 000), from samples '
+        'recorded with the tool still on a levelled bench, and write it into the calibration '
+        'file: what inclino calibrate asks the running node to do, offline, with the same '
+        'checks (the tool still, a plausible G-total, the bench level).',
+        'Input: a bag with the raw sensor on /imu/data_raw, the samples from --start-s to '
+        '--end-s seconds after its first message, or a CSV with the columns ax, ay, az (m/s^2, '
+        'optional temperature_c). Temperature and stand stages already in the file are '
+        'applied first, as the node does; the level-bench stage is replaced, every other '
+        'stage kept. The report, fit_level.png and fit_level.txt, goes beside the file or to '
+        '--report-dir.',
+        'Refused (exit 1, the file untouched): the tool moved, an implausible G-total, or a '
+        'bench that is not level. Exit 2: unusable input.')
     add_common_arguments(parser)
     parser.add_argument('--start-s', type=float, default=0.0, metavar='S',
                         help='bag: first sample, seconds after the first message (default: 0)')

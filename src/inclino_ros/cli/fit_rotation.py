@@ -31,6 +31,7 @@ from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_file_arguments, finish_figure, is_bag, load_existing, new_figure, read_csv, read_topic,
     Refused, report_paths, run_fit, save, tool_axes, write_text)
+from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.mounting import add_axes_map_arguments
 from inclino_ros.core.cross_axial import apply_cross_axial, fit_cross_axial, RotationFitRefused
 import numpy as np
@@ -44,10 +45,23 @@ CURVE_POINTS = 361
 
 def register(subparsers):
     """Add the ``fit-rotation`` subcommand."""
-    parser = subparsers.add_parser(
-        'fit-rotation',
-        help='fit the cross-axial magnetometer correction of a rotation (seed 002) into a '
-             'calibration file', description=__doc__.split('\n\n', 1)[1])
+    parser = add_command(
+        subparsers, 'fit-rotation',
+        'fit the magnetometer hard and soft iron of a rotation (seed 002) into a calibration '
+        'file',
+        'Fit the cross-axial magnetometer correction of seed 002, hard iron c and soft iron W '
+        '(B = W (m - c) across the tool), from a rotation of the tool about its own axis at '
+        'one attitude, and write it into the calibration file.',
+        'Input: a bag with sensor_msgs/MagneticField on --mag-topic (tesla), the readings from '
+        '--start-s to --end-s seconds after its first message (inclino simulate --magnetic '
+        '--rotation-s records one; its window is in OUT.truth.json), or a CSV with the '
+        'columns bx, by, bz (nT). Readings without a value (NaN) are left out and counted.',
+        'The drill-string interference of a multi-station analysis and every other stage are '
+        'kept. The report, fit_rotation.png (the readings, and the distance of each from the '
+        'circle before and after the correction) and fit_rotation.txt, goes beside the file '
+        'or to --report-dir.',
+        'Refused (exit 1, the file untouched): less than 270 deg of the turn covered, too flat '
+        'or too noisy an ellipse, too few readings. Exit 2: unusable input.')
     add_file_arguments(parser, 'CSV file with bx, by, bz [nT]')
     parser.add_argument('--mag-topic', default=MAG_TOPIC,
                         help='sensor_msgs/MagneticField topic of a bag (default: %(default)s)')

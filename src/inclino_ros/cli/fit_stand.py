@@ -35,6 +35,7 @@ from inclino_ros.cli.fitting import (
     add_common_arguments, AXIS_COLUMNS, finish_figure, has_topic, is_bag, load_existing,
     matrix_lines, new_figure, read_csv, read_topic, Refused, report_paths, run_fit,
     sample_temperatures, save, tool_axes, write_text)
+from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.process import NODE_DEFAULTS
 from inclino_ros.core.attitude import angle_between, inclination
 from inclino_ros.core.stand import fit_sphere, fit_stand, stand_specific_force, StandFitRefused
@@ -47,9 +48,28 @@ REPORT_NAME = 'fit_stand'
 
 def register(subparsers):
     """Add the ``fit-stand`` subcommand."""
-    parser = subparsers.add_parser(
-        'fit-stand', help='fit the stand calibration K, b (seed 001) into a calibration file',
-        description=__doc__.split('\n\n', 1)[1])
+    parser = add_command(
+        subparsers, 'fit-stand',
+        'fit the stand calibration K, b (seed 001) into a calibration file',
+        'Fit the stand calibration of seed 001, the 3x3 scale and misalignment matrix K and '
+        'the bias b of the accelerometer (A = K G + b), and write it into the calibration '
+        'file.',
+        'Input: the tool held still at several known attitudes on a stand (six or more, well '
+        'spread; nine are typical): a bag with the raw sensor on /imu/data_raw and the stand '
+        'attitude on /stand/attitude (what inclino simulate --stand writes), or a CSV with the '
+        'columns inclination_deg, toolface_deg, ax, ay, az (m/s^2, one row per sample or per '
+        'averaged position; optional temperature_c). Samples of one attitude are averaged into '
+        'one position.',
+        '--method sphere needs no attitudes: it fits |G| = g over readings in many '
+        'orientations. It cannot see how the sensor is turned in the tool: calibrate the '
+        'level bench afterwards.',
+        'A temperature stage already in the file is applied to the readings first. The stand '
+        'stage replaces the old one and drops the level-bench stage (K holds the mounting '
+        'error). The report, fit_stand.png and fit_stand.txt, goes beside the file or to '
+        '--report-dir.',
+        'Refused (exit 1, the file untouched): too few or repeated positions, the tool moved '
+        'at a position (spread above --max-std-deg), or the fit does not reproduce its '
+        'positions within --max-rms-deg. Exit 2: unusable input.')
     add_common_arguments(parser)
     parser.add_argument('--method', choices=('stand', 'sphere'), default='stand',
                         help='stand: known attitudes; sphere: |G| = g only (default: '

@@ -32,6 +32,7 @@ from inclino_ros.cli.fitting import (
     add_common_arguments, AXIS_COLUMNS, finish_figure, is_bag, load_existing, matrix_lines,
     new_figure, read_csv, read_topic, Refused, report_paths, run_fit, sample_temperatures, save,
     tool_axes, write_text)
+from inclino_ros.cli.helptext import add_command
 from inclino_ros.core.attitude import inclination
 from inclino_ros.core.temperature import (
     AXES, fit_temperature, REFERENCE_TEMPERATURE_C, TemperatureFitRefused)
@@ -43,10 +44,23 @@ REPORT_NAME = 'fit_temperature'
 
 def register(subparsers):
     """Add the ``fit-temperature`` subcommand."""
-    parser = subparsers.add_parser(
-        'fit-temperature',
-        help='fit the temperature drift K_T(T) (seed 001) into a calibration file',
-        description=__doc__.split('\n\n', 1)[1])
+    parser = add_command(
+        subparsers, 'fit-temperature',
+        'fit the temperature drift K_T(T) (seed 001) into a calibration file',
+        'Fit how the scale of each accelerometer axis drifts with temperature (seed 001: '
+        'K_T(T), a polynomial that is 1 at 25 C) and write it into the calibration file.',
+        'Input: the tool held still at one attitude while it heats through 25 C: a bag with '
+        'the raw sensor on /imu/data_raw and sensor_msgs/Temperature on /imu/temperature (what '
+        'inclino simulate --heating writes), or a CSV with the columns temperature_c, ax, ay, '
+        'az (optional ref_ax, ref_ay, ref_az: the reading at 25 C, for a run at changing '
+        'attitudes). Without them the reference is the mean reading within '
+        '--reference-window-c of 25 C.',
+        'The temperature stage replaces the old one; the stand and level-bench stages are '
+        'kept. The report, fit_temperature.png and fit_temperature.txt, goes beside the file '
+        'or to --report-dir.',
+        'Refused (exit 1, the file untouched): no reading near 25 C, too few distinct '
+        'temperatures for --order, or an axis that sees no gravity at the attitude. Exit 2: '
+        'unusable input.')
     add_common_arguments(parser)
     parser.add_argument('--order', type=int, default=2,
                         help='polynomial order of K_T(T) (default: %(default)s)')

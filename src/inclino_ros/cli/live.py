@@ -19,8 +19,7 @@ DEFAULT_WAIT_S = 10.0
 #: The Trigger services of inclinometer_node, what each does, in the user's words.
 SERVICES = {
     'calibrate_level': 'tool on a levelled bench: measure the mounting error (gamma, beta)',
-    'capture_position': 'tool on the stand at stand.inclination_deg / stand.toolface_deg: '
-                        'average one position',
+    'capture_position': 'tool on the stand at the attitude set in stand.*: one position',
     'solve_stand_calibration': 'fit the stand calibration K, b to the positions captured',
     'clear_positions': 'forget the stand positions captured',
     'capture_rotation': 'record the tool turning about its axis: magnetometer hard/soft iron',

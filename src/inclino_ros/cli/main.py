@@ -22,11 +22,21 @@ def build_parser():
     parser = argparse.ArgumentParser(
         prog='inclino',
         description='Inclinometer correction tools of inclino_ros (no ros2 CLI needed).')
+    parser.add_argument('--version', action='version', version=f'inclino {version()}')
     subparsers = parser.add_subparsers(dest='command', required=True)
     for name in COMMANDS:
         module = name.replace('-', '_')
         importlib.import_module(f'inclino_ros.cli.{module}').register(subparsers)
     return parser
+
+
+def version():
+    """Return the installed version of inclino_ros."""
+    from importlib.metadata import PackageNotFoundError, version as installed
+    try:
+        return installed('inclino_ros')
+    except PackageNotFoundError:
+        return 'unknown (not installed)'
 
 
 def main(argv=None):

@@ -16,6 +16,7 @@ import os
 import sys
 import time
 
+from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.live import (
     add_node_arguments, domain_hint, LiveSession, namespace_of, node_name)
 
@@ -26,10 +27,16 @@ CLEAR = '\x1b[H\x1b[2J'
 
 def register(subparsers):
     """Add the ``monitor`` subcommand."""
-    parser = subparsers.add_parser(
-        'monitor', help='live view of the running node: angles, rates, drops, health, captures',
-        description=__doc__.split('\n\n', 1)[1].replace('``', '') + ' Ends on Ctrl-C (exit 0) '
-        'or after --count views.')
+    parser = add_command(
+        subparsers, 'monitor',
+        'live view of the running node: angles, rates, drops, health, captures',
+        'Show the running inclinometer node live: every --period-s the latest inclination, '
+        'toolface and azimuth, the input rate, the samples accepted and dropped (and why), '
+        'the level and message of each diagnostics status, the calibration in use, and the '
+        'progress of a capture or the last answer of a service. What ros2 topic echo of those '
+        'topics shows on a full ROS 2 install, in one place.',
+        'On a terminal the view is redrawn in place; otherwise one block is printed per '
+        'period. Ends on Ctrl-C (exit 0) or after --count views.')
     add_node_arguments(parser)
     parser.add_argument('--period-s', type=float, default=1.0, metavar='S',
                         help='seconds between two views (default: %(default)s)')

@@ -49,6 +49,7 @@ import sys
 from inclino_ros.calibration.model import NO_MAGNETIC_CORRECTION, utc_now_iso
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import finish_figure, load_existing, new_figure, read_csv, save
+from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core import magnetics
 from inclino_ros.core.cross_axial import apply_cross_axial
@@ -67,9 +68,28 @@ CURVE_POINTS = 401
 
 def register(subparsers):
     """Add the ``msa`` subcommand."""
-    parser = subparsers.add_parser(
-        'msa', help='correct magnetic azimuths by multi-station analysis (seed 002)',
-        description=__doc__.split('\n\n', 1)[1])
+    parser = add_command(
+        subparsers, 'msa', 'correct magnetic azimuths by multi-station analysis (seed 002)',
+        'Correct the magnetic azimuths of a survey for the magnetisation of the drill string '
+        'by multi-station analysis (seed 002): find the interference that makes the field of '
+        'every station agree with the reference field, and remove it.',
+        'Input: a CSV, one row per survey station, with gx, gy, gz (gravity, any unit) and '
+        'bx, by, bz (nT) in the ISCWSA survey frame (x, y across the tool, z toward the bit), '
+        'optionally md (measured depth, m) and true_azimuth_deg (a known azimuth, e.g. of a '
+        'simulation: the report plots the error). inclino simulate-well writes one.',
+        'Methods: improved (seed 002, the default), classic (Brooks: all three components), '
+        'axial (along the tool only), short-collar (each station alone; cannot be stored).',
+        'Reference field: --reference-total-nT and --reference-dip-deg, or the World Magnetic '
+        'Model at --site LAT LON ALT_M DATE.',
+        'With --calibration FILE the stations hold raw magnetometer readings: the hard and '
+        'soft iron of the file (inclino fit-rotation) are applied first, and the interference '
+        'found is stored in the file (every other stage kept) for inclino process and the '
+        'node.',
+        'Output: OUT.csv (per station the raw and corrected azimuth and the check against the '
+        'reference), OUT.csv.msa.json (the correction and its diagnostics), with --report a '
+        'PNG.',
+        'Exit 0 corrected, 1 refused (too few or too similar stations, stations failing the '
+        'check; nothing written), 2 unusable input.')
     parser.add_argument('stations', metavar='STATIONS.csv', help='station CSV (see above)')
     parser.add_argument('-o', '--output', required=True, metavar='OUT.csv',
                         help='corrected stations CSV; the corrections go to OUT.msa.json')

@@ -10,6 +10,7 @@ and the node checks it against its declared range and choices.
 
 import sys
 
+from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.live import add_node_arguments, LiveSession, node_name
 
 #: Seconds to wait for an answer of the parameter services once they are up.
@@ -18,13 +19,13 @@ ANSWER_TIMEOUT_S = 10.0
 
 def register(subparsers):
     """Add the ``param`` subcommand and its ``list``, ``get``, ``set``."""
-    parser = subparsers.add_parser(
-        'param', help="list, read or change the running node's parameters",
-        description='List, read or change the parameters of the running inclinometer node '
-                    '(the README table says what each means; "live" ones may be changed '
-                    'while it runs). Exit 0 on success, 1 when the node refused a value (the '
-                    'reason is printed), 2 when the node cannot be reached or the parameter '
-                    'does not exist.')
+    parser = add_command(
+        subparsers, 'param', "list, read or change the running node's parameters",
+        'List, read or change the parameters of the running inclinometer node, as ros2 param '
+        'does on a full ROS 2 install (the README table says what each means; "live" ones '
+        'may be changed while it runs).',
+        'Exit 0 on success, 1 when the node refused a value (the reason is printed), 2 when '
+        'no node answers within --wait-s or it has no such parameter.')
     actions = parser.add_subparsers(dest='action', required=True, metavar='ACTION')
     listing = actions.add_parser('list', help='every parameter with its value',
                                  description='Print every parameter as "name: value", '

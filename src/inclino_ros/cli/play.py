@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import sys
 import time
 
+from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.live import LiveSession
 from inclino_ros.io.bag import (
     BagError, concatenate, IMU, list_topics, MAGNETIC_FIELD, read, TEMPERATURE)
@@ -27,9 +28,17 @@ MATCH_GRACE_S = 1.0
 
 def register(subparsers):
     """Add the ``play`` subcommand."""
-    parser = subparsers.add_parser(
-        'play', help='publish the sensor topics of a bag with their timing (ros2 bag play)',
-        description=__doc__.split('\n\n', 1)[1].replace('``', ''))
+    parser = add_command(
+        subparsers, 'play',
+        'publish the sensor topics of a bag with their timing (ros2 bag play)',
+        'Publish a recorded bag to the running node as ros2 bag play does on a full ROS 2 '
+        'install: every sensor_msgs/Imu, MagneticField and Temperature topic (or those of '
+        '--topics), messages as recorded, stamps and all, in the order and at the pace of '
+        'their stamps (times --rate).',
+        '--start-s and --end-s pick a window (seconds after the first message), --loop plays '
+        'it again and again. A progress bar shows what went out. Ctrl-C, or SIGTERM (kill), '
+        'stops it cleanly and says how far it got (exit 0). Exit 2 when nobody subscribes '
+        'within --wait-s.')
     parser.add_argument('bag', metavar='BAG', help='bag folder (mcap or sqlite3)')
     parser.add_argument('--topics', nargs='+', metavar='TOPIC',
                         help='topics to publish (default: every Imu, MagneticField and '

@@ -31,6 +31,7 @@ import sys
 
 from inclino_ros.calibration.model import CalibrationFileError, load_model
 from inclino_ros.cli.errors import CommandError
+from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.mounting import add_axes_map_arguments, settings_maps
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core.screening import count_reasons, REASONS
@@ -155,9 +156,25 @@ class Summary:
 
 def register(subparsers):
     """Add the ``process`` subcommand."""
-    parser = subparsers.add_parser(
-        'process', help='correct a recorded bag with a calibration file',
-        description=__doc__.split('\n\n', 1)[1])
+    parser = add_command(
+        subparsers, 'process', 'correct a recorded bag with a calibration file',
+        'Correct a recorded bag with a calibration file, as the running node would, and '
+        'write the corrected angles to a new bag.',
+        'IN holds the raw accelerometer (sensor_msgs/Imu on --topic, m/s^2, the up axis '
+        'reading +g at rest). OUT gets, for every sample that can give an angle and with its '
+        'stamp, /survey (x inclination, y gravity toolface, z magnetic azimuth, degrees) and '
+        '/imu/data (the corrected acceleration, roll and pitch). Samples that cannot (NaN, '
+        'saturated, zero) are dropped and counted in the summary.',
+        'With --temperature-topic the temperature stage of the calibration gets the '
+        'temperature of each sample (interpolated in time); without it, it compensates at its '
+        'reference temperature (25 C).',
+        'With --mag-topic (sensor_msgs/MagneticField, tesla) each sample takes the '
+        'magnetometer reading nearest in time (readings without a value skipped); none within '
+        '--max-pairing-s leaves its azimuth empty (NaN). An azimuth is written only where it '
+        'is trusted: the corrected field agrees with the reference field (total, dip, and '
+        'G-total) of --reference-total-nT and --reference-dip-deg, of --site, or of the '
+        'multi-station analysis in the calibration file; with no reference there is none.',
+        'Exit 0 done, 1 no sample accepted, 2 unusable input.')
     parser.add_argument('input', metavar='IN', help='input bag (mcap or sqlite3)')
     parser.add_argument('output', metavar='OUT', help='output bag to create')
     parser.add_argument('--calibration', required=True, metavar='FILE',

@@ -32,6 +32,7 @@ import json
 import math
 import sys
 
+from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.mounting import add_axes_map_arguments, settings_maps
 from inclino_ros.core import magnetics
 from inclino_ros.core.attitude import specific_force
@@ -59,12 +60,21 @@ FRAME_ID = 'inclinometer'
 def register(subparsers):
     """Add the ``simulate`` subcommand."""
     defaults = Scenario()
-    parser = subparsers.add_parser(
-        'simulate', help='write a bag of a misaligned inclinometer on a virtual bench',
-        description='Simulate a level segment then tilted stations (seed 000 Eqs. 1-2) and '
-                    f'write the raw sensor ({RAW_TOPIC}) and the truth ({TRUTH_TOPIC}: '
-                    'x inclination_deg, y toolface_deg seed000, z magnetic azimuth_deg with '
-                    '--magnetic, else NaN) to the bag OUT, plus OUT.truth.json.')
+    parser = add_command(
+        subparsers, 'simulate', 'write a bag of a simulated inclinometer, with its truth',
+        'Write a bag of a simulated inclinometer and, beside it, the truth.',
+        'By default a bench run: the tool still on a levelled bench for --level-s, then held '
+        'at 12 attitudes (inclination 0.5 to 60 deg) for --station-s each, its sensor mounted '
+        '--gamma-deg and --beta-deg off (seed 000). The bag holds the raw sensor on '
+        f'{RAW_TOPIC} and the truth on {TRUTH_TOPIC} (x inclination, y toolface, z magnetic '
+        'azimuth with --magnetic, degrees); OUT.truth.json holds the scenario and the times '
+        'of each segment.',
+        f'--stand: the nine stand positions of seed 001, of a sensor with scale, '
+        f'misalignment and bias errors (the attitude on {STAND_TOPIC}, 25 C on '
+        f'{TEMPERATURE_TOPIC}). --heating: the same sensor heating from 20 to 100 C at one '
+        f'attitude. --magnetic: a magnetometer on {MAG_TOPIC} with the drill-string '
+        'interference, and --rotation-s a rotation for inclino fit-rotation. The mounting '
+        'options write what a board mounted that way reads.')
     parser.add_argument('out', metavar='OUT', help='bag directory to create')
     for flag, name, meaning in (
             ('--gamma-deg', 'gamma_deg', 'installation angle gamma [deg]'),

@@ -9,16 +9,24 @@ and the truth ``true_inclination_deg, true_azimuth_deg, true_toolface_deg``)
 is the input of ``inclino msa``.
 """
 
+from inclino_ros.cli.helptext import add_command
 from inclino_ros.sim.well import simulate_well, WellScenario, write_stations_csv
 
 
 def register(subparsers):
     """Add the ``simulate-well`` subcommand."""
     defaults = WellScenario()
-    parser = subparsers.add_parser(
-        'simulate-well', help='write the station CSV of a simulated well with drill-string '
-                              'interference (input of inclino msa)',
-        description=__doc__.split('\n\n', 1)[1])
+    parser = add_command(
+        subparsers, 'simulate-well',
+        'write the station CSV of a simulated well with drill-string interference (input of '
+        'inclino msa)',
+        'Write the survey stations of a simulated well, the input of inclino msa: inclination '
+        'and azimuth go linearly from the first to the last station, the toolfaces spread; '
+        'the gravity and field of each station carry the interference of the drill string and '
+        'noise.',
+        'Columns: md (measured depth, m), gx, gy, gz (g), bx, by, bz (nT), in the ISCWSA '
+        'survey frame (x, y across the tool, z toward the bit), and the truth: '
+        'true_inclination_deg, true_azimuth_deg, true_toolface_deg.')
     parser.add_argument('out', metavar='OUT.csv', help='station CSV to write')
     parser.add_argument('--stations', type=int, default=defaults.stations,
                         help='number of stations (default: %(default)s)')
