@@ -344,6 +344,17 @@ def test_fit_rotation_from_csv_matches_the_bag(chain, tmp_path):
                                load_model(chain['calibration']).magnetic.hard_iron_nT, atol=1e-6)
 
 
+def test_a_magnetic_stage_without_a_level_calibration_is_named(chain, tmp_path):
+    """A file with a magnetic stage only: the warning says what is missing, and why it matters."""
+    calibration = tmp_path / 'cal.json'
+    save_model(calibration, replace(load_model(chain['calibration']), installation=None))
+    code, _, err = quiet(['process', chain['sim'], tmp_path / 'out', '--calibration',
+                          calibration, '--mag-topic', '/imu/mag'])
+    assert code == 0, err
+    assert 'holds no accelerometer correction' in err and 'raw gravity direction' in err
+    assert 'holds no correction' not in err
+
+
 def test_process_needs_a_reference(chain, tmp_path):
     """Without a reference (options, --site or an MSA in the file) no azimuth: exit 2."""
     calibration = tmp_path / 'cal.json'

@@ -245,8 +245,12 @@ def _prepare(args):
     except (CalibrationFileError, OSError) as err:
         raise CommandError(str(err)) from None
     if not model.calibrated:
-        print(f'inclino process: warning: {args.calibration} holds no correction; the angles '
-              'written are the raw, uncorrected ones', file=sys.stderr)
+        print(f'inclino process: warning: {args.calibration} holds no accelerometer '
+              'correction (no level-bench, stand or temperature stage): the inclination and '
+              'toolface written are the raw ones' + (
+                  ', and the azimuth uses the raw gravity direction (calibrate the level bench '
+                  'first: inclino fit-level or inclino calibrate)'
+                  if model.magnetic is not None else ''), file=sys.stderr)
     axes = args.axes or model.accelerometer_axes
     if axes != model.accelerometer_axes:
         raise CommandError(f'{args.calibration} is for a {model.accelerometer_axes}-axis '
