@@ -306,6 +306,39 @@ def test_a_mounted_board_read_through_its_axes_maps(chain, tmp_path):
     assert code == 2 and 'left-handed' in err
 
 
+def test_fit_level_is_the_level_capture_of_the_node(chain, tmp_path):
+    """fit-level of the first 3 s: the installation the level segment gives; refusals exit 1."""
+    calibration = tmp_path / 'cal.json'
+    code, out, err = quiet(['fit-level', chain['sim'], '--calibration', calibration,
+                            '--end-s', 3])
+    assert code == 0, err
+    assert 'level capture: 600 samples' in out
+    fitted, expected = (load_model(path).installation
+                        for path in (calibration, chain['calibration']))
+    assert (fitted.gamma_deg, fitted.beta_deg, fitted.sample_count) == (
+        expected.gamma_deg, expected.beta_deg, expected.sample_count)
+    before = file_bytes(calibration)
+    code, _, err = quiet(['fit-level', chain['sim'], '--calibration', calibration,
+                          '--start-s', 2, '--end-s', 6])     # the level bench, then stations
+    assert code == 1 and 'tool is moving' in err
+    assert file_bytes(calibration) == before
+
+
+def test_compare_reports_each_simulated_segment(chain, tmp_path):
+    """Segments from OUT.truth.json (the rotation's toolface varies); --max-error-deg exits 1."""
+    code, out, err = quiet(['compare', chain['out'], chain['sim']])
+    assert code == 0, err
+    lines = out.splitlines()
+    assert lines[1].split()[:3] == ['0', 'level', '600']
+    assert sum(line.split()[1] == 'station' for line in lines[1:-1]) == 12
+    rotation = next(line for line in lines if ' rotation ' in line).split()
+    assert rotation[3:6] == ['60.000', rotation[4], '|'] and rotation[6] == 'var'
+    assert abs(float(rotation[4])) < 0.01 and abs(float(rotation[7])) < 0.1
+    assert quiet(['compare', chain['out'], chain['sim'], '--max-error-deg', 0.1])[0] == 0
+    code, _, err = quiet(['compare', chain['out'], chain['sim'], '--max-error-deg', 1e-6])
+    assert code == 1 and 'off by more than' in err
+
+
 def file_bytes(path):
     """Return the content of ``path``."""
     with open(path, 'rb') as stream:

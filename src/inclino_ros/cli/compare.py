@@ -12,6 +12,7 @@ ill-defined); an azimuth the chain withheld (NaN: not trusted) is counted,
 not compared.
 """
 
+import json
 import sys
 
 from inclino_ros.cli.helptext import add_command
@@ -56,42 +57,64 @@ def angle_error_deg(a, b):
 
 
 def stations(truth):
-    """Return (start, stop) of each run of equal rows of ``truth`` (N, 3), NaN equal to NaN."""
+    """Return (label, start, stop) of each run of equal rows of ``truth`` (N, 3), NaN = NaN."""
     marked = np.where(np.isnan(truth), np.inf, truth)
     change = np.flatnonzero(np.any(marked[1:] != marked[:-1], axis=1)) + 1
     bounds = np.concatenate([[0], change, [truth.shape[0]]])
-    return list(zip(bounds[:-1].tolist(), bounds[1:].tolist()))
+    return [('', a, b) for a, b in zip(bounds[:-1].tolist(), bounds[1:].tolist())]
 
 
-def station_rows(truth, result, min_inclination_deg=5.0):
+def simulated_segments(truth_path, stamps_ns):
     """
-    Return one dict per station: truth, station means of ``result`` and signed errors.
+    Return (label, start, stop) of the segments in ``TRUTH.truth.json``, None without one.
+
+    ``inclino simulate`` writes the file: each segment's kind (level, station,
+    position, heating, rotation) and first and last stamp.
+    """
+    try:
+        with open(f'{truth_path.rstrip("/")}.truth.json') as stream:
+            records = json.load(stream)['segments']
+    except (OSError, ValueError, KeyError):
+        return None
+    return [(record['kind'], int(np.searchsorted(stamps_ns, record['start_ns'])),
+             int(np.searchsorted(stamps_ns, record['end_ns'], side='right')))
+            for record in records]
+
+
+def station_rows(truth, result, min_inclination_deg=5.0, segments=None):
+    """
+    Return one dict per station: its truth, the signed error of its mean, counts.
 
     ``truth`` and ``result`` are (N, 3) aligned rows of (inclination,
     toolface, azimuth) [deg]; NaN results (not received, not trusted) are
-    left out of the means and counted.  The station inclination is that of
-    the mean direction; the toolface and azimuth errors are means of the
-    wrapped differences, NaN below ``min_inclination_deg`` of true inclination.
+    left out and counted.  ``segments``: (label, start, stop) rows, by default
+    the runs of equal truth.  Each sample is compared with its own truth (a
+    rotation changes the toolface from sample to sample); the inclination
+    error is that of the mean direction, the toolface and azimuth errors are
+    means of the wrapped differences, NaN below ``min_inclination_deg``.  A
+    truth that varies within the station is given as None (and no mean value).
     """
     rows = []
-    for start, stop in stations(truth):
-        true = truth[start]
-        got = result[start:stop]
-        row = {'samples': int(np.count_nonzero(np.isfinite(got[:, 0]))),
-               'true_inclination_deg': float(true[0]), 'true_toolface_deg': float(true[1]),
-               'true_azimuth_deg': float(true[2]),
+    for label, start, stop in segments or stations(truth):
+        true, got = truth[start:stop], result[start:stop]
+        constant = np.all((true == true[0]) | np.isnan(true), axis=0)
+        true_incl = float(np.mean(true[:, 0]))
+        row = {'label': label, 'samples': int(np.count_nonzero(np.isfinite(got[:, 0]))),
                'azimuth_samples': int(np.count_nonzero(np.isfinite(got[:, 2])))}
+        row.update({f'true_{name}_deg': float(true[0, k]) if constant[k] else None
+                    for k, name in enumerate(('inclination', 'toolface', 'azimuth'))})
+        # In the truth's toolface frame, a turning tool's samples line up for the mean.
+        relative = np.column_stack([got[:, 0], got[:, 1] - np.nan_to_num(true[:, 1])])
+        row['inclination_error_deg'] = mean_inclination_deg(relative) - true_incl
+        for k, name in ((1, 'toolface'), (2, 'azimuth')):
+            both = np.isfinite(got[:, k]) & np.isfinite(true[:, k])
+            row[f'{name}_error_deg'] = float(
+                np.mean(angle_error_deg(got[both, k], true[both, k]))
+                if both.any() and true_incl >= min_inclination_deg else np.nan)
         for k, name in enumerate(('inclination', 'toolface', 'azimuth')):
-            if k == 0:
-                error = mean_inclination_deg(got[:, :2]) - true[0]
-            else:
-                finite = np.isfinite(got[:, k])
-                error = (np.mean(angle_error_deg(got[finite, k], true[k]))
-                         if finite.any() and np.isfinite(true[k])
-                         and true[0] >= min_inclination_deg else np.nan)
-            row[f'{name}_error_deg'] = float(error)
-            mean = true[k] + error
-            row[f'{name}_deg'] = float(mean if k == 0 else mean % 360.0)
+            if row[f'true_{name}_deg'] is not None:
+                mean = row[f'true_{name}_deg'] + row[f'{name}_error_deg']
+                row[f'{name}_deg'] = float(mean if k == 0 else mean % 360.0)
         rows.append(row)
     return rows
 
@@ -102,13 +125,14 @@ def mean_inclination_deg(angles_deg):
 
     Averaging the angles themselves would bias a near-vertical station: an
     inclination is never negative, so noise about 0 deg averages above it.
-    A NaN toolface (undefined near vertical) counts as 0; NaN rows are left out.
+    A sample without a toolface (undefined that near vertical) adds nothing
+    across the axis (its direction there is not known); NaN rows are left out.
     """
     rows = angles_deg[np.isfinite(angles_deg[:, 0])]
     if not rows.size:
         return np.nan
-    incl, toolface = np.radians(rows[:, 0]), np.radians(np.nan_to_num(rows[:, 1]))
-    x, y = (np.mean(np.sin(incl) * f(toolface)) for f in (np.cos, np.sin))
+    incl, toolface = np.radians(rows[:, 0]), np.radians(rows[:, 1])
+    x, y = (np.mean(np.nan_to_num(np.sin(incl) * f(toolface))) for f in (np.cos, np.sin))
     return float(np.degrees(np.arctan2(np.hypot(x, y), np.mean(np.cos(incl)))))
 
 
@@ -124,15 +148,19 @@ def number(value, width, decimals):
 
 
 def table_lines(rows):
-    """Return the per-station table of ``station_rows`` as text lines."""
-    lines = [f'{"st":>3} {"samples":>7} {"true I":>8} {"err I":>9} | {"true TF":>8} '
-             f'{"err TF":>8} | {"true Az":>8} {"err Az":>8} {"trusted":>7}   [deg]']
+    """Return the per-station table of ``station_rows`` as text lines ('var': truth varies)."""
+    def true(value, decimals):
+        return f'{"var":>8}' if value is None else number(value, 8, decimals)
+
+    lines = [f'{"st":>3} {"kind":<8} {"samples":>7} {"true I":>8} {"err I":>9} | '
+             f'{"true TF":>8} {"err TF":>8} | {"true Az":>8} {"err Az":>8} {"trusted":>7}'
+             '   [deg]']
     for k, r in enumerate(rows):
         lines.append(
-            f'{k:>3} {r["samples"]:>7} {number(r["true_inclination_deg"], 8, 3)} '
+            f'{k:>3} {r["label"]:<8} {r["samples"]:>7} {true(r["true_inclination_deg"], 3)} '
             f'{number(r["inclination_error_deg"], 9, 4)} | '
-            f'{number(r["true_toolface_deg"], 8, 2)} {number(r["toolface_error_deg"], 8, 3)} | '
-            f'{number(r["true_azimuth_deg"], 8, 2)} {number(r["azimuth_error_deg"], 8, 3)} '
+            f'{true(r["true_toolface_deg"], 2)} {number(r["toolface_error_deg"], 8, 3)} | '
+            f'{true(r["true_azimuth_deg"], 2)} {number(r["azimuth_error_deg"], 8, 3)} '
             f'{r["azimuth_samples"]:>7}')
     return lines
 
@@ -149,7 +177,8 @@ def run(args):
                                             return_indices=True)
     aligned = np.full(truth.vector.shape, np.nan)   # a sample without a result: NaN
     aligned[at_truth] = result.vector[at_result]
-    rows = station_rows(truth.vector, aligned, args.min_inclination_deg)
+    rows = station_rows(truth.vector, aligned, args.min_inclination_deg,
+                        simulated_segments(args.truth, truth.stamps_ns))
     print('\n'.join(table_lines(rows)))
     bad = {name: worst(rows, name) for name in ('inclination', 'toolface', 'azimuth')}
     print(f'{at_truth.size} of {truth.stamps_ns.size} truth samples have a result; worst station '

@@ -26,6 +26,7 @@ from inclino_ros.cli.fitting import (
     new_figure, read_csv, read_topic, Refused, report_paths, run_fit, sample_temperatures,
     save, tool_axes, write_text)
 from inclino_ros.cli.helptext import add_command
+from inclino_ros.cli.play import in_window
 from inclino_ros.cli.process import NODE_DEFAULTS
 from inclino_ros.core.installation import level_axis_angles
 import numpy as np
@@ -53,8 +54,8 @@ def register(subparsers):
     parser.add_argument('--start-s', type=float, default=0.0, metavar='S',
                         help='bag: first sample, seconds after the first message (default: 0)')
     parser.add_argument('--end-s', type=float, metavar='S',
-                        help='bag: last sample, seconds after the first message (default: '
-                             'the last message)')
+                        help='bag: samples before S seconds after the first message (default: '
+                             'to the last message)')
     parser.add_argument('--axes', type=int, choices=(2, 3),
                         help='accelerometer axes (default: those of the file, else 3)')
     for name, meaning in (
@@ -81,13 +82,11 @@ def load_input(args):
         return np.column_stack([table[name] for name in AXIS_COLUMNS]), table.get(
             'temperature_c')
     imu = read_topic(args.input, args.raw_topic)
-    seconds = (imu.stamps_ns - imu.stamps_ns.min()) * 1e-9
-    window = seconds >= args.start_s
-    if args.end_s is not None:
-        window &= seconds <= args.end_s
+    window = in_window(imu.stamps_ns, args.start_s, args.end_s)
     if not window.any():
-        raise CommandError(f'no {args.raw_topic} message between {args.start_s} and '
-                           f'{args.end_s} s (the topic spans 0 .. {seconds.max():.3f} s)')
+        raise CommandError(f'no {args.raw_topic} message from {args.start_s} to {args.end_s} '
+                           f's (the topic spans 0 .. '
+                           f'{(imu.stamps_ns.max() - imu.stamps_ns.min()) * 1e-9:.3f} s)')
     temperature_c = (sample_temperatures(imu, args.input, args.temperature_topic)[0][window]
                      if has_topic(args.input, args.temperature_topic) else None)
     return imu.linear_acceleration_mps2[window], temperature_c

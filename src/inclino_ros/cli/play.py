@@ -48,7 +48,8 @@ def register(subparsers):
     parser.add_argument('--start-s', type=float, default=0.0, metavar='S',
                         help='start S seconds after the first message (default: 0)')
     parser.add_argument('--end-s', type=float, metavar='S',
-                        help='stop S seconds after the first message (default: at the end)')
+                        help='stop before S seconds after the first message (default: at the '
+                             'end)')
     parser.add_argument('--loop', action='store_true',
                         help='play the bag (or the window) again and again until Ctrl-C')
     parser.add_argument('--best-effort', action='store_true',
@@ -83,11 +84,8 @@ class Timeline:
         return self.stamps_ns.size
 
     def window(self, start_s=0.0, end_s=None):
-        """Return the messages from ``start_s`` to ``end_s`` seconds after the first one."""
-        seconds = (self.stamps_ns - self.stamps_ns[0]) * 1e-9
-        keep = seconds >= start_s
-        if end_s is not None:
-            keep &= seconds <= end_s
+        """Return the messages from ``start_s`` up to (not at) ``end_s`` s after the first."""
+        keep = in_window(self.stamps_ns, start_s, end_s)
         return Timeline(self.topics, self.stamps_ns[keep], self.topic_index[keep],
                         self.row[keep])
 
@@ -95,6 +93,20 @@ class Timeline:
         """Return the ROS message of the k-th message."""
         _, msgtype, series = self.topics[self.topic_index[k]]
         return MESSAGES[msgtype](series, int(self.row[k]))
+
+
+def in_window(stamps_ns, start_s=0.0, end_s=None):
+    """
+    Return which stamps lie from ``start_s`` up to, not at, ``end_s`` s after the first.
+
+    Half open, so that windows that meet (``--end-s 3``, ``--start-s 3``) share no
+    sample: a simulated segment starts exactly on its second.
+    """
+    offset_ns = np.asarray(stamps_ns, dtype=np.int64) - np.min(stamps_ns)
+    keep = offset_ns >= round(start_s * 1e9)
+    if end_s is not None:
+        keep &= offset_ns < round(end_s * 1e9)
+    return keep
 
 
 def load_timeline(path, topics=None):
