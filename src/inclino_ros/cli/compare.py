@@ -31,9 +31,9 @@ def register(subparsers):
         'the truth of TRUTH (/truth/survey, what inclino simulate writes), sample by sample '
         '(same stamps), and print per station (samples of one true attitude) the truth and '
         'the signed error of the station mean, then the worst.',
-        'Toolface and azimuth are compared where the true inclination is at least '
-        '--min-inclination-deg (near vertical both are ill-defined); an azimuth that was not '
-        'trusted (NaN) is counted, not compared.',
+        'Toolface and azimuth are compared where the tool is at least --min-inclination-deg '
+        'off vertical (near vertical, up or down, both are ill-defined); an azimuth that was '
+        'not trusted (NaN) is counted, not compared.',
         'Exit 0, or 1 when a station mean inclination or azimuth is off by more than '
         '--max-error-deg.')
     parser.add_argument('result', metavar='RESULT', help='bag written by inclino process')
@@ -43,8 +43,8 @@ def register(subparsers):
     parser.add_argument('--truth-topic', default=TRUTH_TOPIC,
                         help='Vector3Stamped topic of TRUTH (default: %(default)s)')
     parser.add_argument('--min-inclination-deg', type=float, default=5.0, metavar='DEG',
-                        help='compare toolface and azimuth from this true inclination on '
-                             '(default: %(default)s)')
+                        help='compare toolface and azimuth where the tool is this far off '
+                             'vertical (default: %(default)s)')
     parser.add_argument('--max-error-deg', type=float, metavar='DEG',
                         help='exit 1 when a station mean inclination, or azimuth, is off by '
                              'more (default: no limit)')
@@ -91,7 +91,8 @@ def station_rows(truth, result, min_inclination_deg=5.0, segments=None):
     the runs of equal truth.  Each sample is compared with its own truth (a
     rotation changes the toolface from sample to sample); the inclination
     error is that of the mean direction, the toolface and azimuth errors are
-    means of the wrapped differences, NaN below ``min_inclination_deg``.  A
+    means of the wrapped differences, NaN within ``min_inclination_deg`` of
+    vertical (up or down: upside down they are as undefined).  A
     truth that varies within the station is given as None (and no mean value).
     """
     rows = []
@@ -110,7 +111,8 @@ def station_rows(truth, result, min_inclination_deg=5.0, segments=None):
             both = np.isfinite(got[:, k]) & np.isfinite(true[:, k])
             row[f'{name}_error_deg'] = float(
                 np.mean(angle_error_deg(got[both, k], true[both, k]))
-                if both.any() and true_incl >= min_inclination_deg else np.nan)
+                if both.any() and min_inclination_deg <= true_incl <= 180.0 - min_inclination_deg
+                else np.nan)
         for k, name in enumerate(('inclination', 'toolface', 'azimuth')):
             if row[f'true_{name}_deg'] is not None:
                 mean = row[f'true_{name}_deg'] + row[f'{name}_error_deg']
@@ -182,9 +184,9 @@ def run(args):
     print('\n'.join(table_lines(rows)))
     bad = {name: worst(rows, name) for name in ('inclination', 'toolface', 'azimuth')}
     print(f'{at_truth.size} of {truth.stamps_ns.size} truth samples have a result; worst station '
-          f'mean error: inclination {bad["inclination"]:.4f} deg, toolface '
-          f'{bad["toolface"]:.3f} deg, azimuth {bad["azimuth"]:.3f} deg (toolface and azimuth '
-          f'where the true inclination >= {args.min_inclination_deg:g} deg)')
+          f'mean error: inclination {number(bad["inclination"], 0, 4)} deg, toolface '
+          f'{number(bad["toolface"], 0, 3)} deg, azimuth {number(bad["azimuth"], 0, 3)} deg '
+          f'(toolface and azimuth {args.min_inclination_deg:g} deg or more off vertical)')
     limit = args.max_error_deg
     if limit is not None and not (bad['inclination'] <= limit
                                   and not bad['azimuth'] > limit):
