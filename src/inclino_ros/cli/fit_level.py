@@ -137,5 +137,6 @@ def plot_level(path, level, installation, two_axis_g):
         ax.axhline(column.mean(), color='black',
                    label=f'mean {column.mean():.4f} deg (spread {column.std():.4f} deg)')
         ax.set_ylabel(f'{name} [deg]')
-    axes[1].set_xlabel('sample of the level capture [number]')
+    for ax in axes:
+        ax.set_xlabel('sample of the level capture [number]')
     finish_figure(pyplot, fig, axes, path)

@@ -70,7 +70,7 @@ def register(subparsers):
     parser.add_argument('--end-s', type=float,
                         help='bag: last reading, seconds after the first message '
                              '(default: the last message)')
-    add_axes_map_arguments(parser, 'magnetometer')
+    add_axes_map_arguments(parser, 'accelerometer', 'magnetometer')
     parser.set_defaults(func=run)
 
 

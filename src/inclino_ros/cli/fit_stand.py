@@ -264,8 +264,8 @@ def plot_positions(path, raw_deg, after_deg, rms_deg):
     axes[1].bar(position, after_deg, color='tab:green',
                 label=f'after K^-1 (A - b), RMS {rms_deg:.2g} deg')
     axes[1].set_ylabel('residual [deg]')
-    axes[1].set_xlabel('stand position [number]')
     for ax in axes:
+        ax.set_xlabel('stand position [number]')
         ax.set_xticks(position)
         ax.axhline(0.0, color='black', linewidth=0.8)
     finish_figure(pyplot, fig, axes, path)
@@ -280,5 +280,6 @@ def plot_readings(path, raw_mps2, after_mps2):
                  label='after K^-1 (A - b)')
     for ax in axes:
         ax.set_ylabel('|G| - g [m/s^2]')
-    axes[1].set_xlabel('reading [number]')
+    for ax in axes:
+        ax.set_xlabel('reading [number]')
     finish_figure(pyplot, fig, axes, path)

@@ -172,5 +172,6 @@ def plot(path, temperature_c, ratio, result, before_deg, after_deg):
     axes[1].plot(temperature_c, after_deg, '.', color='tab:green', markersize=2,
                  label=f'compensated A / K_T(T), largest {np.abs(after_deg).max():.4f} deg')
     axes[1].set_ylabel('inclination error [deg]')
-    axes[1].set_xlabel('temperature [deg C]')
+    for ax in axes:
+        ax.set_xlabel('temperature [deg C]')
     finish_figure(pyplot, fig, axes, path)

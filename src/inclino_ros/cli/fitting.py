@@ -47,7 +47,7 @@ def add_common_arguments(parser):
                         help='sensor_msgs/Imu topic of a bag (default: %(default)s)')
     parser.add_argument('--temperature-topic', default=TEMPERATURE_TOPIC,
                         help='sensor_msgs/Temperature topic of a bag (default: %(default)s)')
-    add_axes_map_arguments(parser, 'accelerometer')
+    add_axes_map_arguments(parser, 'accelerometer', 'magnetometer')
 
 
 def tool_axes(args, readings, sensor='accelerometer'):

@@ -25,7 +25,8 @@ def add_axes_map_arguments(parser, *sensors, writing=False):
         'means tool x = -sensor y, tool y = sensor x, tool z = sensor z; or '
         'rpy:ROLL,PITCH,YAW [deg], the sensor turned in the tool frame.'
         + (' The bag then holds what such a board reads.' if writing else
-           ' The readings are turned into the tool axes before any correction.'))
+           ' The readings are turned into the tool axes before any correction (a command '
+           'that reads one sensor only takes both maps, so one set of options fits all).'))
     for sensor in sensors:
         group.add_argument(f'--{sensor}-axes-map', default=IDENTITY, metavar='MAP',
                            help=f'mounting of {SENSORS[sensor]} axes (default: %(default)s)')
