@@ -156,6 +156,10 @@ def run(args):
         node.create_subscription(String, f'{target}/calibration', view.on_calibration, latched)
         started, shown = time.monotonic(), 0
         try:
+            # The node's latched calibration arrives once it is discovered: wait for it first.
+            if not session.spin_until(lambda: view.calibration is not None, args.wait_s):
+                print(f'inclino monitor: no {target} within {args.wait_s:g} s: '
+                      + session.not_found('still listening'), file=sys.stderr)
             while args.count is None or shown < args.count:
                 session.spin(args.period_s)
                 text = '\n'.join(view.lines(args.period_s, time.monotonic() - started,

@@ -61,7 +61,7 @@ def run(args):
         except KeyboardInterrupt:
             print('inclino param: interrupted', file=sys.stderr)
             return 130
-        except TimeoutError as err:
+        except (NoSuchParameter, TimeoutError) as err:
             print(f'inclino param: {err}', file=sys.stderr)
             return 2
 
@@ -95,14 +95,22 @@ def list_parameters(session, client, args):
     return 0
 
 
-def get_parameter(session, client, args):
-    """Print the value of one parameter."""
+class NoSuchParameter(Exception):
+    """The node has no parameter of that name."""
+
+
+def value_of(session, client, args):
+    """Return the current value of parameter ``args.name``; NoSuchParameter if none."""
     current = values(session, client, [args.name])
     if args.name not in current:
-        print(f'inclino param: {node_name(args.node)} has no parameter {args.name!r} '
-              '(inclino param list shows them)', file=sys.stderr)
-        return 2
-    print(format_value(current[args.name]))
+        raise NoSuchParameter(f'{node_name(args.node)} has no parameter {args.name!r} '
+                              '(inclino param list shows them)')
+    return current[args.name]
+
+
+def get_parameter(session, client, args):
+    """Print the value of one parameter."""
+    print(format_value(value_of(session, client, args)))
     return 0
 
 
@@ -110,13 +118,9 @@ def set_parameter(session, client, args):
     """Set one parameter, VALUE read as its current type; print what the node said."""
     from rclpy.parameter import Parameter
 
-    current = values(session, client, [args.name])
-    if args.name not in current:
-        print(f'inclino param: {node_name(args.node)} has no parameter {args.name!r} '
-              '(inclino param list shows them)', file=sys.stderr)
-        return 2
+    current = value_of(session, client, args)
     try:
-        value = parse_value(args.value, current[args.name])
+        value = parse_value(args.value, current)
     except ValueError as err:
         print(f'inclino param: {args.name}: {err}', file=sys.stderr)
         return 2
