@@ -10,8 +10,11 @@ import argparse
 import importlib
 import sys
 
-COMMANDS = ('simulate', 'process', 'play', 'calibrate', 'demo', 'fit-stand', 'fit-temperature',
-            'msa', 'simulate-well', 'fit-rotation', 'fit-magnetometer', 'survey')
+from inclino_ros.cli.mounting import attach_map_values
+
+COMMANDS = ('simulate', 'process', 'compare', 'play', 'calibrate', 'call', 'param', 'monitor',
+            'demo', 'fit-level', 'fit-stand', 'fit-temperature', 'msa', 'simulate-well',
+            'fit-rotation', 'fit-magnetometer', 'survey')
 
 
 def build_parser():
@@ -19,6 +22,7 @@ def build_parser():
     parser = argparse.ArgumentParser(
         prog='inclino',
         description='Inclinometer correction tools of inclino_ros (no ros2 CLI needed).')
+    parser.add_argument('--version', action='version', version=f'inclino {version()}')
     subparsers = parser.add_subparsers(dest='command', required=True)
     for name in COMMANDS:
         module = name.replace('-', '_')
@@ -41,9 +45,18 @@ def build_command_parser(argv):
     return build_parser()
 
 
+def version():
+    """Return the installed version of inclino_ros."""
+    from importlib.metadata import PackageNotFoundError, version as installed
+    try:
+        return installed('inclino_ros')
+    except PackageNotFoundError:
+        return 'unknown (not installed)'
+
+
 def main(argv=None):
     """Run one subcommand; return its exit code."""
-    argv = sys.argv[1:] if argv is None else list(argv)
+    argv = attach_map_values(sys.argv[1:] if argv is None else argv)
     args = build_command_parser(argv).parse_args(argv)
     return args.func(args)
 

@@ -18,6 +18,7 @@ true_toolface_deg`` (high side)) is the input of ``inclino msa``;
 from dataclasses import replace
 import json
 
+from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.simulate import add_sensor_arguments
 from inclino_ros.sim.bench import make_tool, tool_from_iscwsa
 from inclino_ros.sim.well import (
@@ -28,10 +29,19 @@ from inclino_ros.sim.well import (
 def register(subparsers):
     """Add the ``simulate-well`` subcommand."""
     defaults = WellScenario()
-    parser = subparsers.add_parser(
-        'simulate-well', help='write the station CSV of a simulated well with drill-string '
-                              'interference (input of inclino msa)',
-        description=__doc__.split('\n\n', 1)[1])
+    parser = add_command(
+        subparsers, 'simulate-well',
+        'write the station CSV of a simulated well with drill-string interference (input of '
+        'inclino msa)',
+        'Write the survey stations of a simulated well, the input of inclino msa: inclination '
+        'and azimuth go linearly from the first to the last station, the toolfaces spread; '
+        'each station is read by the physical sensor model: the reference field plus the '
+        'interference of the drill string, through the mount and triads (ideal by default; '
+        '--sensor, --gamma-deg ... add their errors), averaged over --samples-per-station.',
+        'Columns: md (measured depth, m), gx, gy, gz (g), bx, by, bz (nT), in the ISCWSA '
+        'survey frame (x, y across the tool, z toward the bit), and the truth: '
+        'true_inclination_deg, true_azimuth_deg, true_toolface_deg; OUT.csv.truth.json holds '
+        'every error source of the tool.')
     parser.add_argument('out', metavar='OUT.csv', help='station CSV to write')
     parser.add_argument('--stations', type=int, default=defaults.stations,
                         help='number of stations (default: %(default)s)')

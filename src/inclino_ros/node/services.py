@@ -17,7 +17,6 @@ from inclino_ros.core.stand import StandFitRefused
 from inclino_ros.core.stillness import StillLimits
 import numpy as np
 from rclpy.callback_groups import ReentrantCallbackGroup
-from std_srvs.srv import Trigger
 
 
 class CalibrationServices:
@@ -31,11 +30,11 @@ class CalibrationServices:
         # Reentrant: a capture awaits samples without holding the default group
         # (the subscriptions keep running) and a second call is answered at once.
         group = ReentrantCallbackGroup()
-        for name, callback in (('~/calibrate_level', self.calibrate_level),
-                               ('~/capture_position', self.capture_position),
-                               ('~/solve_stand_calibration', self.solve_stand_calibration),
-                               ('~/clear_positions', self.clear_positions)):
-            node.create_service(Trigger, name, callback, callback_group=group)
+        for name, callback in (('calibrate_level', self.calibrate_level),
+                               ('capture_position', self.capture_position),
+                               ('solve_stand_calibration', self.solve_stand_calibration),
+                               ('clear_positions', self.clear_positions)):
+            collector.create_service(name, callback, group)
 
     def still_limits(self, prefix):
         """Return the StillLimits of the captures of ``prefix`` (its max_sem_deg)."""
