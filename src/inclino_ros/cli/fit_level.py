@@ -25,9 +25,9 @@ from inclino_ros.calibration.level_capture import (
 from inclino_ros.calibration.model import readings_temperature_c, temperature_conflict
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
-    add_common_arguments, add_sensor_argument, AXIS_COLUMNS, finish_figure, has_topic, is_bag,
-    load_existing, new_figure, NODE_DEFAULTS, node_option, read_csv, read_topic, Refused,
-    report_paths, run_fit, sample_temperatures, save, tool_axes, write_text)
+    add_common_arguments, AXIS_COLUMNS, finish_figure, has_topic, is_bag, load_existing,
+    new_figure, NODE_DEFAULTS, node_option, read_csv, read_topic, Refused, report_paths, run_fit,
+    sample_temperatures, save, tool_axes, write_text)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.play import in_window
 from inclino_ros.core.installation import level_axis_angles
@@ -55,7 +55,6 @@ def register(subparsers):
         'precision asked, an implausible G-total, a bench that is not level, or a temperature '
         'far from that of the other stages. Exit 2: unusable input.')
     add_common_arguments(parser)
-    add_sensor_argument(parser)
     parser.add_argument('--start-s', type=float, default=0.0, metavar='S',
                         help='bag: first sample, seconds after the first message (default: 0)')
     parser.add_argument('--end-s', type=float, metavar='S',
