@@ -226,7 +226,7 @@ def test_an_unwritable_calibration_file_refuses_and_keeps_the_correction(start_n
 
 def test_capture_progress_and_calibration_are_latched_topics(start_node, probe, tmp_path):
     """A late subscriber sees the calibration; a capture reports its progress, then its answer."""
-    start_node(**{'level_capture.samples': 200})
+    start_node(**{'level_capture.samples': 200, 'level_capture.timeout_s': 10.0})
     probe.wait_for_node()
     calibration = probe.listen_latched('/inclinometer/calibration')
     progress = probe.listen_latched('/inclinometer/capture_progress')
@@ -242,7 +242,9 @@ def test_capture_progress_and_calibration_are_latched_topics(start_node, probe, 
     assert all(p['service'] == 'calibrate_level' and p['needed'] == 200 for p in collecting)
     counts = [p['samples'] for p in collecting]
     assert counts == sorted(counts) and counts[0] < 200
-    assert all(0.0 < p['time_left_s'] <= 10.0 for p in collecting)
+    assert all(0.0 < p['time_left_s'] <= 10.0 for p in collecting)   # of level_capture.timeout_s
+    assert all(p['elapsed_s'] + p['time_left_s'] == pytest.approx(10.0, abs=2e-3)
+               for p in collecting)
     # The spread of still noisy samples: 0.002 m/s^2 per axis is ~0.016 deg about the mean.
     assert 0.005 < collecting[-1]['spread_deg'] < 0.05
     assert progress[-1] == {'service': 'calibrate_level', 'state': 'succeeded',
