@@ -1,5 +1,6 @@
 """Drive the real node over real rclpy: a subprocess and a probe node beside it."""
 
+import json
 import math
 import os
 import signal
@@ -15,9 +16,9 @@ import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
 from rclpy.parameter_client import AsyncParameterClient
-from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Imu, MagneticField, Temperature
-from std_msgs.msg import Float64
+from std_msgs.msg import Float64, String
 from std_srvs.srv import Trigger
 
 
@@ -127,6 +128,13 @@ class Probe:
         while time.monotonic() < end:
             self.executor.spin_once(timeout_sec=0.01)
 
+    def spin_until(self, done, timeout_s=30.0):
+        """Process callbacks until ``done()``; AssertionError after ``timeout_s``."""
+        end = time.monotonic() + timeout_s
+        while not done():
+            assert time.monotonic() < end, 'the awaited condition never came'
+            self.executor.spin_once(timeout_sec=0.01)
+
     def wait_for_node(self, timeout_s=20.0):
         """Wait until the node's subscription, outputs and service are matched."""
         end = time.monotonic() + timeout_s
@@ -200,6 +208,14 @@ class Probe:
     def publish_temperature(self, temperature_c):
         """Publish one imu/temperature reading."""
         self.temperature_publisher.publish(Temperature(temperature=float(temperature_c)))
+
+    def listen_latched(self, topic):
+        """Subscribe to a latched std_msgs/String topic; return the list its JSON goes to."""
+        received = []
+        self.node.create_subscription(
+            String, topic, lambda msg: received.append(json.loads(msg.data)),
+            QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL))
+        return received
 
     def wait_outputs(self, topic, count, timeout_s=10.0):
         """Spin until ``count`` messages arrived on ``topic``; return them."""

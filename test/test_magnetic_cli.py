@@ -65,11 +65,11 @@ def summary_values(stdout):
 MAGNETOMETER_ARGS = {'aligned': ['--magnetometer-deg', -1.2, -0.8, 0.0], 'board': []}
 
 
-def simulate_bench(path, storage='mcap', board='aligned'):
-    """Simulate the test bench into ``path``; return its truth record."""
+def simulate_bench(path, storage='mcap', *mounting, board='aligned'):
+    """Simulate the test bench into ``path`` (``mounting``: more options); return its truth."""
     code, _, err = quiet(['simulate', path, '--magnetic', '--rotation-s', 10, '--storage', storage,
                           '--station-s', SAMPLES / 200.0, '--noise-mps2', NOISE_MPS2,
-                          '--mag-noise-nT', NOISE_NT, *MAGNETOMETER_ARGS[board]])
+                          '--mag-noise-nT', NOISE_NT, *MAGNETOMETER_ARGS[board], *mounting])
     assert code == 0, err
     with open(f'{path}.truth.json') as stream:
         return json.load(stream)
@@ -330,6 +330,96 @@ def test_unpaired_stale_and_failing_samples(chain, tmp_path):
     assert survey.vector[imprecise, 0].max() < 6.0
 
 
+def test_nan_between_readings_pairs_the_nearest_finite_one(chain, tmp_path):
+    """A driver publishing NaN between readings (every other message): no azimuth is lost."""
+    imu = bag.concatenate(bag.read(chain['sim'], '/imu/data_raw'))
+    mag = bag.concatenate(bag.read(chain['sim'], '/imu/mag'))
+    field_nT = mag.field_nT.copy()
+    field_nT[1::2] = np.nan          # at the stamps of every other accelerometer sample
+    in_bag, out_bag = str(tmp_path / 'in'), str(tmp_path / 'out')
+    with bag.BagWriter(in_bag) as writer:
+        writer.add_topic('/imu/data_raw', bag.IMU)
+        writer.add_topic('/imu/mag', bag.MAGNETIC_FIELD)
+        writer.write_series({'/imu/data_raw': imu})
+        writer.write_series({'/imu/mag': bag.magnetometer(mag.stamps_ns, 'mag', field_nT,
+                                                          NOISE_NT)})
+    code, out, err = quiet(['process', in_bag, out_bag, '--calibration', chain['calibration'],
+                            '--mag-topic', '/imu/mag', '--noise-mps2', NOISE_MPS2,
+                            '--mag-noise-nT', NOISE_NT])
+    assert code == 0, err
+    values = summary_values(out)
+    assert values['mag_non_finite'] == str(mag.stamps_ns.size // 2)
+    assert values['mag_unpaired'] == '0'
+    # The odd samples take the reading 5 ms before: on a still station the same azimuth
+    # within noise (while the tool turns, 0.36 deg of toolface earlier: it fails the QC).
+    still = imu.stamps_ns < chain['truth']['segments'][-1]['start_ns']
+    azimuth = bag.concatenate(bag.read(out_bag, '/survey')).vector[still, 2]
+    reference = bag.concatenate(bag.read(chain['out'], '/survey')).vector[still, 2]
+    np.testing.assert_array_equal(np.isfinite(azimuth), np.isfinite(reference))
+    assert np.count_nonzero(np.isfinite(azimuth)) > 150   # 12 stations of 16 samples
+    both = np.isfinite(azimuth)
+    assert np.max(np.abs(azimuth_difference_deg(azimuth[both], reference[both]))) < 1.0
+
+
+def test_a_mounted_board_read_through_its_axes_maps(chain, tmp_path):
+    """The bench on a board mounted any way round: with its maps, the same results exactly."""
+    mounted = str(tmp_path / 'mounted')
+    maps = ('--accelerometer-axes-map', '+X-Z+Y', '--magnetometer-axes-map', '+Y+X-Z')
+    simulate_bench(mounted, 'mcap', *maps)
+    imu = bag.concatenate(bag.read(mounted, '/imu/data_raw')).linear_acceleration_mps2
+    assert np.mean(imu[:600, 1]) > 9.7      # the level segment reads gravity on sensor +y
+    start_s, end_s = rotation_window_s(chain['truth'])
+    code, _, err = quiet(['fit-rotation', mounted, '--calibration', tmp_path / 'cal.json',
+                          '--start-s', start_s, '--end-s', end_s, maps[2], maps[3]])
+    assert code == 0, err
+    np.testing.assert_allclose(load_model(tmp_path / 'cal.json').magnetic.hard_iron_nT,
+                               load_model(chain['calibration']).magnetic.hard_iron_nT, atol=1e-9)
+    out = str(tmp_path / 'out')
+    code, _, err = quiet(['process', mounted, out, '--calibration', chain['calibration'],
+                          '--mag-topic', '/imu/mag', '--noise-mps2', NOISE_MPS2,
+                          '--mag-noise-nT', NOISE_NT, *maps])
+    assert code == 0, err
+    np.testing.assert_allclose(bag.concatenate(bag.read(out, '/survey')).vector,
+                               bag.concatenate(bag.read(chain['out'], '/survey')).vector,
+                               atol=1e-9)
+    code, _, err = quiet(['process', mounted, out + '2', '--calibration', chain['calibration'],
+                          '--accelerometer-axes-map', '+X+Y-Z'])
+    assert code == 2 and 'left-handed' in err
+
+
+def test_fit_level_is_the_level_capture_of_the_node(chain, tmp_path):
+    """fit-level of the first 3 s: the installation the level segment gives; refusals exit 1."""
+    calibration = tmp_path / 'cal.json'
+    code, out, err = quiet(['fit-level', chain['sim'], '--calibration', calibration,
+                            '--end-s', 3])
+    assert code == 0, err
+    assert 'level capture: 600 samples' in out
+    fitted, expected = (load_model(path).installation
+                        for path in (calibration, chain['calibration']))
+    assert (fitted.gamma_deg, fitted.beta_deg, fitted.sample_count) == (
+        expected.gamma_deg, expected.beta_deg, expected.sample_count)
+    before = file_bytes(calibration)
+    code, _, err = quiet(['fit-level', chain['sim'], '--calibration', calibration,
+                          '--start-s', 2, '--end-s', 6])     # the level bench, then stations
+    assert code == 1 and 'tool is moving' in err
+    assert file_bytes(calibration) == before
+
+
+def test_compare_reports_each_simulated_segment(chain, tmp_path):
+    """Segments from OUT.truth.json (the rotation's toolface varies); --max-error-deg exits 1."""
+    code, out, err = quiet(['compare', chain['out'], chain['sim']])
+    assert code == 0, err
+    lines = out.splitlines()
+    assert lines[1].split()[:3] == ['0', 'level', '600']
+    assert sum(line.split()[1] == 'station' for line in lines[1:-1]) == 12
+    rotation = next(line for line in lines if ' rotation ' in line).split()
+    assert rotation[3:6] == ['60.000', rotation[4], '|'] and rotation[6] == 'var'
+    assert abs(float(rotation[4])) < 0.01 and abs(float(rotation[7])) < 0.1
+    assert quiet(['compare', chain['out'], chain['sim'], '--max-error-deg', 0.1])[0] == 0
+    code, _, err = quiet(['compare', chain['out'], chain['sim'], '--max-error-deg', 1e-6])
+    assert code == 1 and 'off by more than' in err
+
+
 def file_bytes(path):
     """Return the content of ``path``."""
     with open(path, 'rb') as stream:
@@ -366,6 +456,17 @@ def test_fit_rotation_from_csv_matches_the_bag(chain, tmp_path):
     assert code == 0, err
     np.testing.assert_allclose(load_model(calibration).magnetic.hard_iron_nT,
                                load_model(chain['calibration']).magnetic.hard_iron_nT, atol=1e-6)
+
+
+def test_a_magnetic_stage_without_a_level_calibration_is_named(chain, tmp_path):
+    """A file with a magnetic stage only: the warning says what is missing, and why it matters."""
+    calibration = tmp_path / 'cal.json'
+    save_model(calibration, replace(load_model(chain['calibration']), installation=None))
+    code, _, err = quiet(['process', chain['sim'], tmp_path / 'out', '--calibration',
+                          calibration, '--mag-topic', '/imu/mag'])
+    assert code == 0, err
+    assert 'holds no accelerometer correction' in err and 'raw gravity direction' in err
+    assert 'holds no correction' not in err
 
 
 def test_process_needs_a_reference(chain, tmp_path):

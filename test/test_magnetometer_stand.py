@@ -127,3 +127,9 @@ def replace_alignment(installation):
     return MagnetometerAlignment(
         rotation=tuple(map(tuple, installation.inverse_matrix.T.tolist())), method='given',
         dip_deg=None, dip_rms_deg=None, shots=1, fitted_at=installation.captured_at)
+
+
+def test_solve_without_positions_is_refused_as_too_few():
+    """No position captured yet: refused as too few (the node answers, it does not crash)."""
+    with pytest.raises(StandFitRefused, match='only 0 stand position'):
+        solve_positions([], 9.80665, 0.05, reference=(50000.0, 60.0))

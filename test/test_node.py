@@ -222,3 +222,36 @@ def test_an_unwritable_calibration_file_refuses_and_keeps_the_correction(start_n
     reading = tilted_reading(2.0, 30.0, GAMMA_DEG, BETA_DEG)
     assert survey_of(probe, 2.0, 30.0).x == pytest.approx(
         math.degrees(math.acos(reading[2] / np.linalg.norm(reading))), abs=1e-6)
+
+
+def test_capture_progress_and_calibration_are_latched_topics(start_node, probe, tmp_path):
+    """A late subscriber sees the calibration; a capture reports its progress, then its answer."""
+    start_node(**{'level_capture.samples': 200, 'level_capture.timeout_s': 10.0})
+    probe.wait_for_node()
+    calibration = probe.listen_latched('/inclinometer/calibration')
+    progress = probe.listen_latched('/inclinometer/capture_progress')
+    probe.spin_for(1.0)
+    assert calibration[-1]['stages'] == [] and calibration[-1]['model']['accelerometer_axes'] == 3
+    assert calibration[-1]['calibration_file'] == str(tmp_path / 'calibration.json')
+
+    response = probe.calibrate(level_samples(), rate_hz=200.0)
+    assert response.success, response.message
+    probe.spin_for(0.5)
+    collecting = [p for p in progress if p['state'] == 'collecting']
+    assert len(collecting) >= 3          # 200 samples at 200 Hz, a report every 0.2 s
+    assert all(p['service'] == 'calibrate_level' and p['needed'] == 200 for p in collecting)
+    counts = [p['samples'] for p in collecting]
+    assert counts == sorted(counts) and counts[0] < 200
+    assert all(0.0 < p['time_left_s'] <= 10.0 for p in collecting)   # of level_capture.timeout_s
+    assert all(p['elapsed_s'] + p['time_left_s'] == pytest.approx(10.0, abs=2e-3)
+               for p in collecting)
+    # The spread of still noisy samples: 0.002 m/s^2 per axis is ~0.016 deg about the mean.
+    assert 0.005 < collecting[-1]['spread_deg'] < 0.05
+    assert progress[-1] == {'service': 'calibrate_level', 'state': 'succeeded',
+                            'message': response.message}
+    assert calibration[-1]['stages'] == ['installation']
+    assert calibration[-1]['model'] == json.loads((tmp_path / 'calibration.json').read_text())
+
+    refused = probe.call('solve_stand_calibration')
+    probe.spin_for(0.3)
+    assert progress[-1]['state'] == 'refused' and progress[-1]['message'] == refused.message

@@ -171,3 +171,49 @@ def test_an_unknown_msa_method_is_refused_at_set_time(node_and_probe):
     assert not result.successful
     assert "msa.method must be one of improved, classic, axial, not 'guess'" in result.reason
     probe.set_parameters(msa__method='classic')  # a known one is taken
+
+
+#: A robot IMU with its y along the tool axis, and an AK8963-style magnetometer beside it.
+ACCELEROMETER_MAP = np.array([[1, 0, 0], [0, 0, -1], [0, 1, 0]])   # '+X-Z+Y'
+MAGNETOMETER_MAP = np.array([[0, 1, 0], [1, 0, 0], [0, 0, -1]])    # '+Y+X-Z'
+
+
+def test_axes_maps_turn_both_sensors_before_every_capture(start_node, probe, tmp_path):
+    """Sensor-axis readings of a mounted board: level, rotation and survey work in tool axes."""
+    from ros_harness import tilted_reading
+    start_node(accelerometer_axes_map='+X-Z+Y', magnetometer_axes_map='+Y+X-Z',
+               **{'rotation.duration_s': 3.0, 'survey.samples': 20})
+    probe.wait_for_node()
+    rng = np.random.default_rng(5)
+    # The accelerometer is misaligned by gamma 0.8, beta -1.2 deg: C f in its nominal axes.
+    c = np.column_stack([tilted_reading(incl, tf, 0.8, -1.2)
+                         for incl, tf in ((90.0, 0.0), (90.0, 90.0), (0.0, 0.0))]) / G
+    answer = probe.calibrate(
+        lambda i: ACCELEROMETER_MAP.T @ (c @ [0.0, 0.0, G] + rng.normal(0.0, 0.002, 3)))
+    assert answer.success, answer.message
+    installation = load_model(tmp_path / 'calibration.json').installation
+    assert (installation.gamma_deg, installation.beta_deg) == (
+        pytest.approx(0.8, abs=0.005), pytest.approx(-1.2, abs=0.005))
+
+    def sample(incl_deg, az_deg, tf_deg):
+        force, field = readings(incl_deg, az_deg, tf_deg, rng)
+        probe.mag_publisher.publish(mag_message(probe.sent, MAGNETOMETER_MAP.T @ field))
+        return ACCELEROMETER_MAP.T @ c @ force
+
+    answer = probe.calibrate(lambda i: sample(60.0, 100.0, (i * 3.0) % 360.0),
+                             service='capture_rotation')
+    assert answer.success, answer.message
+    np.testing.assert_allclose(load_model(tmp_path / 'calibration.json').magnetic.hard_iron_nT,
+                               HARD_IRON_NT, atol=3.0)
+    answer = probe.calibrate(lambda i: sample(40.0, 200.0, 70.0), service='take_survey')
+    assert answer.success, answer.message
+    assert 'inclination_deg=40.0' in answer.message      # 40.00x: level-corrected
+    stored = json.loads((tmp_path / 'stations.json').read_text())['stations'][0]
+    np.testing.assert_allclose(stored['field_nT'], readings(40.0, 200.0, 70.0)[1], atol=5.0)
+
+
+def test_a_left_handed_axes_map_stops_the_node(start_node):
+    """A map of determinant -1 is a wiring error: the node says so and exits non-zero."""
+    node = start_node(magnetometer_axes_map='+X+Y-Z')
+    assert node.process.wait(timeout=30) != 0
+    assert 'magnetometer_axes_map' in node.log() and 'left-handed' in node.log()

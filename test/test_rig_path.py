@@ -15,7 +15,9 @@ def read(*path):
 def rig_commands():
     """Return the ``colcon``/``source`` commands of the README's rig section, in order."""
     section = read('README.md').split('## On a rig with ROS 2 Jazzy installed', 1)[1]
-    block = re.search(r'```bash\n(.*?)```', section, re.DOTALL).group(1)
+    section = section.split('\n## ', 1)[0]
+    # the rig block is tagged ``console`` (not run by the README check) or ``bash``
+    block = re.search(r'```(?:console|bash)\n(.*?)```', section, re.DOTALL).group(1)
     commands = []
     for line in block.splitlines():
         for part in line.split('#', 1)[0].split('&&'):

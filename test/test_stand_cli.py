@@ -676,3 +676,22 @@ def test_unusable_inputs_exit_2(runs, tmp_path):
                              tmp_path / 'new.json', '--temperature-topic', '/none'])
     assert code == 2 and 'no topic /none' in stderr
     assert not (tmp_path / 'new.json').exists()
+
+
+def test_seed001_fits_of_a_mounted_board(runs, tmp_path):
+    """Stand and heating runs of a board with -Y+X+Z axes: with the map, the same stages."""
+    maps = ('--accelerometer-axes-map', '-Y+X+Z')
+    for name, mode, extra in (('stand', '--stand', ()),
+                              ('heating', '--heating', ('--storage', 'sqlite3', '--seed', '1'))):
+        code, _, err = quiet(['simulate', tmp_path / name, mode, '--noise-mps2', NOISE_MPS2,
+                              *extra, *maps])
+        assert code == 0, err
+    for command, name in (('fit-stand', 'stand'), ('fit-temperature', 'heating')):
+        code, _, err = quiet([command, tmp_path / name, '--calibration', tmp_path / 'cal.json',
+                              *maps])
+        assert code == 0, err
+    mounted = load_model(tmp_path / 'cal.json')
+    np.testing.assert_allclose(mounted.stand.scale_matrix, runs['model'].stand.scale_matrix,
+                               atol=1e-12)
+    np.testing.assert_allclose(mounted.temperature.coefficients,
+                               runs['model'].temperature.coefficients, atol=1e-12)

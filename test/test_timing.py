@@ -32,3 +32,15 @@ def test_temperature_interpolation_skips_non_finite_messages():
     empty = TemperatureSeries(np.array([0]), np.array(['t']), np.array([np.nan]), np.zeros(1))
     with pytest.raises(BagError):
         empty.at([0])
+
+
+def test_non_finite_readings_are_never_paired():
+    """A driver's NaN between two readings: the nearest finite reading is paired instead."""
+    reading_stamps = np.array([T0, T0 + 4, T0 + 8, T0 + 12])
+    readings = np.array([[1.0, 1.0], [np.nan, np.nan], [2.0, 2.0], [np.inf, 0.0]])
+    values, paired = pair_nearest([T0 + 3, T0 + 5, T0 + 12], reading_stamps, readings,
+                                  max_gap_ns=4)
+    np.testing.assert_array_equal(values[:, 0], [1.0, 2.0, 2.0])
+    assert paired.all()
+    values, paired = pair_nearest([T0], [T0], np.array([[np.nan, 1.0]]), max_gap_ns=4)
+    assert np.isnan(values).all() and not paired.any()

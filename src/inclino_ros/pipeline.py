@@ -1,15 +1,17 @@
 """
 The processing chain shared by the node and the command line.
 
-raw specific force -> screening -> (two-axis completion) -> calibration model
--> screening of what cannot be gravity -> inclination, gravity toolface,
-orientation, each with its 1 sigma (and, with magnetometer readings, the
-azimuth, its 1 sigma and its QC).  A toolface or azimuth whose 1 sigma
-exceeds its limit is NaN.  One batch of N samples at a time: the node passes
-what one executor wake-up finds queued, the command line 10 000.
+raw specific force -> screening -> sensor axes to tool axes -> (two-axis
+completion) -> calibration model -> screening of what cannot be gravity ->
+inclination, gravity toolface, orientation, each with its 1 sigma (and, with
+magnetometer readings turned into the tool axes too, the azimuth, its 1 sigma
+and its QC).  A toolface or azimuth whose 1 sigma exceeds its limit is NaN.
+One batch of N samples at a time: the node passes what one executor wake-up
+finds queued, the command line 10 000.
 """
 
 from dataclasses import dataclass
+from functools import cached_property
 import math
 
 from inclino_ros.calibration.plausibility import FIELD_NT
@@ -18,6 +20,7 @@ from inclino_ros.core.attitude import (
 from inclino_ros.core.magnetics import (
     azimuth_deg, b_total_nT, dip_deg, gravity_from_specific_force, iscwsa_from_tool, QcLimits,
     survey_qc, SurveyQc, true_azimuth_deg)
+from inclino_ros.core.mounting import axes_map_matrix, IDENTITY, keeps_axial, to_tool_axes
 from inclino_ros.core.screening import ACCEPTED, screen, screen_corrected
 from inclino_ros.core.uncertainty import (
     azimuth_std_rad, dip_std_rad, inclination_std_rad, roll_pitch_covariance,
@@ -56,6 +59,9 @@ class Settings:
     toolface_max_std_deg: float = 5.0
     g_total_tolerance_mps2: float = 3.0
     two_axis_max_inclination_deg: float = 60.0
+    accelerometer_axes_map: str = IDENTITY  # core.mounting: sensor axes -> tool axes
+    magnetometer_axes_map: str = IDENTITY
+    allow_left_handed_axes: bool = False
 
     def __post_init__(self):
         """Refuse settings the chain cannot honour."""
@@ -64,6 +70,27 @@ class Settings:
         if self.toolface_convention not in TOOLFACE_CONVENTIONS:
             raise ValueError(f'toolface_convention must be one of '
                              f'{sorted(TOOLFACE_CONVENTIONS)}, not {self.toolface_convention!r}')
+        # Both maps are checked now, not at the first sample (ValueError naming the map).
+        accelerometer, _ = self.accelerometer_matrix, self.magnetometer_matrix
+        if self.accelerometer_axes == 2 and not keeps_axial(accelerometer):
+            raise ValueError(f'accelerometer_axes_map {self.accelerometer_axes_map!r}: a '
+                             'two-axis sensor has to have its unmeasured z along the tool axis')
+
+    @cached_property
+    def accelerometer_matrix(self):
+        """Return M of ``v_tool = M v_sensor`` for the accelerometer (ValueError if invalid)."""
+        return self._axes_matrix('accelerometer_axes_map')
+
+    @cached_property
+    def magnetometer_matrix(self):
+        """Return M of ``v_tool = M v_sensor`` for the magnetometer (ValueError if invalid)."""
+        return self._axes_matrix('magnetometer_axes_map')
+
+    def _axes_matrix(self, name):
+        try:
+            return axes_map_matrix(getattr(self, name), self.allow_left_handed_axes)
+        except ValueError as err:
+            raise ValueError(f'{name}: {err}') from None
 
 
 @dataclass(frozen=True)
@@ -89,6 +116,7 @@ class MagneticSettings:
 class AzimuthSurvey:
     """Azimuth of the accepted samples that came with a magnetometer reading."""
 
+    uncorrected_nT: np.ndarray    # (M, 3) field in the tool axes before correction, NaN unpaired
     azimuth_deg: np.ndarray       # (M,) magnetic azimuth, NaN where not trusted
     true_azimuth_deg: np.ndarray  # (M,) azimuth_deg + declination
     b_total_nT: np.ndarray        # (M,) of the corrected field
@@ -110,6 +138,7 @@ class Survey:
     """Results for the accepted samples of a batch, in input order."""
 
     codes: np.ndarray            # (N,) screening code per input sample
+    uncorrected_mps2: np.ndarray  # (M, 3) in the tool axes, before any correction (captures)
     corrected_mps2: np.ndarray   # (M, 3) corrected specific force, tool frame
     inclination_deg: np.ndarray  # (M,)
     toolface_deg: np.ndarray     # (M,), NaN where its 1 sigma exceeds the limit
@@ -132,20 +161,20 @@ class Survey:
         return self.codes == ACCEPTED
 
 
-def sensor_vectors(raw, settings):
-    """Return full 3-vectors from raw readings (two-axis: z completed)."""
-    raw = np.asarray(raw, dtype=float)
+def sensor_vectors(tool_mps2, settings):
+    """Return full 3-vectors of readings in the tool axes (two-axis: z completed)."""
+    tool_mps2 = np.asarray(tool_mps2, dtype=float)
     if settings.accelerometer_axes == 2:
-        return complete_two_axis(raw[:, 0], raw[:, 1], settings.gravity_mps2)
-    return raw
+        return complete_two_axis(tool_mps2[:, 0], tool_mps2[:, 1], settings.gravity_mps2)
+    return tool_mps2
 
 
 def resolve_azimuth(corrected_mps2, field_nT, model, settings, magnetic_settings,
                     covariance_mps2, tilt_var_rad2, temperature_c=None, averaged=1):
     """
-    Return the AzimuthSurvey of corrected accelerometer and raw magnetometer readings.
+    Return the AzimuthSurvey of corrected accelerometer and uncorrected magnetometer readings.
 
-    Both in the z-up tool frame, (M, 3); a NaN field row (no paired reading)
+    Both in the z-up tool axes, (M, 3); a NaN field row (no paired reading)
     gives a NaN azimuth.  The field is corrected by the model's magnetometer
     stages (at ``temperature_c``: its temperature stage, its own, the shared
     mount, seed 002's) and turned into the ISCWSA frame with the gravity
@@ -190,7 +219,7 @@ def resolve_azimuth(corrected_mps2, field_nT, model, settings, magnetic_settings
     defined_azimuth = np.where(defined, azimuth, math.nan)
     azimuth = np.where(trusted, azimuth, math.nan)
     return AzimuthSurvey(
-        azimuth_deg=azimuth, defined_azimuth_deg=defined_azimuth,
+        uncorrected_nT=field_nT, azimuth_deg=azimuth, defined_azimuth_deg=defined_azimuth,
         true_azimuth_deg=true_azimuth_deg(azimuth, magnetic_settings.declination_deg),
         b_total_nT=field_total_nT, dip_deg=dip_deg(gravity, field), qc=qc,
         trusted=trusted, azimuth_std_deg=std_deg, precise=precise)
@@ -199,34 +228,58 @@ def resolve_azimuth(corrected_mps2, field_nT, model, settings, magnetic_settings
 def run(raw, model, settings, temperature_c=None, field_nT=None,
         magnetic_settings=MagneticSettings(), averaged=1):
     """
-    Screen, correct and resolve a batch of raw readings (N x 3, m/s^2).
+    Screen, correct and resolve a batch of raw readings (N x 3, m/s^2, sensor axes).
 
     ``temperature_c`` (scalar or (N,)) feeds the model's temperature stages;
     None compensates at the reference temperature.  ``field_nT`` (N x 3,
-    tool frame, NaN rows where no reading is paired) adds the azimuth.
+    magnetometer axes, NaN rows where no reading is paired) adds the azimuth.
     ``averaged``: each row is the mean of that many samples (a station): its
-    noise is the per-sample noise / sqrt(averaged).  Samples are dropped
-    before the correction (``screening.screen``) and after it
-    (``screening.screen_corrected``: not gravity, two-axis out of range).
+    noise is the per-sample noise / sqrt(averaged).  Screening looks at the
+    sensor's own axes (its range is per axis, ``screening.screen``); the axes
+    maps of ``settings`` then turn both sensors into the tool axes, and
+    ``correct`` drops what cannot be gravity after the correction.
     """
     raw = np.asarray(raw, dtype=float).reshape(-1, 3)
     codes = screen(raw, settings.accelerometer_axes,
                    settings.accelerometer_range_mps2, settings.gravity_mps2)
+    kept = codes == ACCEPTED
+    if np.ndim(temperature_c) == 1:
+        temperature_c = np.asarray(temperature_c)[kept]
     if field_nT is not None:
-        field_nT = np.asarray(field_nT, dtype=float).reshape(-1, 3)
+        field_nT = to_tool_axes(np.asarray(field_nT, dtype=float).reshape(-1, 3)[kept],
+                                settings.magnetometer_matrix)
+    return correct(to_tool_axes(raw[kept], settings.accelerometer_matrix), model, settings,
+                   temperature_c, field_nT, magnetic_settings, codes, averaged)
+
+
+def correct(tool_mps2, model, settings, temperature_c=None, field_nT=None,
+            magnetic_settings=MagneticSettings(), codes=None, averaged=1):
+    """
+    Correct and resolve accepted readings already in the tool axes (M x 3).
+
+    What ``run`` does after screening and the axes maps; a capture that
+    averages the Survey's ``uncorrected_mps2`` (and ``uncorrected_nT``)
+    corrects its mean here (``averaged`` samples).  ``codes`` (N,): the
+    screening codes of the batch, its M accepted ones in order (default: all
+    accepted); samples that cannot be gravity after the correction
+    (``screening.screen_corrected``) are dropped and their codes set.
+    """
+    tool_mps2 = np.asarray(tool_mps2, dtype=float).reshape(-1, 3)
+    codes = (np.full(tool_mps2.shape[0], ACCEPTED, dtype=np.int8) if codes is None
+             else np.array(codes))
     kept = np.flatnonzero(codes == ACCEPTED)
-    sensor = sensor_vectors(raw[kept], settings)
-    temperatures = (np.asarray(temperature_c)[kept] if np.ndim(temperature_c) == 1
-                    else temperature_c)
-    corrected = model.apply(sensor, temperatures)
+    sensor = sensor_vectors(tool_mps2, settings)
+    corrected = model.apply(sensor, temperature_c)
     late = screen_corrected(corrected, settings.accelerometer_axes, settings.gravity_mps2,
                             settings.g_total_tolerance_mps2,
                             settings.two_axis_max_inclination_deg)
     codes[kept] = late
     good = late == ACCEPTED
-    kept, sensor, corrected = kept[good], sensor[good], corrected[good]
-    if np.ndim(temperatures) == 1:
-        temperatures = temperatures[good]
+    tool_mps2, sensor, corrected = tool_mps2[good], sensor[good], corrected[good]
+    if np.ndim(temperature_c) == 1:
+        temperature_c = np.asarray(temperature_c)[good]
+    if field_nT is not None:
+        field_nT = np.asarray(field_nT, dtype=float).reshape(-1, 3)[good]
     noise_mps2 = settings.noise_std_mps2 / math.sqrt(averaged)
     covariance = specific_force_covariance(sensor, noise_mps2, settings.accelerometer_axes,
                                            model.linear_map)
@@ -235,15 +288,15 @@ def run(raw, model, settings, temperature_c=None, field_nT=None,
     toolface_deg = np.degrees(TOOLFACE_CONVENTIONS[settings.toolface_convention](corrected))
     toolface_std_deg = np.degrees(toolface_std_rad(corrected, covariance, tilt_var))
     toolface_deg[~(toolface_std_deg <= settings.toolface_max_std_deg)] = math.nan
-    return Survey(codes=codes, corrected_mps2=corrected, inclination_deg=incl_deg,
-                  toolface_deg=toolface_deg,
+    return Survey(codes=codes, uncorrected_mps2=tool_mps2, corrected_mps2=corrected,
+                  inclination_deg=incl_deg, toolface_deg=toolface_deg,
                   orientation_wxyz=orientation_quaternion(corrected),
                   g_total_mps2=np.sqrt(np.einsum('ij,ij->i', corrected, corrected)),
                   covariance_mps2=covariance, tilt_var_rad2=tilt_var,
                   toolface_std_deg=toolface_std_deg,
                   magnetic=None if field_nT is None else resolve_azimuth(
-                      corrected, field_nT[kept], model, settings, magnetic_settings,
-                      covariance, tilt_var, temperatures, averaged))
+                      corrected, field_nT, model, settings, magnetic_settings,
+                      covariance, tilt_var, temperature_c, averaged))
 
 
 def imu_covariances(survey):

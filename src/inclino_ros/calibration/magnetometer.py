@@ -118,7 +118,7 @@ def merge_repeated_attitudes(readings, attitudes_deg, min_separation_deg):
     to refuse.
     """
     readings = np.asarray(readings, dtype=float).reshape(-1, 3)
-    attitudes_deg = np.asarray(attitudes_deg, dtype=float)
+    attitudes_deg = np.asarray(attitudes_deg, dtype=float).reshape(-1, 3)
     i, t = np.radians(attitudes_deg[:, 0]), np.radians(attitudes_deg[:, 1])
     unit = np.stack([np.sin(i) * np.cos(t), np.sin(i) * np.sin(t), np.cos(i)], axis=1)
     owner = np.arange(len(unit))
@@ -130,8 +130,8 @@ def merge_repeated_attitudes(readings, attitudes_deg, min_separation_deg):
         if near.size:
             owner[k] = owner[near[0]]
     kept = np.unique(owner)
-    means = np.array([readings[owner == k].mean(axis=0) for k in kept])
-    return means, attitudes_deg[kept, :2]
+    means = np.array([readings[owner == k].mean(axis=0) for k in kept]).reshape(-1, 3)
+    return means, attitudes_deg[kept, :2]   # none: (0, 3), for fit_stand to refuse as too few
 
 
 @dataclass(frozen=True)

@@ -9,21 +9,30 @@
 6. ``inclino process`` of the same bag with the new calibration file;
 7. prints raw vs corrected vs true per station and writes a PNG plot.
 
-DDS stays on this host on a domain of the demo's own.  The demo's files in
-OUT (the bag, its truth, the calibration file, the processed bag, the
-results and the plot) are refused when they exist unless ``--force``
-(``scripts/demo`` passes it for its own ``demo_output`` folder only).
+DDS stays on this host, on a ROS domain of the demo's own: one on which no
+other ROS node is seen (a node of the user's own domain would otherwise feed
+the demo's node and change its answers), unless ``--domain-id`` names one.
+The demo's files in OUT (the bag, its truth, the calibration file, the
+processed bag, the results and the plot) are refused when they exist unless
+``--force`` (``scripts/demo`` passes it for its own ``demo_output`` folder
+only).
 """
 
 import json
 import os
+import random
 import signal
 import subprocess
 import sys
 import tempfile
 import time
 
+from inclino_ros.cli.compare import angle_error_deg, station_rows
+from inclino_ros.cli.helptext import add_command
+from inclino_ros.cli.live import LiveSession
 from inclino_ros.cli.options import add_force_argument
+from inclino_ros.cli.play import publish_timed, Timeline
+from inclino_ros.io.bag import concatenate, IMU, read
 from inclino_ros.io.files import Outputs
 import numpy as np
 
@@ -31,24 +40,90 @@ RATE = 2.0  # replay speed factor
 #: The demo's files in its folder.
 DEMO_FILES = ('bench', 'bench.truth.json', 'calibration.json', 'processed', 'results.json',
               'demo.png')
+#: Accuracy target of a corrected inclination [deg] (a tilt error of this size).
+TARGET_DEG = 0.01
+#: Domain ids the demo may take (0-101 are safe with the default DDS port mapping).
+DOMAIN_IDS = range(1, 102)
+#: Seconds the demo listens on a domain for other ROS nodes before it takes it.
+LISTEN_S = 1.0
 
 
 def register(subparsers):
     """Add the ``demo`` subcommand."""
-    parser = subparsers.add_parser(
-        'demo', help='simulate, calibrate through the live node, correct, compare, plot')
+    parser = add_command(
+        subparsers, 'demo',
+        'the whole loop on simulated data: calibrate the live node, correct, compare, plot',
+        'Simulate a tool whose sensor is mounted 0.8 and -1.2 deg off, start the inclinometer '
+        'node, replay the stations into it, calibrate it on the level segment through its '
+        'service, replay the stations again, correct the same recording offline, and print '
+        'and plot raw, corrected and true angles per station.',
+        'Runs on a ROS domain of its own, one where no other ROS node is seen, on this host '
+        'only (it says which), unless --domain-id names one. Exit 0 when the corrected '
+        'answers beat the raw ones.')
     parser.add_argument('out', nargs='?', default='demo_output',
                         help='folder for the bag, calibration, results and plot '
                              '(default: %(default)s)')
     add_force_argument(parser)
+    parser.add_argument('--domain-id', type=int, metavar='N',
+                        help='run on ROS domain N (default: a free one of its own)')
     parser.set_defaults(func=run)
 
 
-def isolate_dds(log_dir):
-    """Keep DDS on this host, on a domain id of this run's own; logs under ``log_dir``."""
+def choose_private_domain(exclude=(), candidates=None, listen_s=LISTEN_S):
+    """
+    Return a ROS domain id on which no other ROS node is seen, or None.
+
+    Candidates (default: 1..101 from a random start) in ``exclude`` are
+    skipped; each is listened to for ``listen_s`` with a node of its own.
+    """
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.signals import SignalHandlerOptions
+
+    if candidates is None:
+        first = random.randrange(len(DOMAIN_IDS))
+        candidates = list(DOMAIN_IDS[first:]) + list(DOMAIN_IDS[:first])
+    for domain in candidates:
+        if domain in exclude:
+            continue
+        context = Context()
+        rclpy.init(context=context, domain_id=domain,
+                   signal_handler_options=SignalHandlerOptions.NO)
+        try:
+            node = rclpy.create_node('inclino_demo_listener', context=context,
+                                     start_parameter_services=False, enable_rosout=False)
+            time.sleep(listen_s)   # DDS discovery runs in its own threads
+            others = [name for name in node.get_node_names() if name != node.get_name()]
+            node.destroy_node()
+        finally:
+            rclpy.try_shutdown(context=context)
+        if not others:
+            return domain
+    return None
+
+
+def isolate_dds(log_dir, domain_id=None):
+    """
+    Keep DDS on this host and on a domain of this run's own; say which.
+
+    ``domain_id`` None: a free one (``choose_private_domain``); RuntimeError
+    when none is found.  Logs go under ``log_dir``.
+    """
     os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
-    os.environ.setdefault('ROS_DOMAIN_ID', str(1 + os.getpid() % 100))
     os.environ['ROS_LOG_DIR'] = log_dir
+    shell = os.environ.get('ROS_DOMAIN_ID')
+    if domain_id is not None:
+        print(f'== ROS domain {domain_id} (given with --domain-id), this host only')
+    else:
+        exclude = {int(shell)} if shell and shell.isdigit() else {0}
+        domain_id = choose_private_domain(exclude)
+        if domain_id is None:
+            raise RuntimeError('no free ROS domain found: give one with --domain-id')
+        print(f'== ROS domain {domain_id}: a private one (no other ROS node seen on it), this '
+              f'host only; ROS_DOMAIN_ID of this shell ({shell or "unset"}) not used '
+              '(--domain-id N to choose)')
+    os.environ['ROS_DOMAIN_ID'] = str(domain_id)
+    return domain_id
 
 
 def accelerometer_noise_mps2(truth):
@@ -71,77 +146,60 @@ def start_node(calibration_file, log_path, noise_std_mps2):
         stdout=log, stderr=subprocess.STDOUT)
 
 
-class LiveSession:
+class DemoSession(LiveSession):
     """The demo's own rclpy node: replays bag segments, records the node's surveys."""
 
     def __init__(self):
         """Create the publisher, the survey recorder and the service client."""
-        import rclpy
         from geometry_msgs.msg import Vector3Stamped
-        from rclpy.executors import SingleThreadedExecutor
         from rclpy.qos import QoSProfile
         from sensor_msgs.msg import Imu
         from std_srvs.srv import Trigger
 
-        rclpy.init()
-        self.node = rclpy.create_node('inclino_demo')
+        super().__init__('inclino_demo')
         self.publisher = self.node.create_publisher(Imu, 'imu/data_raw', QoSProfile(depth=1000))
         self.surveys = {}
         self.survey_sub = self.node.create_subscription(
             Vector3Stamped, 'survey', self._on_survey, QoSProfile(depth=1000))
         self.client = self.node.create_client(Trigger, '/inclinometer/calibrate_level')
         self.trigger = Trigger.Request
-        self.executor = SingleThreadedExecutor()
-        self.executor.add_node(self.node)
 
     def _on_survey(self, msg):
         stamp_ns = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
-        self.surveys[stamp_ns] = (msg.vector.x, msg.vector.y)
-
-    def spin(self, seconds):
-        """Process callbacks for ``seconds``."""
-        end = time.monotonic() + seconds
-        while (left := end - time.monotonic()) > 0:
-            self.executor.spin_once(timeout_sec=min(left, 0.01))
+        self.surveys[stamp_ns] = (msg.vector.x, msg.vector.y, msg.vector.z)
 
     def wait_for_node(self, timeout_s=30.0):
         """Wait until the node's subscription, survey and service are matched."""
-        end = time.monotonic() + timeout_s
-        while time.monotonic() < end:
-            if (self.publisher.get_subscription_count() and self.client.service_is_ready()
-                    and self.survey_sub.get_publisher_count()):
-                self.spin(0.3)
-                return
-            self.spin(0.05)
-        raise RuntimeError('inclinometer_node did not come up')
+        if not self.spin_until(lambda: (self.publisher.get_subscription_count()
+                                        and self.client.service_is_ready()
+                                        and self.survey_sub.get_publisher_count()),
+                               timeout_s):
+            raise RuntimeError('inclinometer_node did not come up')
+        self.spin(0.3)
+
+    def play(self, series):
+        """Publish an ImuSeries with its timing (RATE times faster)."""
+        publish_timed(Timeline.of([('imu/data_raw', IMU, series)]),
+                      {'imu/data_raw': self.publisher}, RATE,
+                      lambda seconds: self.spin(min(seconds, 0.01)))
 
     def replay(self, series):
-        """Publish an ImuSeries with its timing; return the node's surveys of it."""
-        from inclino_ros.cli.play import publish_timed
+        """Publish an ImuSeries with its timing; return the node's surveys of it (N, 3)."""
         self.surveys = {}
-        publish_timed(self.publisher, [series], RATE, lambda s: self.spin(min(s, 0.01)))
+        self.play(series)
         self.spin(0.5)
-        answers = [self.surveys.get(stamp, (np.nan, np.nan)) for stamp in series.stamps_ns]
-        received = sum(not np.isnan(a[0]) for a in answers)
-        print(f'   {received} of {series.stamps_ns.size} surveys received')
+        answers = np.array([self.surveys.get(stamp, (np.nan,) * 3)
+                            for stamp in series.stamps_ns.tolist()])
+        print(f'   {np.count_nonzero(np.isfinite(answers[:, 0]))} of {series.stamps_ns.size} '
+              'surveys received')
         return answers
 
     def calibrate_during(self, series):
         """Call ~/calibrate_level while the level segment plays; return the answer."""
-        from inclino_ros.cli.play import publish_timed
         future = self.client.call_async(self.trigger())
-        publish_timed(self.publisher, [series], RATE, lambda s: self.spin(min(s, 0.01)))
-        end = time.monotonic() + 15.0
-        while not future.done() and time.monotonic() < end:
-            self.spin(0.05)
+        self.play(series)
+        self.spin_until(future.done, 15.0)
         return future.result() if future.done() else None
-
-    def close(self):
-        """Destroy the node and shut rclpy down."""
-        import rclpy
-        self.executor.shutdown()
-        self.node.destroy_node()
-        rclpy.try_shutdown()
 
 
 def segment(series, mask):
@@ -150,33 +208,28 @@ def segment(series, mask):
     return type(series)(*(getattr(series, f.name)[mask] for f in fields(series)))
 
 
-def angle_error_deg(a, b):
-    """Return a - b wrapped to [-180, 180) degrees."""
-    return (np.asarray(a) - np.asarray(b) + 180.0) % 360.0 - 180.0
+def station_table(truth, answers):
+    """
+    Return one row per station: truth and the mean raw/corrected/offline answers.
 
-
-def station_table(truth, stamps_ns, seg, raw, corrected, offline):
-    """Return one row per station: truth and the mean raw/corrected/offline answers."""
-    rows = []
-    for entry in truth['segments'][1:]:
-        k = entry['index']
-        mask = seg == k
-        row = {'station': k, 'true_inclination_deg': entry['inclination_deg'],
-               'true_toolface_deg': entry['toolface_deg']}
-        for name, values in (('raw', raw), ('corrected', corrected), ('offline', offline)):
-            incl = np.array([v[0] for v, m in zip(values, mask) if m])
-            tf = np.array([v[1] for v, m in zip(values, mask) if m])
-            row[f'{name}_inclination_deg'] = float(np.nanmean(incl))
-            row[f'{name}_toolface_deg'] = float(
-                (entry['toolface_deg'] + np.nanmean(angle_error_deg(tf, entry['toolface_deg'])))
-                % 360.0)
-            row[f'{name}_samples'] = int(np.count_nonzero(~np.isnan(incl)))
-        rows.append(row)
+    ``truth`` (N, 3) of the station samples; ``answers`` maps raw, corrected,
+    offline to (N, 3) aligned answers (NaN where none came).
+    """
+    rows = None
+    for name, values in answers.items():
+        per_station = station_rows(truth, values, min_inclination_deg=0.0)
+        rows = rows or [{'station': k + 1, 'true_inclination_deg': r['true_inclination_deg'],
+                         'true_toolface_deg': r['true_toolface_deg']}
+                        for k, r in enumerate(per_station)]
+        for row, r in zip(rows, per_station):
+            row.update({f'{name}_inclination_deg': r['inclination_deg'],
+                        f'{name}_toolface_deg': r['toolface_deg'],
+                        f'{name}_samples': r['samples']})
     return rows
 
 
 def print_table(rows):
-    """Print raw vs corrected vs true per station, and the worst errors."""
+    """Print raw vs corrected vs true per station."""
     print(f'{"st":>3} {"true I":>8} {"raw I":>8} {"corr I":>8} {"err raw":>8} '
           f'{"err corr":>9} | {"true TF":>8} {"raw TF":>8} {"corr TF":>8} {"err raw":>8} '
           f'{"err corr":>9}   [deg]')
@@ -191,28 +244,43 @@ def print_table(rows):
 
 
 def plot(rows, path):
-    """Write the raw and corrected errors per station as a PNG."""
+    """
+    Write the signed errors per station as a PNG: raw, live corrected, offline, targets.
+
+    Inclination target: +-TARGET_DEG; toolface: the error a tilt of TARGET_DEG
+    causes, TARGET_DEG / sin(I).  A symmetric-log axis shows degrees and
+    thousandths of a degree on one scale.
+    """
     import matplotlib
     matplotlib.use('Agg')
     from matplotlib import pyplot
 
     true_i = np.array([r['true_inclination_deg'] for r in rows])
-    fig, (ax_i, ax_t) = pyplot.subplots(2, 1, figsize=(8, 7), sharex=True)
-    for name, marker in (('raw', 'o'), ('corrected', 's')):
+    true_t = [r['true_toolface_deg'] for r in rows]
+    fig, (ax_i, ax_t) = pyplot.subplots(2, 1, figsize=(8, 8), sharex=True)
+    for name, style, label in (
+            ('raw', {'marker': 'o', 'color': 'tab:red'}, 'live, uncalibrated'),
+            ('corrected', {'marker': 's', 'color': 'tab:green'}, 'live, after ~/calibrate_level'),
+            ('offline', {'marker': 'D', 'markersize': 10, 'markerfacecolor': 'none',
+                         'color': 'tab:blue'}, 'offline, inclino process')):
         err_i = np.array([r[f'{name}_inclination_deg'] for r in rows]) - true_i
-        err_t = angle_error_deg([r[f'{name}_toolface_deg'] for r in rows],
-                                [r['true_toolface_deg'] for r in rows])
-        ax_i.plot(true_i, np.abs(err_i), marker, label=name)
-        ax_t.plot(true_i, np.abs(err_t), marker, label=name)
-    ax_i.set_ylabel('|inclination error| [deg]')
-    ax_t.set_ylabel('|toolface error| [deg]')
-    ax_t.set_xlabel('true inclination [deg]')
-    for ax in (ax_i, ax_t):
+        err_t = angle_error_deg([r[f'{name}_toolface_deg'] for r in rows], true_t)
+        ax_i.plot(true_i, err_i, linestyle='', label=label, **style)
+        ax_t.plot(true_i, err_t, linestyle='', label=label, **style)
+    grid = np.geomspace(true_i.min(), true_i.max(), 200)
+    target_t = np.degrees(np.arctan(np.tan(np.radians(TARGET_DEG)) / np.sin(np.radians(grid))))
+    for ax, target, text in ((ax_i, np.full_like(grid, TARGET_DEG), f'target +-{TARGET_DEG} deg'),
+                             (ax_t, target_t, f'target: a {TARGET_DEG} deg tilt error')):
+        ax.fill_between(grid, -target, target, color='tab:green', alpha=0.15, label=text)
+        ax.axhline(0.0, color='black', linewidth=0.8)
         ax.set_xscale('log')
-        ax.set_yscale('log')
+        ax.set_yscale('symlog', linthresh=1e-3)
         ax.grid(True, which='both', alpha=0.3)
-        ax.legend()
-    ax_i.set_title('inclino_ros demo: node output before and after ~/calibrate_level')
+        ax.legend(fontsize='small')
+    ax_i.set_ylabel('inclination error [deg]')
+    ax_t.set_ylabel('toolface error [deg]')
+    ax_t.set_xlabel('true inclination of the station [deg]')
+    ax_i.set_title('inclino_ros demo: signed error per station (mean of its samples)')
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     pyplot.close(fig)
@@ -220,7 +288,6 @@ def plot(rows, path):
 
 def run(args):
     """Run the demo; exit 0 when the corrected answers beat the raw ones."""
-    from inclino_ros.io.bag import concatenate, read
     from inclino_ros.cli.main import main as inclino
 
     out = os.path.abspath(args.out)
@@ -229,51 +296,57 @@ def run(args):
         outputs.check(os.path.join(out, name))
     force = ['--force'] if args.force else []
     os.makedirs(out, exist_ok=True)
-    isolate_dds(tempfile.mkdtemp(prefix='log-', dir=out))
+    try:
+        isolate_dds(tempfile.mkdtemp(prefix='log-', dir=out), args.domain_id)
+    except RuntimeError as err:
+        print(f'inclino demo: error: {err}', file=sys.stderr)
+        return 2
     bag_path = os.path.join(out, 'bench')
     calibration_file = os.path.join(out, 'calibration.json')
+    processed = os.path.join(out, 'processed')
     if os.path.exists(calibration_file):  # --force: the node must start uncalibrated
         os.unlink(calibration_file)
     print('== 1. simulate')
     if inclino(['simulate', bag_path] + force) != 0:
         return 2
     with open(f'{bag_path}.truth.json') as stream:
-        truth = json.load(stream)
+        truth_doc = json.load(stream)
+    segments = truth_doc['segments']
     series = concatenate(read(bag_path, '/imu/data_raw'))
-    seg = np.repeat(np.arange(len(truth['segments'])),
-                    [s['samples'] for s in truth['segments']])
+    truth = concatenate(read(bag_path, '/truth/survey')).vector
+    seg = np.repeat(np.arange(len(segments)), [s['samples'] for s in segments])
     stations = segment(series, seg > 0)
 
-    print(f'== 2. start inclinometer_node (ROS_DOMAIN_ID={os.environ["ROS_DOMAIN_ID"]})')
-    noise_std_mps2 = accelerometer_noise_mps2(truth)
+    print('== 2. start inclinometer_node')
+    noise_std_mps2 = accelerometer_noise_mps2(truth_doc)
     node = start_node(calibration_file, os.path.join(out, 'node.log'), noise_std_mps2)
-    session = LiveSession()
     try:
-        session.wait_for_node()
-        print(f'== 3. replay {len(truth["segments"]) - 1} stations uncalibrated ({RATE}x)')
-        raw = session.replay(stations)
-        print('== 4. replay the level segment and call ~/calibrate_level')
-        answer = session.calibrate_during(segment(series, seg == 0))
-        print(f'   {answer.message if answer else "no answer"}')
-        if answer is None or not answer.success:
-            return 1
-        print('== 5. replay the stations calibrated')
-        corrected = session.replay(stations)
+        with DemoSession() as session:
+            session.wait_for_node()
+            print(f'== 3. replay {len(segments) - 1} stations uncalibrated ({RATE}x)')
+            raw = session.replay(stations)
+            print('== 4. replay the level segment and call ~/calibrate_level')
+            answer = session.calibrate_during(segment(series, seg == 0))
+            print(f'   {answer.message if answer else "no answer"}')
+            if answer is None or not answer.success:
+                return 1
+            print('== 5. replay the stations calibrated')
+            corrected = session.replay(stations)
     finally:
-        session.close()
         node.send_signal(signal.SIGINT)
         node.wait(timeout=10)
     print('== 6. inclino process (offline) with the new calibration')
-    processed = os.path.join(out, 'processed')
     if inclino(['process', bag_path, processed, '--calibration', calibration_file,
                 '--noise-mps2', str(noise_std_mps2)] + force) != 0:
         return 2
     offline_series = concatenate(read(processed, '/survey'))
     offline_by_stamp = dict(zip(offline_series.stamps_ns.tolist(),
-                                map(tuple, offline_series.vector[:, :2])))
-    offline = [offline_by_stamp.get(s, (np.nan, np.nan)) for s in stations.stamps_ns.tolist()]
+                                map(tuple, offline_series.vector)))
+    offline = np.array([offline_by_stamp.get(s, (np.nan,) * 3)
+                        for s in stations.stamps_ns.tolist()])
 
-    rows = station_table(truth, stations.stamps_ns, seg[seg > 0], raw, corrected, offline)
+    rows = station_table(truth[seg > 0], {'raw': raw, 'corrected': corrected,
+                                          'offline': offline})
     print('== 7. results (mean of each station)')
     print_table(rows)
     worst = {name: max(abs(r[f'{name}_inclination_deg'] - r['true_inclination_deg'])

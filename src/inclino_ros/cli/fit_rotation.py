@@ -17,10 +17,12 @@ are kept.  Report: the readings before and after with the fitted ellipse and
 circle (seed 002 Fig. 4) in ``fit_rotation.png`` and the summary in
 ``fit_rotation.txt``.
 
-Refused (exit 1, the calibration file untouched): readings that are no
-Earth field in nT (``plausibility.check_field_readings``: a dead
-magnetometer, tesla or gauss named), too few readings, a non-finite one, no
-ellipse, too flat an ellipse, too short an arc or too large a radial RMSE
+Readings without a value (NaN, as some drivers publish between two
+measurements) are left out and counted.  Refused (exit 1, the calibration
+file untouched): readings that are no Earth field in nT
+(``plausibility.check_field_readings``: a dead magnetometer, tesla or gauss
+named), too few readings, none finite, no ellipse, too flat an ellipse, too
+short an arc or too large a radial RMSE
 (``cross_axial.RotationLimits``).
 """
 
@@ -31,7 +33,9 @@ from inclino_ros.calibration.plausibility import check_field_readings
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_file_arguments, finish_figure, is_bag, load_existing, new_figure, read_csv, read_topic,
-    Refused, report_paths, run_fit, save, write_text)
+    Refused, report_paths, run_fit, save, tool_axes, write_text)
+from inclino_ros.cli.helptext import add_command
+from inclino_ros.cli.mounting import add_axes_map_arguments
 from inclino_ros.cli.options import finite
 from inclino_ros.core.cross_axial import apply_cross_axial, fit_cross_axial, RotationFitRefused
 import numpy as np
@@ -45,10 +49,23 @@ CURVE_POINTS = 361
 
 def register(subparsers):
     """Add the ``fit-rotation`` subcommand."""
-    parser = subparsers.add_parser(
-        'fit-rotation',
-        help='fit the cross-axial magnetometer correction of a rotation (seed 002) into a '
-             'calibration file', description=__doc__.split('\n\n', 1)[1])
+    parser = add_command(
+        subparsers, 'fit-rotation',
+        'fit the magnetometer hard and soft iron of a rotation (seed 002) into a calibration '
+        'file',
+        'Fit the cross-axial magnetometer correction of seed 002, hard iron c and soft iron W '
+        '(B = W (m - c) across the tool), from a rotation of the tool about its own axis at '
+        'one attitude, and write it into the calibration file.',
+        'Input: a bag with sensor_msgs/MagneticField on --mag-topic (tesla), the readings from '
+        '--start-s to --end-s seconds after its first message (inclino simulate --magnetic '
+        '--rotation-s records one; its window is in OUT.truth.json), or a CSV with the '
+        'columns bx, by, bz (nT). Readings without a value (NaN) are left out and counted.',
+        'The drill-string interference of a multi-station analysis and every other stage are '
+        'kept. The report, fit_rotation.png (the readings, and the distance of each from the '
+        'circle before and after the correction) and fit_rotation.txt, goes beside the file '
+        'or to --report-dir.',
+        'Refused (exit 1, the file untouched): less than 270 deg of the turn covered, too flat '
+        'or too noisy an ellipse, too few readings. Exit 2: unusable input.')
     add_file_arguments(parser, 'CSV file with bx, by, bz [nT]')
     parser.add_argument('--mag-topic', default=MAG_TOPIC,
                         help='sensor_msgs/MagneticField topic of a bag (default: %(default)s)')
@@ -57,6 +74,7 @@ def register(subparsers):
     parser.add_argument('--end-s', type=finite,
                         help='bag: last reading, seconds after the first message '
                              '(default: the last message)')
+    add_axes_map_arguments(parser, 'accelerometer', 'magnetometer')
     parser.set_defaults(func=run)
 
 
@@ -84,10 +102,14 @@ def load_readings(args):
 def fit(args, lines, outputs):
     """Fit the rotation of ``args.input`` into ``args.calibration``; see ``run_fit``."""
     existing = load_existing(args.calibration, args.sensor_id)
-    raw = load_readings(args)
-    check_field_readings(raw)
+    readings = tool_axes(args, load_readings(args), 'magnetometer')
+    valued = np.isfinite(readings).all(axis=1)
+    if valued.any() and not valued.all():  # a driver's NaN between two measurements
+        lines.append(f'left out {np.count_nonzero(~valued)} readings without a value (NaN)')
+        readings = readings[valued]
+    check_field_readings(readings)
     # Fitted in the tool frame: after the magnetometer's own stages and the shared mount.
-    readings = existing.apply_magnetic(raw, before='magnetic')
+    readings = existing.apply_magnetic(readings, before='magnetic')
     try:
         result = fit_cross_axial(readings)
     except RotationFitRefused as err:
@@ -121,10 +143,17 @@ def summary_lines(result, readings):
 
 
 def plot_rotation(path, readings, corrected, result):
-    """Plot the cross-axial readings before (with the ellipse) and after (with the circle)."""
+    """
+    Plot the rotation: the cross-axial readings, then their distance from the circle.
+
+    On the first panel the correction (tens of nT on a circle of tens of
+    thousands) cannot be seen; the second shows, per reading, its radius minus
+    the circle's before (about the origin: what the raw magnetometer gives) and
+    after the correction (the fit's residual), against the angle it was read at.
+    """
     pyplot, fig, axes = new_figure(2, 'inclino fit-rotation: cross-axial readings of one '
                                       'rotation (seed 002 Fig. 4)')
-    fig.set_size_inches(7, 13)
+    fig.set_size_inches(8, 12)
     angle = np.linspace(0.0, 2.0 * np.pi, CURVE_POINTS)
     unit = np.stack([np.cos(angle), np.sin(angle)], axis=1) * result.radius_nT
     ellipse = result.offset_nT + unit @ np.linalg.inv(result.correction).T
@@ -134,12 +163,21 @@ def plot_rotation(path, readings, corrected, result):
                  label=f'fitted ellipse, axis ratio {result.axis_ratio:.4f}')
     axes[0].plot(*result.offset_nT, 'k+', markersize=12,
                  label=f'centre c = ({result.offset_nT[0]:.1f}, {result.offset_nT[1]:.1f}) nT')
-    axes[1].plot(corrected[:, 0], corrected[:, 1], '.', color='tab:green', markersize=3,
-                 label='W (m - c)')
-    axes[1].plot(unit[:, 0], unit[:, 1], color='black', linewidth=1,
-                 label=f'circle r = {result.radius_nT:.1f} nT, RMSE {result.rmse_nT:.2f} nT')
-    for ax in axes:
-        ax.set_aspect('equal', adjustable='datalim')
-        ax.set_xlabel('Bx (tool) [nT]')
-        ax.set_ylabel('By (tool) [nT]')
+    axes[0].plot(corrected[:, 0], corrected[:, 1], '.', color='tab:green', markersize=2,
+                 label='corrected, W (m - c)')
+    axes[0].set_aspect('equal', adjustable='datalim')
+    axes[0].set_xlabel('Bx (tool) [nT]')
+    axes[0].set_ylabel('By (tool) [nT]')
+    read_at_deg = np.degrees(np.arctan2(corrected[:, 1], corrected[:, 0])) % 360.0
+    before = np.hypot(readings[:, 0], readings[:, 1]) - result.radius_nT
+    after = np.hypot(corrected[:, 0], corrected[:, 1]) - result.radius_nT
+    axes[1].plot(read_at_deg, before, '.', color='tab:red', markersize=3,
+                 label=f'raw: |m| - r (hard iron |c| = {np.hypot(*result.offset_nT):.1f} nT)')
+    axes[1].plot(read_at_deg, after, '.', color='tab:green', markersize=3,
+                 label=f'corrected: |W (m - c)| - r, residual RMSE {result.rmse_nT:.1f} nT')
+    axes[1].axhline(0.0, color='black', linewidth=0.8)
+    axes[1].set_xlim(0.0, 360.0)
+    axes[1].set_xticks(np.arange(0, 361, 45))
+    axes[1].set_xlabel('direction of the corrected cross-axial field [deg]')
+    axes[1].set_ylabel(f'distance from the circle r = {result.radius_nT:.0f} nT [nT]')
     finish_figure(pyplot, fig, axes, path)

@@ -57,7 +57,8 @@ from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_common_arguments, AXIS_COLUMNS, finish_figure, has_topic, is_bag, load_existing,
     matrix_lines, new_figure, NODE_DEFAULTS, node_option, read_csv, read_topic, Refused,
-    report_paths, run_fit, sample_temperatures, save, write_text)
+    report_paths, run_fit, sample_temperatures, save, tool_axes, write_text)
+from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.options import between, node_parameter
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core.attitude import inclination
@@ -76,9 +77,28 @@ FIELD_COLUMNS = ('bx', 'by', 'bz')
 
 def register(subparsers):
     """Add the ``fit-stand`` subcommand."""
-    parser = subparsers.add_parser(
-        'fit-stand', help='fit the stand calibration K, b (seed 001) into a calibration file',
-        description=__doc__.split('\n\n', 1)[1])
+    parser = add_command(
+        subparsers, 'fit-stand',
+        'fit the stand calibration K, b (seed 001) into a calibration file',
+        'Fit the stand calibration of seed 001, the 3x3 scale and misalignment matrix K and '
+        'the bias b of the accelerometer (A = K G + b), and write it into the calibration '
+        'file.',
+        'Input: the tool held still at several known attitudes on a stand (six or more, well '
+        'spread; nine are typical): a bag with the raw sensor on /imu/data_raw and the stand '
+        'attitude on /stand/attitude (what inclino simulate --stand writes), or a CSV with the '
+        'columns inclination_deg, toolface_deg, ax, ay, az (m/s^2, one row per sample or per '
+        'averaged position; optional temperature_c). Samples of one attitude are averaged into '
+        'one position.',
+        '--method sphere needs no attitudes: it fits |G| = g over readings in many '
+        'orientations. It cannot see how the sensor is turned in the tool: calibrate the '
+        'level bench afterwards.',
+        'A temperature stage already in the file is applied to the readings first. The stand '
+        'stage replaces the old one and drops the level-bench stage (K holds the mounting '
+        'error). The report, fit_stand.png and fit_stand.txt, goes beside the file or to '
+        '--report-dir.',
+        'Refused (exit 1, the file untouched): too few or repeated positions, the tool moved '
+        'at a position (spread above --max-std-deg), or the fit does not reproduce its '
+        'positions within --max-rms-deg. Exit 2: unusable input.')
     add_common_arguments(parser)
     parser.add_argument('--method', choices=('stand', 'sphere'), default='stand',
                         help='stand: known attitudes; sphere: |G| = g only (default: '
@@ -119,6 +139,7 @@ def fit(args, lines, outputs):
     """Fit the stand stage of ``args.input`` into ``args.calibration``; see ``run_fit``."""
     existing = load_existing(args.calibration, args.sensor_id)
     readings, attitude_deg, temperature_c, times_s, fields = load_input(args)
+    readings, fields = tool_axes(args, readings), tool_axes(args, fields, 'magnetometer')
     check_accelerometer_readings(readings, args.gravity_mps2)
     stood_for_c = readings_temperature_c(
         existing.temperature, None if temperature_c is None else float(np.mean(temperature_c)))
@@ -377,8 +398,8 @@ def plot_positions(path, raw_deg, after_deg, rms_deg):
     axes[1].bar(position, after_deg, color='tab:green',
                 label=f'after K^-1 (A - b), RMS {rms_deg:.2g} deg')
     axes[1].set_ylabel('residual [deg]')
-    axes[1].set_xlabel('stand position')
     for ax in axes:
+        ax.set_xlabel('stand position [number]')
         ax.set_xticks(position)
         ax.axhline(0.0, color='black', linewidth=0.8)
     finish_figure(pyplot, fig, axes, path)
@@ -393,5 +414,6 @@ def plot_readings(path, raw_mps2, after_mps2):
                  label='after K^-1 (A - b)')
     for ax in axes:
         ax.set_ylabel('|G| - g [m/s^2]')
-    axes[1].set_xlabel('reading')
+    for ax in axes:
+        ax.set_xlabel('reading [number]')
     finish_figure(pyplot, fig, axes, path)

@@ -46,7 +46,8 @@ from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_common_arguments, finish_figure, is_bag, load_existing, matrix_lines, new_figure,
     node_option, read_csv, read_topic, Refused, report_paths, run_fit, sample_temperatures,
-    save, write_text)
+    save, tool_axes, write_text)
+from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.options import between
 from inclino_ros.core.attitude import angle_between, inclination
 from inclino_ros.core.temperature import (
@@ -69,10 +70,27 @@ TRIADS = {
 
 def register(subparsers):
     """Add the ``fit-temperature`` subcommand."""
-    parser = subparsers.add_parser(
-        'fit-temperature',
-        help='fit the temperature drift (bias and K_T(T), seed 001) into a calibration file',
-        description=__doc__.split('\n\n', 1)[1])
+    parser = add_command(
+        subparsers, 'fit-temperature',
+        'fit the temperature drift (bias and K_T(T), seed 001) into a calibration file',
+        'Fit how each axis of the accelerometer (or, with --triad magnetometer, of the '
+        'magnetometer) drifts with temperature and write it into the calibration file. Heated '
+        'at two or more attitudes, each axis gets a bias and a scale drift (A_T = K_T(T) A + '
+        "B_T(T)); at one attitude only seed 001's scale factor K_T(T), a polynomial that is 1 "
+        'at 25 C, and the report says that a bias drift cannot be seen.',
+        'Input: the tool held still at one or more attitudes while it heats through 25 C: a '
+        'bag with the raw sensor on /imu/data_raw (--mag-topic for the magnetometer) and '
+        'sensor_msgs/Temperature on /imu/temperature (what inclino simulate --heating writes), '
+        'or a CSV with the columns temperature_c, ax, ay, az (bx, by, bz in nT for the '
+        'magnetometer), optional attitude (a label per row) or ref_ax, ref_ay, ref_az (the '
+        'reading at 25 C). Without them a one-attitude reference is the mean reading within '
+        '--reference-window-c of 25 C.',
+        'The stage compensates to the temperature the later stages stood for; it replaces the '
+        'old one of its triad, every other stage is kept. The report, fit_temperature.png and '
+        'fit_temperature.txt, goes beside the file or to --report-dir.',
+        'Refused (exit 1, the file untouched): no reading near 25 C for a one-attitude fit, '
+        'too few distinct temperatures for --order, an axis that sees no gravity, or later '
+        'stages captured at different temperatures. Exit 2: unusable input.')
     add_common_arguments(parser)
     parser.add_argument('--triad', choices=sorted(TRIADS), default='accelerometer',
                         help='which sensor triad (default: %(default)s)')
@@ -104,6 +122,8 @@ def fit(args, lines, outputs):
     _, _, unit, section, later = TRIADS[args.triad]
     existing = load_existing(args.calibration, args.sensor_id)
     temperature_c, readings, reference, attitude = load_input(args)
+    readings = tool_axes(args, readings, args.triad)
+    reference = tool_axes(args, reference, args.triad)
     if args.triad == 'accelerometer':
         check_accelerometer_readings(readings, STANDARD_GRAVITY_MPS2)
     else:
@@ -322,5 +342,6 @@ def plot(path, temperature_c, result, before, after, what):
     axes[2].plot(temperature_c, after, '.', color='tab:green', markersize=2,
                  label=f'compensated, largest {np.abs(after).max():.4f} deg')
     axes[2].set_ylabel(f'{what} [deg]')
-    axes[2].set_xlabel('temperature [deg C]')
+    for ax in axes:
+        ax.set_xlabel('temperature [deg C]')
     finish_figure(pyplot, fig, axes, path)

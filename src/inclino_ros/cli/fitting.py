@@ -18,7 +18,9 @@ from inclino_ros.calibration.model import (
     CalibrationFileError, CalibrationModel, check_sensor, load_model, save_model)
 from inclino_ros.calibration.plausibility import Implausible
 from inclino_ros.cli.errors import CommandError
+from inclino_ros.cli.mounting import add_axes_map_arguments, axes_matrix
 from inclino_ros.cli.options import node_parameter
+from inclino_ros.core.mounting import to_tool_axes
 from inclino_ros.io import tables
 from inclino_ros.io.bag import BagError, concatenate, read, topic_info
 from inclino_ros.io.files import Outputs
@@ -53,6 +55,12 @@ def add_common_arguments(parser):
                         help='sensor_msgs/Imu topic of a bag (default: %(default)s)')
     parser.add_argument('--temperature-topic', default=TEMPERATURE_TOPIC,
                         help='sensor_msgs/Temperature topic of a bag (default: %(default)s)')
+    add_axes_map_arguments(parser, 'accelerometer', 'magnetometer')
+
+
+def tool_axes(args, readings, sensor='accelerometer'):
+    """Return sensor readings (N, 3) turned into the tool axes by ``--<sensor>-axes-map``."""
+    return None if readings is None else to_tool_axes(readings, axes_matrix(args, sensor))
 
 
 def is_bag(path):
@@ -114,24 +122,27 @@ def add_sensor_argument(parser):
                              'refused; a new or unnamed file is stamped with it (default: none)')
 
 
-def load_existing(path, sensor_id=None):
+def load_existing(path, sensor_id=None, axes=3):
     """
-    Return the model in ``path``, a new three-axis one if there is none.
+    Return the model in ``path``, a new ``axes``-axis one if there is none.
 
-    A file of another sensor than ``sensor_id`` is a CommandError
-    (``model.check_sensor``); the model returned names ``sensor_id`` (if given).
+    CommandError for a file that cannot be used, or that is for another
+    number of accelerometer axes (``axes`` None: any).  A file of another
+    sensor than ``sensor_id`` is a CommandError (``model.check_sensor``); the
+    model returned names ``sensor_id`` (if given).
     """
     try:
         model = load_model(path)
         check_sensor(model, sensor_id, path)
     except FileNotFoundError:
-        return CalibrationModel(accelerometer_axes=3, sensor_id=sensor_id or None)
+        return CalibrationModel(accelerometer_axes=axes or 3, sensor_id=sensor_id or None)
     except (CalibrationFileError, OSError) as err:
         raise CommandError(str(err)) from None
     model = replace(model, sensor_id=sensor_id or model.sensor_id)
-    if model.accelerometer_axes != 3:
-        raise CommandError(f'{path} is for a {model.accelerometer_axes}-axis accelerometer; '
-                           'stand and temperature stages need three axes')
+    if axes is not None and model.accelerometer_axes != axes:
+        raise CommandError(f'{path} is for a {model.accelerometer_axes}-axis accelerometer, '
+                           f'not {axes} axes' + ('; stand and temperature stages need three'
+                                                 if axes == 3 else ''))
     return model
 
 

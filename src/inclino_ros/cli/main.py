@@ -19,12 +19,14 @@ import importlib
 import sys
 
 from inclino_ros.cli.errors import CommandError
+from inclino_ros.cli.mounting import attach_map_values
 from inclino_ros.io.bag import BagError
 from inclino_ros.io.files import OutputError
 from inclino_ros.io.tables import TableError
 
-COMMANDS = ('simulate', 'process', 'play', 'calibrate', 'demo', 'fit-stand', 'fit-temperature',
-            'msa', 'simulate-well', 'fit-rotation', 'fit-magnetometer', 'survey')
+COMMANDS = ('simulate', 'process', 'compare', 'play', 'calibrate', 'call', 'param', 'monitor',
+            'demo', 'fit-level', 'fit-stand', 'fit-temperature', 'msa', 'simulate-well',
+            'fit-rotation', 'fit-magnetometer', 'survey')
 #: Errors of an input, option or output that cannot be used: exit code 2.
 USAGE_ERRORS = (CommandError, BagError, OutputError, TableError, OSError)
 #: Exit code of a command stopped by Ctrl-C (128 + SIGINT, as a shell reports it).
@@ -36,6 +38,7 @@ def _top_parser():
     parser = argparse.ArgumentParser(
         prog='inclino',
         description='Inclinometer correction tools of inclino_ros (no ros2 CLI needed).')
+    parser.add_argument('--version', action='version', version=f'inclino {version()}')
     parser.add_argument('--debug', action='store_true',
                         help='show the traceback of an unexpected error')
     return parser, parser.add_subparsers(dest='command', required=True)
@@ -65,9 +68,18 @@ def build_command_parser(argv):
     return build_parser()
 
 
+def version():
+    """Return the installed version of inclino_ros."""
+    from importlib.metadata import PackageNotFoundError, version as installed
+    try:
+        return installed('inclino_ros')
+    except PackageNotFoundError:
+        return 'unknown (not installed)'
+
+
 def main(argv=None):
     """Run one subcommand; return its exit code (2 unusable input, 1 unexpected, 130 Ctrl-C)."""
-    argv = sys.argv[1:] if argv is None else list(argv)
+    argv = attach_map_values(sys.argv[1:] if argv is None else list(argv))
     try:
         args = build_command_parser(argv).parse_args(argv)
     except SystemExit as done:  # --help, or a usage error argparse has printed

@@ -4,7 +4,7 @@
 Input: a CSV with a header row and the columns ``gx, gy, gz`` (gravity
 vector, any consistent unit) and ``bx, by, bz`` (nT), one row per station,
 in the ISCWSA survey frame (x, y cross-axial, z toward the bit); optional
-``md`` and ``true_azimuth_deg`` (the magnetic azimuth known otherwise, e.g.
+``md`` (measured depth, m) and ``true_azimuth_deg`` (the magnetic azimuth known otherwise, e.g.
 of a simulation: the report then plots the error).
 
 Methods (``inclino_ros.core.msa``): ``improved`` (default, seed 002 Eqs. 23-33:
@@ -70,6 +70,7 @@ from inclino_ros.calibration.plausibility import check_field_readings, Implausib
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_sensor_argument, finish_figure, load_existing, new_figure, read_csv, Refused, save)
+from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.options import add_force_argument, between, non_negative, report_path
 from inclino_ros.cli.process import add_limit_arguments
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
@@ -92,9 +93,28 @@ CURVE_POINTS = 401
 
 def register(subparsers):
     """Add the ``msa`` subcommand."""
-    parser = subparsers.add_parser(
-        'msa', help='correct magnetic azimuths by multi-station analysis (seed 002)',
-        description=__doc__.split('\n\n', 1)[1])
+    parser = add_command(
+        subparsers, 'msa', 'correct magnetic azimuths by multi-station analysis (seed 002)',
+        'Correct the magnetic azimuths of a survey for the magnetisation of the drill string '
+        'by multi-station analysis (seed 002): find the interference that makes the field of '
+        'every station agree with the reference field, and remove it.',
+        'Input: a CSV, one row per survey station, with gx, gy, gz (gravity, any unit) and '
+        'bx, by, bz (nT) in the ISCWSA survey frame (x, y across the tool, z toward the bit), '
+        'optionally md (measured depth, m) and true_azimuth_deg (a known azimuth, e.g. of a '
+        'simulation: the report plots the error). inclino simulate-well writes one.',
+        'Methods: improved (seed 002, the default), classic (Brooks: all three components), '
+        'axial (along the tool only), short-collar (each station alone; cannot be stored).',
+        'Reference field: --reference-total-nT and --reference-dip-deg, or the World Magnetic '
+        'Model at --site LAT LON ALT_M DATE.',
+        'With --calibration FILE the stations hold raw magnetometer readings: the hard and '
+        'soft iron of the file (inclino fit-rotation) are applied first, and the interference '
+        'found is stored in the file (every other stage kept) for inclino process and the '
+        'node.',
+        'Output: OUT.csv (per station the raw and corrected azimuth and the check against the '
+        'reference), OUT.csv.msa.json (the correction and its diagnostics), with --report a '
+        'PNG.',
+        'Exit 0 corrected, 1 refused (too few or too similar stations, stations failing the '
+        'check; nothing written), 2 unusable input.')
     parser.add_argument('stations', metavar='STATIONS.csv', help='station CSV (see above)')
     parser.add_argument('-o', '--output', required=True, metavar='OUT.csv',
                         help='corrected stations CSV; the corrections go to OUT.msa.json')
@@ -390,7 +410,8 @@ def plot_report(args, table, result, path):
             axes[1].fill_between(station, -std, std, color='tab:green', alpha=0.2,
                                  label='+- 1 sigma (noise, eps, reference field)')
         axes[1].set_ylabel('azimuth - truth [deg]')
-    axes[has_truth].set_xlabel('md' if 'md' in table else 'station')
+    for ax in axes[:1 + has_truth]:
+        ax.set_xlabel('measured depth [m]' if 'md' in table else 'station [number]')
     if hasattr(result, 'east_west'):
         plot_short_collar(axes[1 + has_truth:], station, result)
     else:

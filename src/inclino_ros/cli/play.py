@@ -1,103 +1,273 @@
 """
-``inclino play``: publish a bag's Imu messages with their original timing.
+``inclino play``: publish the sensor topics of a bag with their original timing.
 
 What ``ros2 bag play`` does on a full ROS 2 install, for machines that have
-rclpy from PyPI but no rosbag2.  Messages are published as recorded (stamps
-and all), paced by their header stamps, scaled by ``--rate``.
+rclpy from PyPI but no rosbag2.  Every topic of sensor_msgs/Imu,
+sensor_msgs/MagneticField and sensor_msgs/Temperature (or those named with
+``--topics``) is published as recorded, stamps and all, in the order of the
+header stamps and paced by them (scaled by ``--rate``); ``--start-s`` and
+``--end-s`` pick a window, ``--loop`` plays it again and again.  A progress
+bar shows what went out; Ctrl-C or SIGTERM stops it cleanly ("published N of
+M messages"), exit 0.
 """
 
+from dataclasses import dataclass
+import sys
 import time
 
-from inclino_ros.io.bag import read
+from inclino_ros.cli.helptext import add_command
+from inclino_ros.cli.live import LiveSession
+from inclino_ros.io.bag import (
+    BagError, concatenate, IMU, list_topics, MAGNETIC_FIELD, read, TEMPERATURE)
+import numpy as np
+
+SENSOR_TYPES = (IMU, MAGNETIC_FIELD, TEMPERATURE)
+#: Seconds, after the first topic is matched, to wait for the others' subscribers.
+MATCH_GRACE_S = 1.0
 
 
 def register(subparsers):
     """Add the ``play`` subcommand."""
-    parser = subparsers.add_parser(
-        'play', help='publish the sensor_msgs/Imu of a bag with its original timing')
-    parser.add_argument('bag', help='bag folder or file (mcap or sqlite3)')
+    parser = add_command(
+        subparsers, 'play',
+        'publish the sensor topics of a bag with their timing (ros2 bag play)',
+        'Publish a recorded bag to the running node as ros2 bag play does on a full ROS 2 '
+        'install: every sensor_msgs/Imu, MagneticField and Temperature topic (or those of '
+        '--topics), messages as recorded, stamps and all, in the order and at the pace of '
+        'their stamps (times --rate).',
+        '--start-s and --end-s pick a window (seconds after the first message), --loop plays '
+        'it again and again. A progress bar shows what went out. Ctrl-C, or SIGTERM (kill), '
+        'stops it cleanly and says how far it got (exit 0). Exit 2 when nobody subscribes '
+        'within --wait-s.')
+    parser.add_argument('bag', metavar='BAG', help='bag folder (mcap or sqlite3)')
+    parser.add_argument('--topics', nargs='+', metavar='TOPIC',
+                        help='topics to publish (default: every Imu, MagneticField and '
+                             'Temperature topic of the bag)')
     parser.add_argument('--rate', type=float, default=1.0,
-                        help='speed factor of the replay (default: %(default)s)')
-    parser.add_argument('--topic', default='/imu/data_raw',
-                        help='topic to read and publish (default: %(default)s)')
+                        help='speed factor: 2 plays twice as fast (default: %(default)s)')
+    parser.add_argument('--start-s', type=float, default=0.0, metavar='S',
+                        help='start S seconds after the first message (default: 0)')
+    parser.add_argument('--end-s', type=float, metavar='S',
+                        help='stop before S seconds after the first message (default: at the '
+                             'end)')
+    parser.add_argument('--loop', action='store_true',
+                        help='play the bag (or the window) again and again until Ctrl-C')
     parser.add_argument('--best-effort', action='store_true',
                         help='publish best-effort instead of reliable')
-    parser.add_argument('--wait-s', type=float, default=10.0,
+    parser.add_argument('--wait-s', type=float, default=10.0, metavar='S',
                         help='seconds to wait for a subscriber before playing '
                              '(default: %(default)s)')
     parser.set_defaults(func=run)
 
 
-def imu_messages(series):
-    """Yield ``(stamp_ns, sensor_msgs.msg.Imu)`` for every message of an ImuSeries."""
-    from sensor_msgs.msg import Imu
-    for i, stamp_ns in enumerate(series.stamps_ns.tolist()):
-        msg = Imu()
-        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp_ns, 1_000_000_000)
-        msg.header.frame_id = str(series.frame_ids[i])
-        o = series.orientation_xyzw[i]
-        msg.orientation.x, msg.orientation.y = float(o[0]), float(o[1])
-        msg.orientation.z, msg.orientation.w = float(o[2]), float(o[3])
-        v = series.angular_velocity_radps[i]
-        msg.angular_velocity.x, msg.angular_velocity.y, msg.angular_velocity.z = map(float, v)
-        a = series.linear_acceleration_mps2[i]
-        msg.linear_acceleration.x, msg.linear_acceleration.y, msg.linear_acceleration.z = \
-            map(float, a)
-        msg.orientation_covariance = series.orientation_covariance[i]
-        msg.angular_velocity_covariance = series.angular_velocity_covariance[i]
-        msg.linear_acceleration_covariance = series.linear_acceleration_covariance[i]
-        yield stamp_ns, msg
+@dataclass(frozen=True)
+class Timeline:
+    """Messages of several topics in stamp order: which topic, which row of its series."""
+
+    topics: tuple           # ((topic, msgtype, series), ...)
+    stamps_ns: np.ndarray   # (M,) sorted
+    topic_index: np.ndarray  # (M,) into topics
+    row: np.ndarray         # (M,) into that topic's series
+
+    @classmethod
+    def of(cls, topics):
+        """Return the Timeline of ``(topic, msgtype, series)`` triples (stable stamp order)."""
+        stamps = np.concatenate([series.stamps_ns for _, _, series in topics])
+        index = np.concatenate([np.full(series.stamps_ns.size, k)
+                                for k, (_, _, series) in enumerate(topics)])
+        row = np.concatenate([np.arange(series.stamps_ns.size) for _, _, series in topics])
+        order = np.argsort(stamps, kind='stable')
+        return cls(tuple(topics), stamps[order], index[order], row[order])
+
+    def __len__(self):
+        """Return the number of messages."""
+        return self.stamps_ns.size
+
+    def window(self, start_s=0.0, end_s=None):
+        """Return the messages from ``start_s`` up to (not at) ``end_s`` s after the first."""
+        keep = in_window(self.stamps_ns, start_s, end_s)
+        return Timeline(self.topics, self.stamps_ns[keep], self.topic_index[keep],
+                        self.row[keep])
+
+    def message(self, k):
+        """Return the ROS message of the k-th message."""
+        _, msgtype, series = self.topics[self.topic_index[k]]
+        return MESSAGES[msgtype](series, int(self.row[k]))
 
 
-def publish_timed(publisher, chunks, rate, idle):
+def in_window(stamps_ns, start_s=0.0, end_s=None):
     """
-    Publish the messages of ``chunks`` (ImuSeries) paced by their stamps.
+    Return which stamps lie from ``start_s`` up to, not at, ``end_s`` s after the first.
 
-    ``idle(seconds)`` is called while waiting for the next message's time
-    (e.g. an executor's ``spin_once``).  Returns the number published.
+    Half open, so that windows that meet (``--end-s 3``, ``--start-s 3``) share no
+    sample: a simulated segment starts exactly on its second.
     """
-    start = first_stamp_ns = None
+    offset_ns = np.asarray(stamps_ns, dtype=np.int64) - np.min(stamps_ns)
+    keep = offset_ns >= round(start_s * 1e9)
+    if end_s is not None:
+        keep &= offset_ns < round(end_s * 1e9)
+    return keep
+
+
+def load_timeline(path, topics=None):
+    """Return the Timeline of the sensor topics of the bag ``path`` (or of ``topics``)."""
+    available = list_topics(path)
+    if topics is None:
+        topics = sorted(t for t, (msgtype, count) in available.items()
+                        if msgtype in SENSOR_TYPES and count)
+        if not topics:
+            raise BagError(f'{path} has no Imu, MagneticField or Temperature topic; it has: '
+                           + ', '.join(f'{t} ({m})' for t, (m, _) in sorted(available.items())))
+    for topic in topics:
+        msgtype = available.get(topic, (None,))[0]
+        if msgtype not in SENSOR_TYPES:
+            raise BagError(f'{topic} in {path} is {msgtype or "not there"}; inclino play '
+                           f'publishes {", ".join(SENSOR_TYPES)}')
+    return Timeline.of([(topic, available[topic][0], concatenate(read(path, topic)))
+                        for topic in topics if available[topic][1]])
+
+
+def _header(msg, series, i):
+    msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(int(series.stamps_ns[i]),
+                                                            1_000_000_000)
+    msg.header.frame_id = str(series.frame_ids[i])
+    return msg
+
+
+def _vector(target, values):
+    target.x, target.y, target.z = (float(v) for v in values)
+
+
+def message_class(msgtype):
+    """Return the rclpy message class of a supported ``msgtype``."""
+    from sensor_msgs.msg import Imu, MagneticField, Temperature
+    return {IMU: Imu, MAGNETIC_FIELD: MagneticField, TEMPERATURE: Temperature}[msgtype]
+
+
+def imu_message(series, i):
+    """Return row ``i`` of an ImuSeries as a sensor_msgs/Imu."""
+    msg = _header(message_class(IMU)(), series, i)
+    o = series.orientation_xyzw[i]
+    msg.orientation.x, msg.orientation.y, msg.orientation.z, msg.orientation.w = map(float, o)
+    _vector(msg.angular_velocity, series.angular_velocity_radps[i])
+    _vector(msg.linear_acceleration, series.linear_acceleration_mps2[i])
+    msg.orientation_covariance = series.orientation_covariance[i]
+    msg.angular_velocity_covariance = series.angular_velocity_covariance[i]
+    msg.linear_acceleration_covariance = series.linear_acceleration_covariance[i]
+    return msg
+
+
+def magnetic_field_message(series, i):
+    """Return row ``i`` of a MagneticFieldSeries as a sensor_msgs/MagneticField (tesla)."""
+    msg = _header(message_class(MAGNETIC_FIELD)(), series, i)
+    _vector(msg.magnetic_field, series.magnetic_field_T[i])
+    msg.magnetic_field_covariance = series.covariance_T2[i]
+    return msg
+
+
+def temperature_message(series, i):
+    """Return row ``i`` of a TemperatureSeries as a sensor_msgs/Temperature."""
+    msg = _header(message_class(TEMPERATURE)(), series, i)
+    msg.temperature, msg.variance = float(series.temperature_c[i]), float(series.variance[i])
+    return msg
+
+
+MESSAGES = {IMU: imu_message, MAGNETIC_FIELD: magnetic_field_message,
+            TEMPERATURE: temperature_message}
+
+
+def publish_timed(timeline, publishers, rate, idle, published=None):
+    """
+    Publish the messages of ``timeline`` paced by their stamps; return how many.
+
+    ``publishers`` maps each topic to its publisher; ``idle(seconds)`` is called
+    while waiting for the next message's time (e.g. an executor's
+    ``spin_once``); ``published(count)`` after each message.
+    """
+    start = time.monotonic()
     count = 0
-    for series in chunks:
-        for stamp_ns, msg in imu_messages(series):
-            if start is None:
-                start, first_stamp_ns = time.monotonic(), stamp_ns
-            due = start + (stamp_ns - first_stamp_ns) * 1e-9 / rate
-            while (wait := due - time.monotonic()) > 0:
-                idle(wait)
-            publisher.publish(msg)
-            count += 1
+    for k in range(len(timeline)):
+        due = start + (timeline.stamps_ns[k] - timeline.stamps_ns[0]) * 1e-9 / rate
+        while (wait := due - time.monotonic()) > 0:
+            idle(wait)
+        publishers[timeline.topics[timeline.topic_index[k]][0]].publish(timeline.message(k))
+        count += 1
+        if published is not None:
+            published(count)
     return count
 
 
-def run(args):
-    """Replay the bag; exit 0 when every message was published, 2 on no subscriber."""
-    import rclpy
-    from rclpy.qos import QoSProfile, ReliabilityPolicy
-    from sensor_msgs.msg import Imu
+def wait_for_subscribers(session, publishers, wait_s):
+    """Wait for subscribers (all topics, or MATCH_GRACE_S after the first); return the unheard."""
+    end = time.monotonic() + wait_s
+    first = None
+    while time.monotonic() < end:
+        heard = {t for t, p in publishers.items() if p.get_subscription_count()}
+        if len(heard) == len(publishers):
+            return []
+        if heard and first is None:
+            first = time.monotonic()
+        if first is not None and time.monotonic() - first >= MATCH_GRACE_S:
+            break
+        session.spin(0.05)
+    return sorted(t for t, p in publishers.items() if not p.get_subscription_count())
 
-    if args.rate <= 0:
-        print('--rate must be positive')
+
+def run(args):
+    """Replay the bag; exit 0 when played (or stopped by the user), 2 when it cannot be."""
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from tqdm import tqdm
+
+    if not args.rate > 0:
+        print('inclino play: error: --rate must be positive', file=sys.stderr)
         return 2
-    rclpy.init()
     try:
-        node = rclpy.create_node('inclino_play')
-        qos = QoSProfile(depth=1000)
-        if args.best_effort:
-            qos.reliability = ReliabilityPolicy.BEST_EFFORT
-        publisher = node.create_publisher(Imu, args.topic, qos)
-        deadline = time.monotonic() + args.wait_s
-        while publisher.get_subscription_count() == 0 and time.monotonic() < deadline:
-            time.sleep(0.05)
-        if publisher.get_subscription_count() == 0:
-            print(f'no subscriber on {args.topic} within {args.wait_s} s '
-                  '(same ROS_DOMAIN_ID?)')
-            return 2
-        started = time.monotonic()
-        count = publish_timed(publisher, read(args.bag, args.topic), args.rate,
-                              lambda seconds: time.sleep(min(seconds, 0.01)))
-        print(f'published {count} messages on {args.topic} in '
-              f'{time.monotonic() - started:.2f} s')
-        return 0
-    finally:
-        rclpy.try_shutdown()
+        timeline = load_timeline(args.bag, args.topics).window(args.start_s, args.end_s)
+    except BagError as err:
+        print(f'inclino play: error: {err}', file=sys.stderr)
+        return 2
+    if not len(timeline):
+        print(f'inclino play: error: no message between {args.start_s} and {args.end_s} s',
+              file=sys.stderr)
+        return 2
+    qos = QoSProfile(depth=1000)
+    if args.best_effort:
+        qos.reliability = ReliabilityPolicy.BEST_EFFORT
+    names = ', '.join(topic for topic, _, _ in timeline.topics)
+    done = {'count': 0, 'passes': 0}
+    with LiveSession('inclino_play') as session:
+        publishers = {topic: session.node.create_publisher(message_class(msgtype), topic, qos)
+                      for topic, msgtype, _ in timeline.topics}
+        try:
+            unheard = wait_for_subscribers(session, publishers, args.wait_s)
+            if len(unheard) == len(publishers):
+                print(f'inclino play: nobody subscribes to {names} within {args.wait_s:g} s: '
+                      + session.not_found('no subscriber'), file=sys.stderr)
+                return 2
+            if unheard:
+                print(f'inclino play: note: nobody subscribes to {", ".join(unheard)}',
+                      file=sys.stderr)
+            span_s = (timeline.stamps_ns[-1] - timeline.stamps_ns[0]) * 1e-9 / args.rate
+            print(f'playing {len(timeline)} messages of {names} ({span_s:.1f} s'
+                  f'{", looped" if args.loop else ""})', file=sys.stderr)
+            started = time.monotonic()
+            while True:
+                with tqdm(total=len(timeline), unit='msg', file=sys.stderr,
+                          desc=f'inclino play (pass {done["passes"] + 1})' if args.loop
+                          else 'inclino play') as bar:
+                    done['count'] = 0
+                    publish_timed(timeline, publishers, args.rate,
+                                  lambda seconds: session.spin(min(seconds, 0.01)),
+                                  lambda n: (done.update(count=n), bar.update()))
+                done['passes'] += 1
+                if not args.loop:
+                    break
+        except KeyboardInterrupt:
+            print(f'\ninclino play: stopped: published {done["count"]} of {len(timeline)} '
+                  f'messages' + (f' of pass {done["passes"] + 1}' if args.loop else ''),
+                  file=sys.stderr)
+            return 0
+        session.spin(0.2)   # let the last messages leave before the node is destroyed
+    print(f'published {len(timeline)} messages on {names} in '
+          f'{time.monotonic() - started:.2f} s')
+    return 0

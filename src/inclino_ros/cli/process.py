@@ -49,6 +49,8 @@ from inclino_ros.calibration.plausibility import (
     check_for_sensor, field_reading_ok, Implausible, temperature_ok)
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import add_sensor_argument, NODE_DEFAULTS, node_option
+from inclino_ros.cli.helptext import add_command
+from inclino_ros.cli.mounting import add_axes_map_arguments, settings_maps
 from inclino_ros.cli.options import add_force_argument, between, node_parameter
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core.screening import count_reasons, REASONS
@@ -64,10 +66,10 @@ from tqdm import tqdm
 
 SURVEY_TOPIC = '/survey'
 IMU_TOPIC = '/imu/data'
-#: Azimuth counts of the summary (accepted samples only).
-MAGNETIC_COUNTS = ('mag_paired', 'mag_unpaired', 'azimuth_trusted', 'azimuth_untrusted',
-                   'azimuth_imprecise', 'qc_failed', 'qc_failed_b_total', 'qc_failed_dip',
-                   'qc_failed_g_total')
+#: Azimuth counts of the summary (accepted samples; mag_non_finite: magnetometer messages).
+MAGNETIC_COUNTS = ('mag_non_finite', 'mag_paired', 'mag_unpaired', 'azimuth_trusted',
+                   'azimuth_untrusted', 'azimuth_imprecise', 'qc_failed', 'qc_failed_b_total',
+                   'qc_failed_dip', 'qc_failed_g_total')
 #: What each reason for dropping a sample means, for the loud message of a bad run.
 DROP_MEANINGS = {
     'non_finite': 'NaN or Inf readings', 'saturated': 'readings at the sensor range',
@@ -84,7 +86,7 @@ class Magnetometer:
     """A magnetometer topic read whole, and how its readings pair with the Imu samples."""
 
     stamps_ns: np.ndarray     # (M,) int64
-    field_nT: np.ndarray      # (M, 3) tool frame
+    field_nT: np.ndarray      # (M, 3) sensor axes, NaN where the driver sent no value
     max_pairing_ns: int
     settings: MagneticSettings
     dropped: int              # readings no magnetometer gives (non-finite, beyond an Earth field)
@@ -101,6 +103,11 @@ class Magnetometer:
         kept = field_reading_ok(field_nT)
         return cls(series.stamps_ns[kept], field_nT[kept], round(max_pairing_s * 1e9), settings,
                    int(kept.size - kept.sum()))
+
+    @property
+    def non_finite(self):
+        """Return how many readings hold a NaN or infinite value (never paired)."""
+        return int(np.count_nonzero(~np.isfinite(self.field_nT).all(axis=1)))
 
     def field_at(self, stamps_ns):
         """Return (field_nT (N, 3), paired (N,)) of the readings nearest ``stamps_ns``."""
@@ -155,14 +162,16 @@ class Summary:
             self._g_offset_sum += float(offset.sum())
             self._g_offset_sum_sq += float(offset @ offset)
 
-    def add_magnetic(self, survey, paired):
+    def add_magnetic(self, survey, paired, non_finite):
         """
         Count the azimuths of one batch: ``paired`` (N,) says which input samples had a field.
 
         Counts (of accepted samples): paired, unpaired, trusted, untrusted,
-        and the paired ones failing QC, in all and per test.
+        and the paired ones failing QC, in all and per test; ``non_finite``
+        is the number of magnetometer messages without a value (never paired).
         """
         counts = self.magnetic or dict.fromkeys(MAGNETIC_COUNTS, 0)
+        counts['mag_non_finite'] = non_finite
         paired = np.asarray(paired)[survey.accepted]
         azimuth = survey.magnetic
         counts['mag_paired'] += int(paired.sum())
@@ -199,9 +208,25 @@ class Summary:
 
 def register(subparsers):
     """Add the ``process`` subcommand."""
-    parser = subparsers.add_parser(
-        'process', help='correct a recorded bag with a calibration file',
-        description=__doc__.split('\n\n', 1)[1])
+    parser = add_command(
+        subparsers, 'process', 'correct a recorded bag with a calibration file',
+        'Correct a recorded bag with a calibration file, as the running node would, and '
+        'write the corrected angles to a new bag.',
+        'IN holds the raw accelerometer (sensor_msgs/Imu on --topic, m/s^2, the up axis '
+        'reading +g at rest). OUT gets, for every sample that can give an angle and with its '
+        'stamp, /survey (x inclination, y gravity toolface, z magnetic azimuth, degrees) and '
+        '/imu/data (the corrected acceleration, roll and pitch). Samples that cannot (NaN, '
+        'saturated, zero) are dropped and counted in the summary.',
+        'With --temperature-topic the temperature stage of the calibration gets the '
+        'temperature of each sample (interpolated in time); without it, it compensates at its '
+        'reference temperature (25 C).',
+        'With --mag-topic (sensor_msgs/MagneticField, tesla) each sample takes the '
+        'magnetometer reading nearest in time (readings without a value skipped); none within '
+        '--max-pairing-s leaves its azimuth empty (NaN). An azimuth is written only where it '
+        'is trusted: the corrected field agrees with the reference field (total, dip, and '
+        'G-total) of --reference-total-nT and --reference-dip-deg, of --site, or of the '
+        'multi-station analysis in the calibration file; with no reference there is none.',
+        'Exit 0 done, 1 no sample accepted, 2 unusable input.')
     parser.add_argument('input', metavar='IN', help='input bag (mcap or sqlite3)')
     parser.add_argument('output', metavar='OUT', help='output bag to create')
     parser.add_argument('--calibration', required=True, metavar='FILE',
@@ -238,6 +263,7 @@ def register(subparsers):
                 'two axes: a steeper sample is dropped')
     parser.add_argument('--chunk-size', type=between(1, 1_000_000, int), default=CHUNK_SIZE,
                         help='samples processed per batch (default: %(default)s)')
+    add_axes_map_arguments(parser, 'accelerometer', 'magnetometer')
     magnetic = parser.add_argument_group('magnetic azimuth (seed 002)')
     magnetic.add_argument('--mag-topic', metavar='TOPIC',
                           help='sensor_msgs/MagneticField topic of IN (tesla, tool frame): '
@@ -297,8 +323,12 @@ def _prepare(args):
     except (CalibrationFileError, OSError) as err:
         raise CommandError(str(err)) from None
     if not model.calibrated:
-        print(f'inclino process: warning: {args.calibration} holds no correction; the angles '
-              'written are the raw, uncorrected ones', file=sys.stderr)
+        print(f'inclino process: warning: {args.calibration} holds no accelerometer '
+              'correction (no level-bench, stand or temperature stage): the inclination and '
+              'toolface written are the raw ones' + (
+                  ', and the azimuth uses the raw gravity direction (calibrate the level bench '
+                  'first: inclino fit-level or inclino calibrate)'
+                  if model.magnetic is not None else ''), file=sys.stderr)
     axes = args.axes or model.accelerometer_axes
     if axes != model.accelerometer_axes:
         raise CommandError(f'{args.calibration} is for a {model.accelerometer_axes}-axis '
@@ -314,7 +344,8 @@ def _prepare(args):
             toolface_convention=args.toolface_convention, noise_std_mps2=args.noise_std_mps2,
             toolface_max_std_deg=args.toolface_max_std_deg,
             g_total_tolerance_mps2=args.g_total_tolerance_mps2,
-            two_axis_max_inclination_deg=args.two_axis_max_inclination_deg)
+            two_axis_max_inclination_deg=args.two_axis_max_inclination_deg,
+            **settings_maps(args))
     except ValueError as err:
         raise CommandError(str(err)) from None
     msgtype, count = topic_info(args.input, args.topic)
@@ -406,7 +437,7 @@ def _process_batches(batches, out, model, settings, temperature, magnetometer, s
             field_nT, paired = magnetometer.field_at(batch.stamps_ns)
             survey = run_pipeline(batch.linear_acceleration_mps2, model, settings,
                                   temperature_c, field_nT, magnetometer.settings)
-            summary.add_magnetic(survey, paired)
+            summary.add_magnetic(survey, paired, magnetometer.non_finite)
         summary.add(survey)
         out.write_series(_outputs(batch, survey))
         progress.update(batch.stamps_ns.size)

@@ -52,15 +52,20 @@ when all are complete, and refused when they exist unless ``--force``.
 """
 
 import csv
+from dataclasses import replace
 import json
 
 from inclino_ros.cli.errors import CommandError
+from inclino_ros.cli.helptext import add_command
+from inclino_ros.cli.mounting import add_axes_map_arguments, settings_maps
 from inclino_ros.cli.options import add_force_argument, between, finite, reference_total_nT
+from inclino_ros.core.mounting import to_sensor_axes
 from inclino_ros.core.msa import MAX_INTERFERENCE_NT
 from inclino_ros.io.bag import (
     BagWriter, IMU, MAGNETIC_FIELD, MagneticFieldSeries, magnetometer, raw_imu, TEMPERATURE,
     TemperatureSeries, VECTOR3_STAMPED, Vector3Series)
 from inclino_ros.io.files import Outputs
+from inclino_ros.pipeline import Settings
 from inclino_ros.sim import sensor_model
 from inclino_ros.sim.bench import (
     DEMO_BETA_DEG, DEMO_GAMMA_DEG, DEMO_MAG_NOISE_NT, DEMO_NOISE_MPS2, HEATING_ATTITUDE_DEG,
@@ -114,14 +119,24 @@ def add_sensor_arguments(parser, gamma_deg, beta_deg, default_sensor):
 def register(subparsers):
     """Add the ``simulate`` subcommand."""
     defaults = Scenario()
-    parser = subparsers.add_parser(
-        'simulate', help='write a bag of a physical inclinometer on a virtual bench',
-        description='Simulate a level segment then tilted stations read by a physical '
-                    'sensor model (mount, triads, drift, noise) and write the raw sensor '
-                    f'({RAW_TOPIC}) and the truth ({TRUTH_TOPIC}: x inclination_deg, '
-                    'y toolface_deg seed000, z magnetic azimuth_deg with --magnetic, else NaN) '
-                    'to the bag OUT, plus OUT.truth.json with every error source.  Default '
-                    'bench: ideal triads mounted gamma 0.8, beta -1.2 deg, noise 0.002 m/s^2.')
+    parser = add_command(
+        subparsers, 'simulate', 'write a bag of a physical inclinometer on a virtual bench',
+        'Write a bag of a simulated inclinometer and, beside it, the truth. Every reading '
+        'comes from a physical sensor model: the board mounted in the tool (--gamma-deg, '
+        "--beta-deg, --roll-deg), each triad's matrix, bias, temperature drift and noise "
+        '(--sensor ideal, mems or quartz).',
+        'By default a bench run of ideal triads: the tool still on a levelled bench for '
+        '--level-s, then held at 12 attitudes (inclination 0.5 to 60 deg) for --station-s '
+        'each, its board mounted gamma 0.8, beta -1.2 deg, noise 0.002 m/s^2. The bag holds '
+        f'the raw sensor on {RAW_TOPIC} and the truth on {TRUTH_TOPIC} (x inclination, y '
+        'toolface, z magnetic azimuth with --magnetic, degrees); OUT.truth.json holds the '
+        'scenario, the times of each segment and every error source.',
+        f'--stand: the nine stand positions of seed 001 of a MEMS sensor, 500 samples each '
+        f'(the attitude on {STAND_TOPIC}, 25 C on {TEMPERATURE_TOPIC}). --heating: the same '
+        'sensor heating from 20 to 100 C at one attitude, or at several in turn '
+        f'(--heating-attitudes). --magnetic: a magnetometer on {MAG_TOPIC} with the drill-'
+        'string interference, and --rotation-s a rotation for inclino fit-rotation. The '
+        'mounting options write what a board mounted that way reads.')
     parser.add_argument('out', metavar='OUT', help='bag directory to create')
     group = add_sensor_arguments(parser, DEMO_GAMMA_DEG, DEMO_BETA_DEG,
                                  'ideal for the bench, mems for --stand and --heating')
@@ -170,6 +185,7 @@ def register(subparsers):
                              'az [m/s^2]')
     add_magnetic_arguments(parser)
     add_force_argument(parser)
+    add_axes_map_arguments(parser, 'accelerometer', 'magnetometer', writing=True)
     parser.set_defaults(func=run, mode=None)
 
 
@@ -262,19 +278,28 @@ def run(args):
     for path in (args.out, f'{args.out}.truth.json', args.csv):
         if path is not None:
             outputs.check(path)
+    try:
+        mounting = Settings(accelerometer_axes=args.axes, **settings_maps(args))
+    except ValueError as err:
+        raise CommandError(str(err)) from None
     sensor, tool, sim, what = simulated(args)
     magnetic = None
     if args.magnetic:
-        magnetic = magnetometer(sim.stamps_ns, FRAME_ID, sim.mag_nT,
+        magnetic = magnetometer(sim.stamps_ns, FRAME_ID,
+                                to_sensor_axes(sim.mag_nT, mounting.magnetometer_matrix),
                                 np.max(tool.magnetometer.noise_std))
         what += (f'; magnetometer on {MAG_TOPIC}, interference '
                  f'{", ".join(f"{v:g}" for v in args.interference_nT)} nT (ISCWSA x, y, z)')
+    # The bag holds what a board mounted so reads: sensor = M^-1 tool.
+    sim = replace(sim, raw_mps2=to_sensor_axes(sim.raw_mps2, mounting.accelerometer_matrix))
     truth_path = f'{args.out}.truth.json'
     with outputs:
         topics = write_bag(outputs.path(args.out), args.storage, sim,
                            np.asarray(tool.accelerometer.noise_std), args.mode, magnetic)
         extra = {'sensor': sensor, 'bag': args.out, 'storage': args.storage, 'topics': topics,
-                 'frame_id': FRAME_ID}
+                 'frame_id': FRAME_ID, 'mounting': {
+                     'accelerometer_axes_map': args.accelerometer_axes_map,
+                     'magnetometer_axes_map': args.magnetometer_axes_map}}
         if args.magnetic:
             extra['magnetic'] = {
                 'topic': MAG_TOPIC, 'frame': 'the magnetometer triad (tool frame turned by the '

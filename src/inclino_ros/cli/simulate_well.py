@@ -23,6 +23,7 @@ from dataclasses import replace
 import json
 
 from inclino_ros.cli.errors import CommandError
+from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.options import (
     add_force_argument, between, dip_deg, finite, reference_total_nT)
 from inclino_ros.cli.simulate import add_sensor_arguments, interference_nT
@@ -39,10 +40,19 @@ MAX_STATIONS = 100_000
 def register(subparsers):
     """Add the ``simulate-well`` subcommand."""
     defaults = WellScenario()
-    parser = subparsers.add_parser(
-        'simulate-well', help='write the station CSV of a simulated well with drill-string '
-                              'interference (input of inclino msa)',
-        description=__doc__.split('\n\n', 1)[1])
+    parser = add_command(
+        subparsers, 'simulate-well',
+        'write the station CSV of a simulated well with drill-string interference (input of '
+        'inclino msa)',
+        'Write the survey stations of a simulated well, the input of inclino msa: inclination '
+        'and azimuth go linearly from the first to the last station, the toolfaces spread; '
+        'each station is read by the physical sensor model: the reference field plus the '
+        'interference of the drill string, through the mount and triads (ideal by default; '
+        '--sensor, --gamma-deg ... add their errors), averaged over --samples-per-station.',
+        'Columns: md (measured depth, m), gx, gy, gz (g), bx, by, bz (nT), in the ISCWSA '
+        'survey frame (x, y across the tool, z toward the bit), and the truth: '
+        'true_inclination_deg, true_azimuth_deg, true_toolface_deg; OUT.csv.truth.json holds '
+        'every error source of the tool.')
     parser.add_argument('out', metavar='OUT.csv', help='station CSV to write')
     parser.add_argument('--stations', type=between(1, MAX_STATIONS, int),
                         default=defaults.stations,

@@ -377,6 +377,16 @@ def _topic_connections(reader, topic):
     return connections, msgtypes.pop()
 
 
+def list_topics(path):
+    """Return ``{topic: (msgtype, message count)}`` of every topic of the bag ``path``."""
+    with _open(path) as reader:
+        found = {}
+        for connection in reader.connections:
+            msgtype, count = found.get(connection.topic, (connection.msgtype, 0))
+            found[connection.topic] = (msgtype, count + connection.msgcount)
+        return found
+
+
 def topic_info(path, topic):
     """Return (msgtype, message count) of ``topic``; BagError if it cannot be read."""
     with _open(path) as reader:

@@ -15,18 +15,23 @@ def pair_nearest(stamps_ns, reading_stamps_ns, readings, max_gap_ns):
 
     ``reading_stamps_ns`` need not be sorted (a best-effort topic may deliver
     out of order); of two readings equally near, the earlier is taken.  A
-    stamp with no reading within ``max_gap_ns`` (inclusive) gets a NaN row.
-    Stamps are int64 nanoseconds throughout, so no precision is lost.
+    reading with a non-finite value is never paired (some drivers publish NaN
+    between two measurements): the nearest finite one is.  A stamp with no
+    reading within ``max_gap_ns`` (inclusive) gets a NaN row.  Stamps are
+    int64 nanoseconds throughout, so no precision is lost.
     """
     stamps = np.asarray(stamps_ns, dtype=np.int64).reshape(-1)
     readings = np.asarray(readings, dtype=float)
     if readings.ndim == 1:
         readings = readings[:, None]
     unpaired = np.full((stamps.size, readings.shape[1]), np.nan)
-    if readings.shape[0] == 0:
+    finite = np.isfinite(readings).all(axis=1)
+    if not finite.any():
         return unpaired, np.zeros(stamps.size, dtype=bool)
-    order = np.argsort(np.asarray(reading_stamps_ns, dtype=np.int64), kind='stable')
-    reading_stamps = np.asarray(reading_stamps_ns, dtype=np.int64)[order]
+    reading_stamps = np.asarray(reading_stamps_ns, dtype=np.int64).reshape(-1)[finite]
+    readings = readings[finite]
+    order = np.argsort(reading_stamps, kind='stable')
+    reading_stamps = reading_stamps[order]
     readings = readings[order]
     last = reading_stamps.size - 1
     after = np.clip(np.searchsorted(reading_stamps, stamps), 0, last)

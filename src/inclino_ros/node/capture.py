@@ -12,11 +12,17 @@ A capture's memory is bounded: a counted one holds its ``count`` samples in
 one array (at most the parameters' 1 000 000), a timed one (the rotation) at
 most MAX_TIMED_ROWS, every other sample dropped whenever it is full, so what
 it holds stays spread over the whole capture at any rate.
+
+Feedback, on ``~/capture_progress`` (std_msgs/String, JSON, latched): while a
+capture runs, every PROGRESS_PERIOD_S, the samples so far and needed, the
+time left and the spread so far; then every service's answer.
 """
 
 from dataclasses import dataclass, replace
 import functools
 import inspect
+import json
+import math
 import traceback
 
 from inclino_ros.calibration.model import save_model
@@ -24,7 +30,13 @@ from inclino_ros.calibration.plausibility import check_for_sensor, Implausible
 from inclino_ros.calibration.still_capture import CaptureRefused
 from inclino_ros.core.screening import REASONS
 import numpy as np
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.task import Future
+from std_msgs.msg import String
+from std_srvs.srv import Trigger
+
+#: Seconds between two progress messages of a running capture.
+PROGRESS_PERIOD_S = 0.2
 
 #: Most samples a timed capture holds (even: halved when full).
 MAX_TIMED_ROWS = 65536
@@ -36,10 +48,11 @@ COLUMNS = 8
 class Captured:
     """The samples of one capture, aligned."""
 
-    raw: np.ndarray             # (N, 3) raw accepted accelerometer readings [m/s^2]
+    raw: np.ndarray             # (N, 3) accepted accelerometer readings [m/s^2], tool axes
     temperatures_c: np.ndarray  # (N,) when every sample had one, else None
-    field_nT: np.ndarray        # (N, 3) raw paired magnetometer readings, NaN rows unpaired
+    field_nT: np.ndarray        # (N, 3) paired magnetometer readings, tool axes, NaN unpaired
     times_s: np.ndarray         # (N,) header stamps of the samples [s]
+    # raw and field: the axes maps applied, no correction (pipeline.Survey.uncorrected_*)
 
     @property
     def temperature_c(self):
@@ -50,7 +63,7 @@ class Captured:
 class Capture:
     """Samples collected for one service call: ``count`` of them, or all within a time."""
 
-    def __init__(self, count, max_timed_rows=MAX_TIMED_ROWS):
+    def __init__(self, count, wait_s=None, started_s=0.0, max_timed_rows=MAX_TIMED_ROWS):
         """Collect ``count`` samples (None: until ``expire``), then complete ``self.future``."""
         self.count = count
         self.future = Future()
@@ -58,11 +71,17 @@ class Capture:
         self.size = 0     # rows held
         self.seen = 0     # samples offered
         self.stride = 1   # a timed capture holds every stride-th sample
+        self.wait_s, self.started_s = wait_s, started_s
+        self._directions = [0.0, 0.0, 0.0]   # sum of the unit directions of the readings
 
     def add(self, raw, temperature_c, field_nT, stamp_s):
         """Add one accepted sample; complete the future when enough are in."""
         if self.future.done():
             return
+        norm = math.sqrt(raw[0] * raw[0] + raw[1] * raw[1] + raw[2] * raw[2])
+        if norm > 0.0:
+            for axis in range(3):
+                self._directions[axis] += raw[axis] / norm
         index, self.seen = self.seen, self.seen + 1
         if index % self.stride:
             return
@@ -77,6 +96,27 @@ class Capture:
         self.size += 1
         if self.size == self.count:
             self.future.set_result(self._rows[:self.size])
+
+    def spread_deg(self):
+        """
+        Return the spread of the directions so far [deg], None below two samples.
+
+        The RMS distance of the unit directions from their mean direction,
+        sqrt(2 (1 - R)) with R the length of their mean: the RMS angle about
+        the mean for a still tool, kept in three running sums.
+        """
+        if self.seen < 2:
+            return None
+        mean_length = math.sqrt(sum(v * v for v in self._directions)) / self.seen
+        return math.degrees(math.sqrt(max(2.0 * (1.0 - mean_length), 0.0)))
+
+    def progress(self, now_s):
+        """Return the progress fields: samples, needed, elapsed_s, time_left_s, spread_deg."""
+        elapsed_s = now_s - self.started_s
+        return {'samples': self.seen, 'needed': self.count,
+                'elapsed_s': round(elapsed_s, 3),
+                'time_left_s': round(max(self.wait_s - elapsed_s, 0.0), 3),
+                'spread_deg': self.spread_deg()}
 
     def expire(self):
         """Time is up: complete with what a timed capture holds, None for a counted one."""
@@ -114,9 +154,35 @@ class Collector:
     """Runs the node's captures and the shared service answers."""
 
     def __init__(self, node):
-        """Serve ``node`` (an InclinometerNode)."""
+        """Serve ``node`` (an InclinometerNode); create the ``~/capture_progress`` topic."""
         self.node = node
         self.capture = None
+        self.service = None      # the service whose callback runs (set by create_service)
+        self.progress_pub = node.create_publisher(String, '~/capture_progress', latched_qos())
+
+    def create_service(self, name, callback, group):
+        """Create the Trigger service ``~/<name>``; its answers go to ``~/capture_progress``."""
+        async def reported(request, response):
+            self.service = name
+            response = guarded(self, callback)(request, response)
+            if inspect.isawaitable(response):
+                response = await response
+            self.publish_progress(name, 'succeeded' if response.success else 'refused',
+                                  message=response.message)
+            return response
+
+        self.node.create_service(Trigger, f'~/{name}', reported, callback_group=group)
+
+    def publish_progress(self, service, state, capture=None, **fields):
+        """Publish one ``~/capture_progress`` message (JSON)."""
+        doc = {'service': service, 'state': state}
+        if capture is not None:
+            doc.update(capture.progress(self._now_s()))
+        doc.update(fields)
+        self.progress_pub.publish(String(data=json.dumps(doc)))
+
+    def _now_s(self):
+        return self.node.get_clock().now().nanoseconds * 1e-9
 
     def add_sample(self, raw, temperature_c, field_nT, stamp_s):
         """Give an accepted sample to the running capture, if any."""
@@ -133,18 +199,24 @@ class Collector:
         if self.capture is not None:
             raise CaptureRefused('a capture is already running')
         node = self.node
+        service = self.service
         count = None if duration_s else node.param(f'{prefix}.samples')
         wait_s = duration_s or node.param(f'{prefix}.timeout_s')
-        capture = self.capture = Capture(count)
+        capture = self.capture = Capture(count, wait_s, self._now_s())
         dropped_before = list(node.stats.dropped_total)
         timer = node.create_timer(wait_s, capture.expire)
+        ticker = node.create_timer(PROGRESS_PERIOD_S, lambda: self.publish_progress(
+            service, 'collecting', capture))
+        self.publish_progress(service, 'collecting', capture)
         node.get_logger().info(f'{prefix}: collecting '
                                f'{f"{count} samples" if count else f"for {wait_s} s"}')
         try:
             rows = await capture.future
         finally:
             node.destroy_timer(timer)
+            node.destroy_timer(ticker)
             self.capture = None
+            self.publish_progress(service, 'collected', capture)
         if rows is None or rows.shape[0] == 0:
             dropped = {reason: after - before for reason, after, before in zip(
                 REASONS, node.stats.dropped_total, dropped_before) if after > before}
@@ -173,7 +245,7 @@ class Collector:
             raise CaptureRefused(f'cannot write {self.node.calibration_file}: {err}') from None
         except (ValueError, Implausible) as err:  # what load_model would refuse
             raise CaptureRefused(f'the result is not a plausible calibration: {err}') from None
-        self.node.model = model
+        self.node.apply_model(model)
 
     def answer(self, response, message, saved=True):
         """Fill a successful response (and log it)."""
@@ -196,3 +268,9 @@ class Collector:
         response.message = f'refused: {reason}; {kept}'
         self.node.get_logger().warning(response.message)
         return response
+
+
+def latched_qos():
+    """Return the QoS of a latched topic: reliable, transient local, the last message kept."""
+    return QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                      durability=DurabilityPolicy.TRANSIENT_LOCAL)

@@ -1,14 +1,18 @@
 """
 The inclinometer node: adapts ROS topics, parameters and services to the core.
 
-Subscribes ``imu/data_raw`` (sensor_msgs/Imu, sensor-data QoS) and
-``imu/temperature`` (sensor_msgs/Temperature), publishes the corrected
-``survey``, ``inclination``, ``toolface`` and ``imu/data`` for every accepted
-sample, reports health on ``/diagnostics`` and calibrates through the
-services of ``node.services``.  All arithmetic is in ``inclino_ros.pipeline``
+Subscribes ``imu/data_raw`` (sensor_msgs/Imu, sensor-data QoS),
+``imu/temperature`` (sensor_msgs/Temperature) and ``imu/mag``
+(sensor_msgs/MagneticField), publishes the corrected ``survey``,
+``inclination``, ``toolface``, ``azimuth`` and ``imu/data`` for every accepted
+sample, reports health on ``/diagnostics``, the calibration in use on the
+latched ``~/calibration`` (std_msgs/String, JSON) and calibrates through the
+services of ``node.services`` and ``node.magnetic_services`` (their progress
+on ``~/capture_progress``).  All arithmetic is in ``inclino_ros.pipeline``
 and the modules it uses.
 """
 
+import json
 import math
 import os
 import sys
@@ -16,12 +20,13 @@ import sys
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Vector3Stamped
 from inclino_ros.calibration.model import (
-    CalibrationFileError, CalibrationModel, check_sensor, load_model, stage_ages_s, stale_stages)
+    CalibrationFileError, CalibrationModel, check_sensor, load_model, stage_ages_s, stale_stages,
+    utc_now_iso)
 from inclino_ros.calibration.plausibility import check_for_sensor, Implausible
 from inclino_ros.calibration.stations import load_stations, StationsFileError
 from inclino_ros.core.magnetics import QcLimits
 from inclino_ros.core.screening import ACCEPTED
-from inclino_ros.node.capture import Collector
+from inclino_ros.node.capture import Collector, latched_qos
 from inclino_ros.node.executor import run_node
 from inclino_ros.node.magnetic_services import MagneticServices
 from inclino_ros.node.parameters import PARAMETERS, refusal
@@ -36,7 +41,7 @@ from rclpy.node import Node
 from rclpy.qos import (
     DurabilityPolicy, HistoryPolicy, qos_profile_sensor_data, QoSProfile, ReliabilityPolicy)
 from sensor_msgs.msg import Imu, MagneticField, Temperature
-from std_msgs.msg import Float64
+from std_msgs.msg import Float64, String
 
 
 #: Most raw samples one executor wake-up takes from the input queue.
@@ -62,7 +67,10 @@ class InclinometerNode(Node):
             noise_std_mps2=self.param('accelerometer_noise_std_mps2'),
             toolface_max_std_deg=self.param('toolface_max_std_deg'),
             g_total_tolerance_mps2=self.param('g_total_tolerance_mps2'),
-            two_axis_max_inclination_deg=self.param('two_axis_max_inclination_deg'))
+            two_axis_max_inclination_deg=self.param('two_axis_max_inclination_deg'),
+            accelerometer_axes_map=self.param('accelerometer_axes_map'),
+            magnetometer_axes_map=self.param('magnetometer_axes_map'),
+            allow_left_handed_axes=self.param('allow_left_handed_axes'))
         self.frame_id = self.param('frame_id')
         self.calibration_file = os.path.expanduser(self.param('calibration_file'))
         self.sensor_id = self.param('sensor_id') or None
@@ -105,10 +113,20 @@ class InclinometerNode(Node):
         self._mag_subscription = self.create_subscription(
             MagneticField, 'imu/mag', self._on_mag, sensor_qos,
             event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
+        self.calibration_pub = self.create_publisher(String, '~/calibration', latched_qos())
+        self.apply_model(self.model)
         self.collector = Collector(self)
         self.calibration = CalibrationServices(self, self.collector)
         self.magnetic = MagneticServices(self, self.collector, stations)
         self.create_timer(self.param('diagnostics_period_s'), self._publish_diagnostics)
+
+    def apply_model(self, model):
+        """Use ``model`` from now on and publish it on the latched ``~/calibration``."""
+        self.model = model
+        self.calibration_pub.publish(String(data=json.dumps({
+            'calibration_file': self.calibration_file, 'stages': list(model.stages),
+            'magnetic': model.magnetic is not None, 'applied_at': utc_now_iso(),
+            'model': model.to_dict()})))
 
     def param(self, name):
         """Return the current value of parameter ``name``."""
@@ -201,16 +219,17 @@ class InclinometerNode(Node):
                      self.magnetic_settings)
         covariances = imu_covariances(survey)
         row = 0
-        for index, (message, code) in enumerate(zip(messages, survey.codes.tolist())):
+        for message, code in zip(messages, survey.codes.tolist()):
             if code != ACCEPTED:
                 self.stats.drop(code)
                 continue
             self.stats.accept(float(survey.g_total_mps2[row]),
                               math.isnan(survey.toolface_deg[row]))
-            field = (math.nan,) * 3 if field_nT is None else tuple(field_nT[index])
+            field = (math.nan,) * 3
             if survey.magnetic is not None:
+                field = tuple(survey.magnetic.uncorrected_nT[row])
                 self.magnetometer.count(survey.magnetic, row, math.isfinite(field[0]))
-            self.collector.add_sample(tuple(raw[index]), temperature_c, field,
+            self.collector.add_sample(tuple(survey.uncorrected_mps2[row]), temperature_c, field,
                                       stamp_ns(message.header.stamp) * 1e-9)
             self._publish(message.header, survey, row, covariances)
             row += 1

@@ -30,11 +30,9 @@ from inclino_ros.core.magnetics import iscwsa_from_tool
 from inclino_ros.core.msa import (
     azimuth_difference_deg, improved_cross_axial, MsaRefused, solve_msa_axial, solve_msa_classic,
     solve_msa_improved)
-from inclino_ros.node.capture import guarded
-from inclino_ros.pipeline import run
+from inclino_ros.pipeline import correct
 import numpy as np
 from rclpy.callback_groups import ReentrantCallbackGroup
-from std_srvs.srv import Trigger
 
 SOLVERS = {'classic': solve_msa_classic, 'axial': solve_msa_axial}
 
@@ -48,12 +46,11 @@ class MagneticServices:
         self.collector = collector
         self.stations = stations
         group = ReentrantCallbackGroup()
-        for name, callback in (('~/capture_rotation', self.capture_rotation),
-                               ('~/take_survey', self.take_survey),
-                               ('~/solve_msa', self.solve_msa),
-                               ('~/clear_surveys', self.clear_surveys)):
-            node.create_service(Trigger, name, guarded(collector, callback),
-                                callback_group=group)
+        for name, callback in (('capture_rotation', self.capture_rotation),
+                               ('take_survey', self.take_survey),
+                               ('solve_msa', self.solve_msa),
+                               ('clear_surveys', self.clear_surveys)):
+            collector.create_service(name, callback, group)
 
     def _stage(self):
         return self.node.model.magnetic or NO_MAGNETIC_CORRECTION
@@ -115,9 +112,9 @@ class MagneticServices:
             return self.collector.refuse(response, str(err), kept)
         temperatures_c = (None if captured.temperatures_c is None
                           else captured.temperatures_c[paired].mean())
-        survey = run(captured.raw[paired].mean(axis=0), node.model, node.settings,
-                     temperatures_c, field_nT[None], node.magnetic_settings,
-                     averaged=int(paired.sum()))
+        survey = correct(captured.raw[paired].mean(axis=0), node.model, node.settings,
+                         temperatures_c, field_nT[None], node.magnetic_settings,
+                         averaged=int(paired.sum()))
         if not survey.accepted.all():
             return self.collector.refuse(response, 'the averaged station is not a valid '
                                          'reading', kept)

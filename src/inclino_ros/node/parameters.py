@@ -58,6 +58,15 @@ PARAMETERS = (
     Parameter('accelerometer_axes', 3,
               'Accelerometer axes: 3, or 2 for a two-axis sensor (z completed from '
               'gravity_mps2, tool upright).', 2, 3),
+    Parameter('accelerometer_axes_map', '+X+Y+Z',
+              'Accelerometer mounting: for tool x, y, z in turn the sensor axis along it, '
+              'e.g. -Y+X+Z (tool x = -sensor y), or rpy:ROLL,PITCH,YAW [deg] of the sensor '
+              'in the tool frame; applied before any correction.'),
+    Parameter('magnetometer_axes_map', '+X+Y+Z',
+              'Magnetometer mounting, as accelerometer_axes_map (tool axes from imu/mag axes).'),
+    Parameter('allow_left_handed_axes', False,
+              'Accept an axes map of determinant -1 (only for a sensor whose own axes are '
+              'left-handed; otherwise such a map is a typo and the node refuses to start).'),
     Parameter('gravity_mps2', GRAVITY_MPS2,
               'Local gravity [m/s^2]: v_g for two-axis sensors and the expected G-total.',
               9.7, 9.9),

@@ -16,10 +16,8 @@ from inclino_ros.calibration.stand_capture import (
     average_position, check_new_attitude, solve_positions)
 from inclino_ros.core.stand import StandFitRefused
 from inclino_ros.core.stillness import StillLimits
-from inclino_ros.node.capture import guarded
 import numpy as np
 from rclpy.callback_groups import ReentrantCallbackGroup
-from std_srvs.srv import Trigger
 
 
 class CalibrationServices:
@@ -33,12 +31,11 @@ class CalibrationServices:
         # Reentrant: a capture awaits samples without holding the default group
         # (the subscriptions keep running) and a second call is answered at once.
         group = ReentrantCallbackGroup()
-        for name, callback in (('~/calibrate_level', self.calibrate_level),
-                               ('~/capture_position', self.capture_position),
-                               ('~/solve_stand_calibration', self.solve_stand_calibration),
-                               ('~/clear_positions', self.clear_positions)):
-            node.create_service(Trigger, name, guarded(collector, callback),
-                                callback_group=group)
+        for name, callback in (('calibrate_level', self.calibrate_level),
+                               ('capture_position', self.capture_position),
+                               ('solve_stand_calibration', self.solve_stand_calibration),
+                               ('clear_positions', self.clear_positions)):
+            collector.create_service(name, callback, group)
 
     def still_limits(self, prefix):
         """Return the StillLimits of the captures of ``prefix`` (its max_sem_deg)."""

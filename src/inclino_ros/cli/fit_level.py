@@ -1,0 +1,166 @@
+"""
+``inclino fit-level``: the level-bench calibration (seed 000) of recorded samples.
+
+What ``inclino calibrate`` asks the running node to do, offline: the tool
+lay still on a levelled bench while the samples were recorded; their mean
+gives the sensor's mounting error, gamma and beta (seed 000 Eqs. 11-14),
+with the same checks as the node (still, plausible G-total, bench level).
+Input: a bag (the raw sensor on ``/imu/data_raw``, the samples from
+``--start-s`` to ``--end-s`` seconds after its first message) or a CSV with
+the columns ``ax, ay, az`` (m/s^2, sensor axes) and optionally ``time_s``
+and ``temperature_c``.  The stages already in the file (temperature, stand) are
+applied first, as the node does; the installation stage is replaced, every
+other stage kept, the file written atomically.
+
+Refused (exit 1, the calibration file untouched): the tool moved or the mean
+is not precise enough (``still_capture``), an implausible G-total, a bench
+that is not level, or a temperature far from the stand stage's.
+"""
+
+from dataclasses import replace
+import math
+
+from inclino_ros.calibration.level_capture import (
+    CaptureRefused, LevelLimits, solve_level_capture)
+from inclino_ros.calibration.model import readings_temperature_c, temperature_conflict
+from inclino_ros.cli.errors import CommandError
+from inclino_ros.cli.fitting import (
+    add_common_arguments, AXIS_COLUMNS, finish_figure, has_topic, is_bag, load_existing,
+    new_figure, NODE_DEFAULTS, node_option, read_csv, read_topic, Refused, report_paths, run_fit,
+    sample_temperatures, save, tool_axes, write_text)
+from inclino_ros.cli.helptext import add_command
+from inclino_ros.cli.play import in_window
+from inclino_ros.core.installation import level_axis_angles
+from inclino_ros.core.stillness import StillLimits
+import numpy as np
+
+REPORT_NAME = 'fit_level'
+
+
+def register(subparsers):
+    """Add the ``fit-level`` subcommand."""
+    parser = add_command(
+        subparsers, 'fit-level', 'level-bench calibration (mounting error) of recorded samples',
+        'Measure the mounting error of the sensor, gamma and beta (seed 000), from samples '
+        'recorded with the tool still on a levelled bench, and write it into the calibration '
+        'file: what inclino calibrate asks the running node to do, offline, with the same '
+        'checks (the tool still, a plausible G-total, the bench level).',
+        'Input: a bag with the raw sensor on /imu/data_raw, the samples from --start-s to '
+        '--end-s seconds after its first message, or a CSV with the columns ax, ay, az (m/s^2, '
+        'optional time_s and temperature_c). Temperature and stand stages already in the file are '
+        'applied first, as the node does; the level-bench stage is replaced, every other '
+        'stage kept. The report, fit_level.png and fit_level.txt, goes beside the file or to '
+        '--report-dir.',
+        'Refused (exit 1, the file untouched): the tool moved or too few samples for the '
+        'precision asked, an implausible G-total, a bench that is not level, or a temperature '
+        'far from that of the other stages. Exit 2: unusable input.')
+    add_common_arguments(parser)
+    parser.add_argument('--start-s', type=float, default=0.0, metavar='S',
+                        help='bag: first sample, seconds after the first message (default: 0)')
+    parser.add_argument('--end-s', type=float, metavar='S',
+                        help='bag: samples before S seconds after the first message (default: '
+                             'to the last message)')
+    parser.add_argument('--axes', type=int, choices=(2, 3),
+                        help='accelerometer axes (default: those of the file, else 3)')
+    node_option(parser, '--max-sem-deg', 'level_capture.max_sem_deg',
+                'largest standard error of the mean axis tilts [deg]')
+    node_option(parser, '--max-drift-deg-per-s', 'still.max_drift_deg_per_s',
+                'a capture whose mean drifts faster [deg/s], beyond 5 sigma of its noise, moved')
+    node_option(parser, '--max-tilt-deg', 'level_capture.max_tilt_deg',
+                'largest false tilt accepted as a mounting error [deg]')
+    node_option(parser, '--g-total-tolerance-mps2', 'level_capture.g_total_tolerance_mps2',
+                'largest deviation of G-total from gravity [m/s^2]')
+    node_option(parser, '--max-temperature-difference-c', 'temperature.max_stage_difference_c',
+                'without a temperature stage, a capture further in temperature [deg C] from '
+                'the stand stage is refused')
+    parser.add_argument('--gravity-mps2', type=float, default=NODE_DEFAULTS['gravity_mps2'],
+                        help='local gravity [m/s^2] (default: %(default)s)')
+    parser.set_defaults(func=run)
+
+
+def run(args):
+    """Solve, report and write the installation stage; return the exit code."""
+    return run_fit('fit-level', args, fit)
+
+
+def load_input(args):
+    """
+    Return the level window: readings (N, 3) in sensor axes, temperature_c, times_s.
+
+    ``temperature_c`` (N,) or None; ``times_s`` (N,) or None (a CSV without
+    ``time_s``: the samples in order).
+    """
+    if not is_bag(args.input):
+        table = read_csv(args.input, AXIS_COLUMNS, optional=('temperature_c', 'time_s'))
+        return (np.column_stack([table[name] for name in AXIS_COLUMNS]),
+                table.get('temperature_c'), table.get('time_s'))
+    imu = read_topic(args.input, args.raw_topic)
+    window = in_window(imu.stamps_ns, args.start_s, args.end_s)
+    if not window.any():
+        raise CommandError(f'no {args.raw_topic} message from {args.start_s} to {args.end_s} '
+                           f's (the topic spans 0 .. '
+                           f'{(imu.stamps_ns.max() - imu.stamps_ns.min()) * 1e-9:.3f} s)')
+    temperature_c = (sample_temperatures(imu, args.input, args.temperature_topic)[0][window]
+                     if has_topic(args.input, args.temperature_topic) else None)
+    return imu.linear_acceleration_mps2[window], temperature_c, imu.stamps_ns[window] * 1e-9
+
+
+def fit(args, lines):
+    """Solve the installation stage of ``args.input`` into ``args.calibration``."""
+    existing = load_existing(args.calibration, args.sensor_id, axes=args.axes)
+    axes = args.axes or existing.accelerometer_axes
+    readings, temperature_c, times_s = load_input(args)
+    readings = tool_axes(args, readings)
+    if axes == 2:
+        readings[:, 2] = 0.0   # a two-axis sensor has no z reading
+    level = existing.apply(readings, None if existing.temperature is None else temperature_c,
+                           before='installation')
+    limits = LevelLimits(
+        max_tilt_deg=args.max_tilt_deg, gravity_mps2=args.gravity_mps2,
+        g_total_tolerance_mps2=args.g_total_tolerance_mps2,
+        still=StillLimits(max_drift_deg_per_s=args.max_drift_deg_per_s,
+                          max_sem_deg=args.max_sem_deg, drift_name='--max-drift-deg-per-s',
+                          sem_name='--max-sem-deg'))
+    stood_for_c = readings_temperature_c(
+        existing.temperature, None if temperature_c is None else float(np.mean(temperature_c)))
+    reason = temperature_conflict(existing, stood_for_c, args.max_temperature_difference_c,
+                                  ('stand',))
+    if reason is not None:
+        raise Refused(reason)
+    try:
+        installation = solve_level_capture(level, axes, limits, times_s, stood_for_c)
+    except CaptureRefused as err:
+        raise Refused(str(err)) from None
+    applied = [name for name in ('temperature', 'stand') if getattr(existing, name)]
+    lines += [
+        f'level capture: {installation.sample_count} samples'
+        + (f' after the {" and ".join(applied)} stage of the file' if applied else ''),
+        f'gamma_deg={installation.gamma_deg:.4f} beta_deg={installation.beta_deg:.4f} '
+        f'theta_deg={installation.theta_deg:.4f} (noise {installation.std_deg:.4f} deg per '
+        f'sample, 1 sigma of the angles {math.degrees(installation.tilt_std_rad):.4f} deg, '
+        f'G-total {installation.g_total_mps2:.4f} m/s^2)']
+    png, txt = report_paths(args, REPORT_NAME)
+    plot_level(png, level, installation, args.gravity_mps2 if axes == 2 else None)
+    # The level bench measures the whole mount: a tool axis on top would count twice.
+    save(args.calibration, replace(existing, installation=installation, tool_axis=None))
+    lines += [f'wrote {args.calibration}: installation stage'
+              + (f', {" and ".join(applied)} stage kept' if applied else ''),
+              f'report: {png}, {txt}']
+    write_text(txt, lines)
+
+
+def plot_level(path, level, installation, two_axis_g):
+    """Plot the axis tilts of every sample and their mean (seed 000 Eqs. 11-12)."""
+    g = np.full(level.shape[0], two_axis_g) if two_axis_g else np.linalg.norm(level, axis=1)
+    tilts_deg = np.degrees(np.stack(level_axis_angles(level, g), axis=1))
+    pyplot, fig, axes = new_figure(2, f'inclino fit-level: gamma {installation.gamma_deg:.4f} '
+                                      f'deg, beta {installation.beta_deg:.4f} deg')
+    sample = np.arange(level.shape[0])
+    for ax, column, name in zip(axes, tilts_deg.T, ("theta'_x1", "theta'_y1")):
+        ax.plot(sample, column, '.', markersize=3, label=f'{name} per sample')
+        ax.axhline(column.mean(), color='black',
+                   label=f'mean {column.mean():.4f} deg (spread {column.std():.4f} deg)')
+        ax.set_ylabel(f'{name} [deg]')
+    for ax in axes:
+        ax.set_xlabel('sample of the level capture [number]')
+    finish_figure(pyplot, fig, axes, path)

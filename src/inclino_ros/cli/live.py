@@ -1,0 +1,117 @@
+"""
+What the live commands (``play``, ``calibrate``, ``call``, ``param``, ``monitor``) share.
+
+A LiveSession is one rclpy node of the command's own, spun by hand.  rclpy is
+initialised without its signal handlers (as the node is): Ctrl-C raises
+KeyboardInterrupt in Python, and SIGTERM (``kill``, what a script sends to a
+background job) is turned into the same, so each command ends cleanly and
+says what it did, never with a traceback.
+"""
+
+import os
+import signal
+import time
+
+DEFAULT_NODE = '/inclinometer'
+#: Seconds a command waits for the node (its service, its subscription) by default.
+DEFAULT_WAIT_S = 10.0
+
+#: The Trigger services of inclinometer_node, what each does, in the user's words.
+SERVICES = {
+    'calibrate_level': 'tool on a levelled bench: measure the mounting error (gamma, beta)',
+    'capture_position': 'tool on the stand at the attitude set in stand.*: one position',
+    'solve_stand_calibration': 'fit the stand calibration K, b to the positions captured',
+    'clear_positions': 'forget the stand positions captured',
+    'capture_rotation': 'record the tool turning about its axis: magnetometer hard/soft iron',
+    'take_survey': 'average a still station and store it for the multi-station analysis',
+    'solve_msa': 'multi-station analysis of the stored stations: the drill-string field',
+    'clear_surveys': 'forget the stored stations',
+}
+
+
+def add_node_arguments(parser, wait=True):
+    """Add ``--node`` (and ``--wait-s``)."""
+    parser.add_argument('--node', default=DEFAULT_NODE,
+                        help='full name of the inclinometer node (default: %(default)s)')
+    if wait:
+        parser.add_argument('--wait-s', type=float, default=DEFAULT_WAIT_S, metavar='S',
+                            help='seconds to wait for the node before giving up '
+                                 '(default: %(default)s)')
+
+
+def node_name(name):
+    """Return a node name as a full name: ``inclinometer`` -> ``/inclinometer``."""
+    return '/' + name.strip('/')
+
+
+def namespace_of(name):
+    """Return the namespace of a full node name (where its public topics live)."""
+    return node_name(name).rsplit('/', 1)[0] or '/'
+
+
+def domain_hint():
+    """Return what to check when the node cannot be found, naming this shell's settings."""
+    domain = os.environ.get('ROS_DOMAIN_ID', '0 (unset)')
+    scope = os.environ.get('ROS_AUTOMATIC_DISCOVERY_RANGE', 'SUBNET (unset)')
+    return (f'is inclinometer_node running, and started with the same ROS_DOMAIN_ID '
+            f'(this shell: {domain}) and ROS_AUTOMATIC_DISCOVERY_RANGE (this shell: {scope})?')
+
+
+class LiveSession:
+    """One rclpy node of a live command; use as a context manager."""
+
+    def __init__(self, name):
+        """Initialise rclpy (no signal handlers) and create node ``name``."""
+        import rclpy
+        from rclpy.executors import SingleThreadedExecutor
+        from rclpy.signals import SignalHandlerOptions
+
+        self._previous_term = signal.signal(signal.SIGTERM, _interrupt)
+        rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
+        self.node = rclpy.create_node(name, start_parameter_services=False)
+        self.executor = SingleThreadedExecutor()
+        self.executor.add_node(self.node)
+
+    def __enter__(self):
+        """Return the session."""
+        return self
+
+    def __exit__(self, *exc_info):
+        """Destroy the node, shut rclpy down, restore SIGTERM."""
+        import rclpy
+        self.executor.shutdown()
+        self.node.destroy_node()
+        rclpy.try_shutdown()
+        signal.signal(signal.SIGTERM, self._previous_term)
+
+    def spin(self, seconds):
+        """Process callbacks for ``seconds``."""
+        end = time.monotonic() + seconds
+        while (left := end - time.monotonic()) > 0:
+            self.executor.spin_once(timeout_sec=min(left, 0.05))
+
+    def spin_until(self, done, timeout_s, step_s=0.05):
+        """Spin until ``done()`` or ``timeout_s`` passed (None: no limit); return ``done()``."""
+        end = None if timeout_s is None else time.monotonic() + timeout_s
+        while not done():
+            if end is not None and time.monotonic() >= end:
+                break
+            self.executor.spin_once(timeout_sec=step_s)
+        return done()
+
+    def other_nodes(self):
+        """Return the full names of the ROS nodes this session sees, itself left out."""
+        own = self.node.get_fully_qualified_name()
+        return sorted(f'{ns.rstrip("/")}/{name}'
+                      for name, ns in self.node.get_node_names_and_namespaces()
+                      if f'{ns.rstrip("/")}/{name}' != own)
+
+    def not_found(self, what):
+        """Return the message for a node that did not answer: what, where, what to check."""
+        seen = self.other_nodes()
+        return (f'{what}; {domain_hint()} Nodes seen: '
+                + (', '.join(seen) if seen else 'none'))
+
+
+def _interrupt(signum, frame):
+    raise KeyboardInterrupt
