@@ -196,8 +196,10 @@ def test_axes_maps_turn_both_sensors_before_every_capture(start_node, probe, tmp
         pytest.approx(0.8, abs=0.005), pytest.approx(-1.2, abs=0.005))
 
     def sample(incl_deg, az_deg, tf_deg):
+        # Both triads sit on the one misaligned board (the shared mount): C turns the
+        # tool-frame field, drill-string interference included, as it turns the force.
         force, field = readings(incl_deg, az_deg, tf_deg, rng)
-        probe.mag_publisher.publish(mag_message(probe.sent, MAGNETOMETER_MAP.T @ field))
+        probe.mag_publisher.publish(mag_message(probe.sent, MAGNETOMETER_MAP.T @ c @ field))
         return ACCELEROMETER_MAP.T @ c @ force
 
     answer = probe.calibrate(lambda i: sample(60.0, 100.0, (i * 3.0) % 360.0),
@@ -209,7 +211,9 @@ def test_axes_maps_turn_both_sensors_before_every_capture(start_node, probe, tmp
     assert answer.success, answer.message
     assert 'inclination_deg=40.0' in answer.message      # 40.00x: level-corrected
     stored = json.loads((tmp_path / 'stations.json').read_text())['stations'][0]
-    np.testing.assert_allclose(stored['field_nT'], readings(40.0, 200.0, 70.0)[1], atol=5.0)
+    # A station keeps the field as read (axes map applied): MSA applies the magnetometer's
+    # stages, the shared mount among them, itself (calibration.stations).
+    np.testing.assert_allclose(stored['field_nT'], c @ readings(40.0, 200.0, 70.0)[1], atol=5.0)
 
 
 def test_a_left_handed_axes_map_stops_the_node(start_node):

@@ -681,10 +681,13 @@ def test_unusable_inputs_exit_2(runs, tmp_path):
 def test_seed001_fits_of_a_mounted_board(runs, tmp_path):
     """Stand and heating runs of a board with -Y+X+Z axes: with the map, the same stages."""
     maps = ('--accelerometer-axes-map', '-Y+X+Z')
-    for name, mode, extra in (('stand', '--stand', ()),
-                              ('heating', '--heating', ('--storage', 'sqlite3', '--seed', '1'))):
-        code, _, err = quiet(['simulate', tmp_path / name, mode, '--noise-mps2', NOISE_MPS2,
-                              *extra, *maps])
+    # The runs fixture's simulate options, so that only the axes map differs.
+    for name, mode, extra in (('stand', '--stand', ('--samples', 100)),
+                              ('heating', '--heating', ('--heating-attitudes',
+                                                        *HEATING_ATTITUDES_ARGS, '--storage',
+                                                        'sqlite3', '--seed', '1'))):
+        code, _, err = quiet(['simulate', tmp_path / name, mode, '--sensor', 'mems',
+                              '--noise-mps2', NOISE_MPS2, *extra, *maps])
         assert code == 0, err
     for command, name in (('fit-stand', 'stand'), ('fit-temperature', 'heating')):
         code, _, err = quiet([command, tmp_path / name, '--calibration', tmp_path / 'cal.json',

@@ -21,6 +21,7 @@ import numpy as np
 
 RESULT_TOPIC = '/survey'
 TRUTH_TOPIC = '/truth/survey'
+IMU_TOPIC = '/imu/data'
 
 
 def register(subparsers):
@@ -81,7 +82,7 @@ def simulated_segments(truth_path, stamps_ns):
             for record in records]
 
 
-def station_rows(truth, result, min_inclination_deg=5.0, segments=None):
+def station_rows(truth, result, min_inclination_deg=5.0, segments=None, vectors=None):
     """
     Return one dict per station: its truth, the signed error of its mean, counts.
 
@@ -94,6 +95,10 @@ def station_rows(truth, result, min_inclination_deg=5.0, segments=None):
     means of the wrapped differences, NaN within ``min_inclination_deg`` of
     vertical (up or down: upside down they are as undefined).  A
     truth that varies within the station is given as None (and no mean value).
+    ``vectors``: (N, 3) corrected specific forces aligned with ``result``
+    (RESULT's ``/imu/data``, NaN where none): at a station whose true toolface
+    does not turn, the inclination is that of their mean direction, which
+    needs no toolface (NaN near vertical, ``toolface_max_std_deg``).
     """
     rows = []
     for label, start, stop in segments or stations(truth):
@@ -107,6 +112,9 @@ def station_rows(truth, result, min_inclination_deg=5.0, segments=None):
         # In the truth's toolface frame, a turning tool's samples line up for the mean.
         relative = np.column_stack([got[:, 0], got[:, 1] - np.nan_to_num(true[:, 1])])
         row['inclination_error_deg'] = mean_inclination_deg(relative) - true_incl
+        if vectors is not None and constant[1]:
+            row['inclination_error_deg'] = mean_vector_inclination_deg(
+                vectors[start:stop][np.isfinite(got[:, 0])]) - true_incl
         for k, name in ((1, 'toolface'), (2, 'azimuth')):
             both = np.isfinite(got[:, k]) & np.isfinite(true[:, k])
             row[f'{name}_error_deg'] = float(
@@ -121,21 +129,39 @@ def station_rows(truth, result, min_inclination_deg=5.0, segments=None):
     return rows
 
 
+def mean_vector_inclination_deg(vectors):
+    """Return the inclination of the mean unit direction of ``vectors`` (N, 3) [deg]."""
+    vectors = vectors[np.all(np.isfinite(vectors), axis=1)]
+    norms = np.linalg.norm(vectors, axis=1)
+    if not np.any(norms > 0.0):
+        return np.nan
+    mean = np.mean(vectors[norms > 0.0] / norms[norms > 0.0, None], axis=0)
+    return float(np.degrees(np.arctan2(np.hypot(mean[0], mean[1]), mean[2])))
+
+
 def mean_inclination_deg(angles_deg):
     """
     Return the inclination of the mean direction of (inclination, toolface) rows [deg].
 
     Averaging the angles themselves would bias a near-vertical station: an
     inclination is never negative, so noise about 0 deg averages above it.
-    A sample without a toolface (undefined that near vertical) adds nothing
-    across the axis (its direction there is not known); NaN rows are left out.
+    A sample without a toolface (NaN: its 1 sigma too large that near
+    vertical, ``toolface_max_std_deg``) still has its inclination: its
+    direction across the axis is taken as that of the samples with a
+    toolface (their mean), or any one when none has; a station without any
+    toolface thus averages its inclinations.  NaN inclinations are left out.
     """
     rows = angles_deg[np.isfinite(angles_deg[:, 0])]
     if not rows.size:
         return np.nan
     incl, toolface = np.radians(rows[:, 0]), np.radians(rows[:, 1])
-    x, y = (np.mean(np.nan_to_num(np.sin(incl) * f(toolface))) for f in (np.cos, np.sin))
-    return float(np.degrees(np.arctan2(np.hypot(x, y), np.mean(np.cos(incl)))))
+    known = np.isfinite(toolface)
+    across = np.sin(incl)
+    x = np.sum(across[known] * np.cos(toolface[known]))
+    y = np.sum(across[known] * np.sin(toolface[known]))
+    # the samples without a toolface lie along the known mean (their best guess)
+    horizontal = np.hypot(x, y) + np.sum(across[~known])
+    return float(np.degrees(np.arctan2(horizontal / rows.shape[0], np.mean(np.cos(incl)))))
 
 
 def worst(rows, name):
@@ -167,6 +193,23 @@ def table_lines(rows):
     return lines
 
 
+def corrected_vectors(path, stamps_ns):
+    """
+    Return RESULT's corrected specific forces (``/imu/data``, what ``inclino
+    process`` writes) aligned with ``stamps_ns`` (NaN where none), or None
+    when RESULT has no such topic.
+    """
+    try:
+        imu = concatenate(read(path, IMU_TOPIC))
+        acceleration = imu.linear_acceleration_mps2
+    except (BagError, IndexError, AttributeError):
+        return None
+    _, at_truth, at_result = np.intersect1d(stamps_ns, imu.stamps_ns, return_indices=True)
+    vectors = np.full((len(stamps_ns), 3), np.nan)
+    vectors[at_truth] = acceleration[at_result]
+    return vectors
+
+
 def run(args):
     """Compare RESULT with TRUTH; return the exit code."""
     try:
@@ -180,7 +223,8 @@ def run(args):
     aligned = np.full(truth.vector.shape, np.nan)   # a sample without a result: NaN
     aligned[at_truth] = result.vector[at_result]
     rows = station_rows(truth.vector, aligned, args.min_inclination_deg,
-                        simulated_segments(args.truth, truth.stamps_ns))
+                        simulated_segments(args.truth, truth.stamps_ns),
+                        corrected_vectors(args.result, truth.stamps_ns))
     print('\n'.join(table_lines(rows)))
     bad = {name: worst(rows, name) for name in ('inclination', 'toolface', 'azimuth')}
     print(f'{at_truth.size} of {truth.stamps_ns.size} truth samples have a result; worst station '
