@@ -205,6 +205,6 @@ def test_an_implausible_magnetometer_stage_is_never_written(tmp_path):
     k = tuple(tuple(1e-3 * v for v in row) for row in MAGNETOMETER.scale_matrix)
     path = tmp_path / 'calibration.json'
     with pytest.raises(ValueError, match='not in nT'):
-        save_model(path, replace(ALL_STAGES, magnetometer=replace(MAGNETOMETER,
-                                                                   scale_matrix=k)))
+        save_model(path, replace(ALL_STAGES,
+                                 magnetometer=replace(MAGNETOMETER, scale_matrix=k)))
     assert not path.exists()

@@ -55,7 +55,7 @@ def bench(tmp_path_factory):
     raw = bag.concatenate(bag.read(sim, '/imu/data_raw'))
     level = raw.linear_acceleration_mps2[:1000]
     save_model(calibration, CalibrationModel(3, installation=solve_level_capture(
-        level, 3, LevelLimits(0.1, 5.0, G, 0.05))))
+        level, 3, LevelLimits(5.0, G, 0.05))))
     return work, sim, calibration
 
 
@@ -232,7 +232,7 @@ def test_a_hand_edited_calibration_is_refused_by_process(bench, tmp_path):
         '"accelerometer_axes": 3', '"accelerometer_axes": 3, "stand": {"scale_matrix": '
         '[[1, 0, 0], [0, 1, 0], [0, 0, 1]], "bias_mps2": [1e300, 0, 0], "method": "stand", '
         '"condition_number": 1.0, "rms_inclination_deg": 0.0, "positions": 9, '
-        '"fitted_at": "2026-03-01T10:20:30+00:00"}'))
+        '"fitted_at": "2026-03-01T10:20:30+00:00", "temperature_c": null}'))
     code, _, err = quiet(['process', sim, tmp_path / 'out', '--calibration', edited])
     assert code == 2 and 'stand.bias_mps2' in err
     assert not (tmp_path / 'out').exists()
@@ -331,7 +331,7 @@ def test_every_option_is_checked(tmp_path, monkeypatch, argv, named):
     assert quiet(['simulate-well', stations])[0] == 0
     code, out, err = quiet(argv)
     assert code == 2 and named in err and 'Traceback' not in err, err
-    assert sorted(os.listdir(tmp_path)) == ['S']
+    assert sorted(os.listdir(tmp_path)) == ['S', 'S.truth.json']
 
 
 def test_simulate_well_of_1e8_stations_needs_no_memory(tmp_path):

@@ -144,16 +144,17 @@ def test_a_timed_capture_holds_a_bounded_spread_of_samples():
     """capture_rotation grew ~115 bytes a sample for 600 s; now at most MAX_TIMED_ROWS rows."""
     capture = Capture(None)
     for i in range(5 * MAX_TIMED_ROWS + 123):
-        capture.add((float(i), 0.0, G), None, (0.0, 0.0, 0.0))
+        capture.add((float(i), 0.0, G), None, (0.0, 0.0, 0.0), 0.01 * i)
     capture.expire()
     rows = capture.future.result()
     assert MAX_TIMED_ROWS // 2 <= rows.shape[0] <= MAX_TIMED_ROWS
     first = rows[:, 0]
     assert first[0] == 0.0 and first[-1] > 4.5 * MAX_TIMED_ROWS  # spread over the capture
     assert np.all(np.diff(first) == np.diff(first)[0])  # evenly
+    np.testing.assert_allclose(rows[:, -1], 0.01 * first)  # each row keeps its stamp
     counted = Capture(7)
     for i in range(20):
-        counted.add((float(i), 0.0, G), 25.0, (1.0, 2.0, 3.0))
+        counted.add((float(i), 0.0, G), 25.0, (1.0, 2.0, 3.0), 0.01 * i)
     np.testing.assert_array_equal(counted.future.result()[:, 0], np.arange(7.0))
 
 
@@ -211,9 +212,9 @@ def fuzz_node(start_node, probe, tmp_path):
     """One node for every example of the fuzz: (node, probe, folder of its files)."""
     node = start_node(**{'magnetic.reference_total_nT': REFERENCE_TOTAL_NT,
                          'magnetic.reference_dip_deg': REFERENCE_DIP_DEG,
-                         'rotation.duration_s': 1.0, 'survey.samples': 5,
-                         'survey.timeout_s': 0.5, 'level_capture.samples': 5,
-                         'level_capture.timeout_s': 0.5, 'stand.samples': 5,
+                         'rotation.duration_s': 1.0, 'survey.samples': 6,
+                         'survey.timeout_s': 0.5, 'level_capture.samples': 6,
+                         'level_capture.timeout_s': 0.5, 'stand.samples': 6,
                          'stand.timeout_s': 0.5})
     probe.wait_for_node()
     yield node, probe, tmp_path

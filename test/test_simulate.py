@@ -374,10 +374,12 @@ def test_cli_heating_attitudes(tmp_path):
     (['--stand', '--heating-attitudes', '55', '45'], '--heating-attitudes goes with --heating'),
     (['--heating', '--heating-attitudes', '55', '45', '125'], 'INCLINATION TOOLFACE pairs'),
     (['--heating', '--axes', '2'], 'three-axis sensor'),
-    (['--stand', '--samples', '0'], '--samples must be at least 1'),
-    (['--noise-mps2', '-1'], 'must not be negative'),
-    (['--rate-hz', '0'], 'at least one sample'),
-    (['--magnetic', '--reference-total-nT', '0'], '--reference-total-nT must be positive'),
+    # Impossible numbers are usage errors where argparse reads them (issue 10).
+    (['--stand', '--samples', '0'], 'argument --samples: 0 is not between'),
+    (['--noise-mps2', '-1'], 'argument --noise-mps2: -1 is not between'),
+    (['--rate-hz', '0'], 'argument --rate-hz: 0 is not between'),
+    (['--magnetic', '--reference-total-nT', '0'], 'argument --reference-total-nT: 0 is not'),
+    (['--rate-hz', '100000', '--station-s', '86400'], 'at most 1000000'),
 ])
 def test_cli_refuses_impossible_settings(tmp_path, argv, message):
     """Impossible combinations exit 2 with the reason and write nothing."""

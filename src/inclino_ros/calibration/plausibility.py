@@ -14,8 +14,9 @@ The bounds, and why:
 - accelerometer (m/s^2): a still tool reads |A| = g within the scale and bias
   errors, so the readings of a fit have a median |A| within
   ``STILL_G_FRACTION`` of g and none beyond ``MAX_STILL_G`` g; a stand stage
-  has K near identity (each scale within ``MAX_SCALE_ERROR`` of 1, each
-  cross-coupling and misalignment term at most ``MAX_CROSS_COUPLING``), a bias
+  has K near a rotation (the mount) times identity: the symmetric part of
+  its polar decomposition has each scale within ``MAX_SCALE_ERROR`` of 1 and
+  each cross-coupling term at most ``MAX_CROSS_COUPLING``, a bias
   of at most ``MAX_BIAS_G`` g on each axis and, against the sensor's range
   when it is known, ``|K_i| g + |b_i|`` below the range on every axis (else
   the axis could not have read both +g and -g unsaturated);
@@ -198,10 +199,16 @@ def check_installation(stage):
 def check_stand(stage, range_mps2=None):
     """Raise Implausible for a Stand no accelerometer has (K near I, bias, range)."""
     k, bias = (np.asarray(a, dtype=float) for a in stage.arrays)
-    off = k - np.diag(np.diag(k))
-    if np.any(np.abs(np.diag(k) - 1.0) > MAX_SCALE_ERROR) \
-            or np.any(np.abs(off) > MAX_CROSS_COUPLING) \
-            or not np.linalg.cond(k) <= MAX_CONDITION_NUMBER:
+    if not np.linalg.cond(k) <= MAX_CONDITION_NUMBER:
+        raise Implausible(f'stand.scale_matrix {np.round(k, 6).tolist()} is not a sensor: '
+                          'singular')
+    # A stand K also holds the mount (any roll of the board about the tool axis, issue 8):
+    # the sensor is its symmetric part P of K = R P (polar decomposition).
+    u, sigma, vt = np.linalg.svd(k)
+    p = vt.T @ np.diag(sigma) @ vt
+    off = p - np.diag(np.diag(p))
+    if np.any(np.abs(np.diag(p) - 1.0) > MAX_SCALE_ERROR) \
+            or np.any(np.abs(off) > MAX_CROSS_COUPLING):
         raise Implausible(
             f'stand.scale_matrix {np.round(k, 6).tolist()} is not a sensor: K must be near '
             f'identity (scales within {MAX_SCALE_ERROR:g} of 1, cross terms at most '
