@@ -113,17 +113,16 @@ def station_masks(truth, stamps_ns):
 
 def write_stations(path, truth, calibration, out_csv):
     """
-    Write the msa station CSV of the bag: per station the mean corrected G and raw B (ISCWSA).
+    Write the msa station CSV of the bag: per station the mean raw G and raw B (ISCWSA).
 
-    G from the calibration's accelerometer stages, B before its magnetic stage (msa
-    --calibration applies the rotation fit itself).
+    What a tool's survey listing holds: ``msa --calibration`` applies the calibration's
+    stages to both (the triads share the mount), the rotation fit included.
     """
-    model = load_model(calibration)
     imu = bag.concatenate(bag.read(path, '/imu/data_raw'))
     mag = bag.concatenate(bag.read(path, '/imu/mag'))
     rows = []
     for record, mask in station_masks(truth, imu.stamps_ns):
-        f = model.apply(imu.linear_acceleration_mps2[mask]).mean(axis=0)
+        f = imu.linear_acceleration_mps2[mask].mean(axis=0)
         rows.append([*magnetics.gravity_from_specific_force(f),
                      *magnetics.iscwsa_from_tool(mag.field_nT[mask].mean(axis=0)),
                      record['azimuth_deg']])

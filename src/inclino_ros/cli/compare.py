@@ -195,9 +195,10 @@ def table_lines(rows):
 
 def corrected_vectors(path, stamps_ns):
     """
-    Return RESULT's corrected specific forces (``/imu/data``, what ``inclino
-    process`` writes) aligned with ``stamps_ns`` (NaN where none), or None
-    when RESULT has no such topic.
+    Return RESULT's corrected specific forces aligned with ``stamps_ns``, or None.
+
+    From ``/imu/data`` (what ``inclino process`` writes), NaN where a stamp
+    has none; None when RESULT has no such topic.
     """
     try:
         imu = concatenate(read(path, IMU_TOPIC))

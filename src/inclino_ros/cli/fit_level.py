@@ -105,7 +105,7 @@ def load_input(args):
     return imu.linear_acceleration_mps2[window], temperature_c, imu.stamps_ns[window] * 1e-9
 
 
-def fit(args, lines):
+def fit(args, lines, outputs):
     """Solve the installation stage of ``args.input`` into ``args.calibration``."""
     existing = load_existing(args.calibration, args.sensor_id, axes=args.axes)
     axes = args.axes or existing.accelerometer_axes
@@ -140,13 +140,14 @@ def fit(args, lines):
         f'sample, 1 sigma of the angles {math.degrees(installation.tilt_std_rad):.4f} deg, '
         f'G-total {installation.g_total_mps2:.4f} m/s^2)']
     png, txt = report_paths(args, REPORT_NAME)
-    plot_level(png, level, installation, args.gravity_mps2 if axes == 2 else None)
+    plot_level(outputs.path(png), level, installation,
+               args.gravity_mps2 if axes == 2 else None)
     # The level bench measures the whole mount: a tool axis on top would count twice.
     save(args.calibration, replace(existing, installation=installation, tool_axis=None))
     lines += [f'wrote {args.calibration}: installation stage'
               + (f', {" and ".join(applied)} stage kept' if applied else ''),
               f'report: {png}, {txt}']
-    write_text(txt, lines)
+    write_text(outputs.path(txt), lines)
 
 
 def plot_level(path, level, installation, two_axis_g):

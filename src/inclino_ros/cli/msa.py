@@ -65,7 +65,8 @@ from dataclasses import asdict, replace
 import json
 import sys
 
-from inclino_ros.calibration.model import NO_MAGNETIC_CORRECTION, utc_now_iso
+from inclino_ros.calibration.model import (
+    NO_MAGNETIC_CORRECTION, STAGES, STANDARD_GRAVITY_MPS2, utc_now_iso)
 from inclino_ros.calibration.plausibility import check_field_readings, Implausible
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
@@ -206,6 +207,16 @@ def calibrated_field(args, table, lines):
     its own inverse): B is turned into the tool frame, corrected and turned back.
     """
     model = load_existing(args.calibration, args.sensor_id)
+    accelerometer = [name for name in STAGES if getattr(model, name) is not None]
+    if accelerometer:
+        # Both triads sit on one board (the shared mount): G of a survey is the
+        # raw accelerometer, corrected by the same stages as B, or the two
+        # would be in frames the mount turns apart.  In g, ISCWSA: the tool's
+        # specific force is -G (z toward the bit).
+        force = -magnetics.iscwsa_from_tool(table['G']) * STANDARD_GRAVITY_MPS2
+        table['G'] = -magnetics.iscwsa_from_tool(model.apply(force)) / STANDARD_GRAVITY_MPS2
+        lines.append(f'accelerometer stages of {args.calibration} applied to G: '
+                     f'{", ".join(accelerometer)}')
     before = model.magnetometer_stages[:model.magnetometer_stages.index('magnetic')] \
         if model.magnetic is not None else model.magnetometer_stages
     if before or model.stand is not None:

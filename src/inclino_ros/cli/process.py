@@ -22,8 +22,10 @@ its reference temperature.
 
 With ``--mag-topic`` (sensor_msgs/MagneticField, tesla, z-up tool frame)
 each Imu sample is paired with the magnetometer message nearest in time
-(a reading no magnetometer gives, non-finite or beyond an Earth field plus
-interference, is dropped first and counted: ``mag_readings_dropped``);
+(a reading without a value, NaN as some drivers send between two
+measurements, is never paired, counted ``mag_non_finite``; one no
+magnetometer gives, beyond an Earth field plus interference, is dropped
+first, counted ``mag_readings_dropped``);
 one further than ``--max-pairing-s`` away (or none) leaves the sample
 without a field: its azimuth is NaN and it is counted unpaired.  The field
 (in nT) goes through the calibration's magnetic stage to ``pipeline.run``,
@@ -89,7 +91,8 @@ class Magnetometer:
     field_nT: np.ndarray      # (M, 3) sensor axes, NaN where the driver sent no value
     max_pairing_ns: int
     settings: MagneticSettings
-    dropped: int              # readings no magnetometer gives (non-finite, beyond an Earth field)
+    dropped: int              # finite readings no magnetometer gives (beyond an Earth field)
+    non_finite: int           # readings holding a NaN or infinite value (a driver's gaps)
 
     @classmethod
     def from_series(cls, series, max_pairing_s, settings):
@@ -101,13 +104,9 @@ class Magnetometer:
         """
         field_nT = series.field_nT
         kept = field_reading_ok(field_nT)
+        finite = np.isfinite(field_nT).all(axis=1)
         return cls(series.stamps_ns[kept], field_nT[kept], round(max_pairing_s * 1e9), settings,
-                   int(kept.size - kept.sum()))
-
-    @property
-    def non_finite(self):
-        """Return how many readings hold a NaN or infinite value (never paired)."""
-        return int(np.count_nonzero(~np.isfinite(self.field_nT).all(axis=1)))
+                   int(np.count_nonzero(finite & ~kept)), int(np.count_nonzero(~finite)))
 
     def field_at(self, stamps_ns):
         """Return (field_nT (N, 3), paired (N,)) of the readings nearest ``stamps_ns``."""
