@@ -95,8 +95,8 @@ PARAMETERS = (
               '(two_axis_range): beyond 90 deg it would read folded back (I as 180 - I).',
               1.0, 89.0),
     Parameter('frame_id', '',
-              'frame_id of the corrected outputs (the ideal tool frame); empty: the '
-              'input frame_id.'),
+              'frame_id of the corrected outputs (the ideal tool frame, at most 256 '
+              'characters); empty: the input frame_id.'),
     Parameter('imu_queue_depth', 50,
               'Depth of the sensor-data (best-effort) subscription queue on '
               'imu/data_raw.', 1, 10000),
@@ -151,8 +151,9 @@ PARAMETERS = (
               'Survey stations of ~/take_survey for ~/solve_msa: loaded at start (a corrupt '
               'file stops the node), written atomically.'),
     Parameter('magnetic.reference_total_nT', 0.0,
-              'Reference field total [nT] (site model or IFR); 0: unknown, azimuth QC off '
-              'and ~/solve_msa refused.', 0.0, 100000.0, read_only=False),
+              'Reference field total [nT] (site model or IFR), an Earth field (20000 .. '
+              '70000); 0: unknown, azimuth QC off and ~/solve_msa refused.', 0.0, 100000.0,
+              read_only=False),
     Parameter('magnetic.reference_dip_deg', 0.0,
               'Reference dip [deg], positive down.', -90.0, 90.0, read_only=False),
     Parameter('magnetic.reference_total_std_nT', 138.0,
