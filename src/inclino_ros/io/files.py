@@ -3,7 +3,7 @@ Files written whole or not at all, never over an input or silently over another 
 
 Every file and bag the package writes goes through ``Outputs``: each output is
 written, under its own name, into a temporary folder beside it
-(``.NAME-PID-XXXXXXXX.tmp/NAME``) and renamed into place only when the command
+(``.NAME-PID-<random>.tmp/NAME``) and renamed into place only when the command
 completed; on any failure, Ctrl-C included, the temporaries are removed and
 what existed stays as it was.  An
 output that exists already is refused unless ``force`` is given, and an
