@@ -334,6 +334,23 @@ def test_every_option_is_checked(tmp_path, monkeypatch, argv, named):
     assert sorted(os.listdir(tmp_path)) == ['S', 'S.truth.json']
 
 
+@pytest.mark.parametrize('argv,named', [
+    (['play', 'bag', '--rate', '0'], '--rate'),
+    (['play', 'bag', '--rate', 'nan'], '--rate'),
+    (['play', 'bag', '--start-s', '-1'], '--start-s'),
+    (['play', 'bag', '--end-s', 'inf'], '--end-s'),
+    (['play', 'bag', '--wait-s', 'nan'], '--wait-s'),
+    (['calibrate', '--wait-s', '-5'], '--wait-s'),
+    (['call', 'calibrate_level', '--wait-s', 'inf'], '--wait-s'),
+    (['monitor', '--period-s', '0'], '--period-s'),
+    (['monitor', '--count', '0'], '--count'),
+])
+def test_live_tool_options_are_checked(argv, named):
+    """The live tools' times and rates: a usage error naming the option, before any ROS."""
+    code, out, err = quiet(argv)
+    assert code == 2 and named in err and 'Traceback' not in err, err
+
+
 def test_simulate_well_of_1e8_stations_needs_no_memory(tmp_path):
     """--stations 1e8 took 24 GB and was killed; now refused at once within 1 GB."""
     def limit():

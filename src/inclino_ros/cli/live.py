@@ -12,6 +12,8 @@ import os
 import signal
 import time
 
+from inclino_ros.cli.options import non_negative
+
 DEFAULT_NODE = '/inclinometer'
 #: Seconds a command waits for the node (its service, its subscription) by default.
 DEFAULT_WAIT_S = 10.0
@@ -34,7 +36,7 @@ def add_node_arguments(parser, wait=True):
     parser.add_argument('--node', default=DEFAULT_NODE,
                         help='full name of the inclinometer node (default: %(default)s)')
     if wait:
-        parser.add_argument('--wait-s', type=float, default=DEFAULT_WAIT_S, metavar='S',
+        parser.add_argument('--wait-s', type=non_negative, default=DEFAULT_WAIT_S, metavar='S',
                             help='seconds to wait for the node before giving up '
                                  '(default: %(default)s)')
 

@@ -17,6 +17,7 @@ import time
 
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.live import LiveSession
+from inclino_ros.cli.options import non_negative, positive
 from inclino_ros.io.bag import (
     BagError, concatenate, IMU, list_topics, MAGNETIC_FIELD, read, TEMPERATURE)
 import numpy as np
@@ -43,18 +44,18 @@ def register(subparsers):
     parser.add_argument('--topics', nargs='+', metavar='TOPIC',
                         help='topics to publish (default: every Imu, MagneticField and '
                              'Temperature topic of the bag)')
-    parser.add_argument('--rate', type=float, default=1.0,
+    parser.add_argument('--rate', type=positive, default=1.0,
                         help='speed factor: 2 plays twice as fast (default: %(default)s)')
-    parser.add_argument('--start-s', type=float, default=0.0, metavar='S',
+    parser.add_argument('--start-s', type=non_negative, default=0.0, metavar='S',
                         help='start S seconds after the first message (default: 0)')
-    parser.add_argument('--end-s', type=float, metavar='S',
+    parser.add_argument('--end-s', type=positive, metavar='S',
                         help='stop before S seconds after the first message (default: at the '
                              'end)')
     parser.add_argument('--loop', action='store_true',
                         help='play the bag (or the window) again and again until Ctrl-C')
     parser.add_argument('--best-effort', action='store_true',
                         help='publish best-effort instead of reliable')
-    parser.add_argument('--wait-s', type=float, default=10.0, metavar='S',
+    parser.add_argument('--wait-s', type=non_negative, default=10.0, metavar='S',
                         help='seconds to wait for a subscriber before playing '
                              '(default: %(default)s)')
     parser.set_defaults(func=run)
