@@ -25,9 +25,9 @@ from inclino_ros.calibration.level_capture import (
 from inclino_ros.calibration.model import readings_temperature_c, temperature_conflict
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
-    add_common_arguments, AXIS_COLUMNS, finish_figure, has_topic, is_bag, load_existing,
-    new_figure, NODE_DEFAULTS, node_option, read_csv, read_topic, Refused, report_paths, run_fit,
-    sample_temperatures, save, tool_axes, write_text)
+    add_common_arguments, add_still_options, AXIS_COLUMNS, finish_figure, has_topic, is_bag,
+    load_existing, new_figure, NODE_DEFAULTS, node_option, read_csv, read_topic, Refused,
+    report_paths, run_fit, sample_temperatures, save, tool_axes, write_text)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.play import in_window
 from inclino_ros.core.installation import level_axis_angles
@@ -62,10 +62,7 @@ def register(subparsers):
                              'to the last message)')
     parser.add_argument('--axes', type=int, choices=(2, 3),
                         help='accelerometer axes (default: those of the file, else 3)')
-    node_option(parser, '--max-sem-deg', 'level_capture.max_sem_deg',
-                'largest standard error of the mean axis tilts [deg]')
-    node_option(parser, '--max-drift-deg-per-s', 'still.max_drift_deg_per_s',
-                'a capture whose mean drifts faster [deg/s], beyond 5 sigma of its noise, moved')
+    add_still_options(parser, 'level_capture.max_sem_deg', 'axis tilts', 'a capture')
     node_option(parser, '--max-tilt-deg', 'level_capture.max_tilt_deg',
                 'largest false tilt accepted as a mounting error [deg]')
     node_option(parser, '--g-total-tolerance-mps2', 'level_capture.g_total_tolerance_mps2',

@@ -55,9 +55,9 @@ from inclino_ros.calibration.plausibility import check_accelerometer_readings
 from inclino_ros.calibration.still_capture import CaptureRefused, require_still_vectors
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
-    add_common_arguments, AXIS_COLUMNS, finish_figure, has_topic, is_bag, load_existing,
-    matrix_lines, new_figure, NODE_DEFAULTS, node_option, read_csv, read_topic, Refused,
-    report_paths, run_fit, sample_temperatures, save, tool_axes, write_text)
+    add_common_arguments, add_still_options, AXIS_COLUMNS, finish_figure, has_topic, is_bag,
+    load_existing, matrix_lines, new_figure, NODE_DEFAULTS, node_option, read_csv, read_topic,
+    Refused, report_paths, run_fit, sample_temperatures, save, tool_axes, write_text)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.options import between, node_parameter
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
@@ -106,10 +106,7 @@ def register(subparsers):
     parser.add_argument('--max-rms-deg', type=between(1e-6, 90.0), default=0.05,
                         help='largest RMS inclination residual accepted [deg] (default: '
                              '%(default)s)')
-    node_option(parser, '--max-sem-deg', 'stand.max_sem_deg',
-                'largest standard error of the mean direction of one position [deg]')
-    node_option(parser, '--max-drift-deg-per-s', 'still.max_drift_deg_per_s',
-                'a position whose mean drifts faster [deg/s], beyond 5 sigma of its noise, moved')
+    add_still_options(parser, 'stand.max_sem_deg', 'direction of one position', 'a position')
     node_option(parser, '--max-temperature-difference-c', 'temperature.max_stage_difference_c',
                 'without a temperature stage, positions further apart in temperature [deg C] '
                 'are refused')

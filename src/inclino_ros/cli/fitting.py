@@ -115,6 +115,19 @@ def node_option(parser, flag, parameter, help_text, **kwargs):
                         help=f'{help_text} (default: %(default)s, as {parameter})', **kwargs)
 
 
+def add_still_options(parser, sem_parameter, mean_of, capture):
+    """
+    Add --max-sem-deg and --max-drift-deg-per-s: the still test of a capture (``still_capture``).
+
+    ``sem_parameter``: the node parameter of the precision limit; ``mean_of``
+    and ``capture`` name what is averaged and what may move in the help texts.
+    """
+    node_option(parser, '--max-sem-deg', sem_parameter,
+                f'largest standard error of the mean {mean_of} [deg]')
+    node_option(parser, '--max-drift-deg-per-s', 'still.max_drift_deg_per_s',
+                f'{capture} whose mean drifts faster [deg/s], beyond 5 sigma of its noise, moved')
+
+
 def add_sensor_argument(parser):
     """Add --sensor-id: the sensor the calibration file must belong to (and is stamped with)."""
     parser.add_argument('--sensor-id', metavar='ID',
