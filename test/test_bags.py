@@ -462,3 +462,40 @@ def test_process_without_correction_warns(tmp_path, run_3axis):
     survey = bag.concatenate(bag.read(out_bag, '/survey'))
     np.testing.assert_array_equal(survey.vector[:, 0],
                                   np.degrees(inclination(raw.linear_acceleration_mps2)))
+
+
+def test_process_averages_every_n_samples(tmp_path, run_3axis):
+    """
+    ``--average-samples 70``, chunks of 37: 5400 samples make 77 windows and 10 left over.
+
+    A window inside a station is written at the mean stamp of its 70 samples,
+    its inclination within 4 standard errors of the truth, the covariance
+    the per-sample one / 70 (closed form: isotropic noise^2 / 70); a window
+    over the turn between two stations is not written (counted as moving).
+    """
+    out_bag = str(tmp_path / 'avg')
+    code, stdout, stderr = quiet(['process', run_3axis['sim'], out_bag,
+                                  '--calibration', run_3axis['calibration'],
+                                  '--noise-mps2', str(NOISE_MPS2), '--chunk-size', '37',
+                                  '--average-samples', '70'])
+    assert code == 0, stderr
+    values = summary_values(stdout)
+    written, moving = int(values['windows_written']), int(values['windows_moving'])
+    assert written + moving + int(values['windows_dropped']) == 77
+    assert values['samples_not_averaged'] == '10'
+    survey = bag.concatenate(bag.read(out_bag, '/survey'))
+    imu = bag.concatenate(bag.read(out_bag, '/imu/data'))
+    assert survey.stamps_ns.size == imu.stamps_ns.size == written
+    truth = bag.concatenate(bag.read(run_3axis['sim'], '/truth/survey'))
+    window_stamps = truth.stamps_ns[:5390].reshape(77, 70)
+    window_truth = truth.vector[:5390, 0].reshape(77, 70)
+    means = window_stamps.mean(axis=1)
+    index = np.abs(survey.stamps_ns[:, None] - means[None, :]).argmin(axis=1)
+    np.testing.assert_allclose(survey.stamps_ns, means[index], atol=1.0)
+    still = np.ptp(window_truth[index], axis=1) == 0.0
+    assert still.sum() >= 60
+    std_deg = math.degrees(NOISE_MPS2 / G / math.sqrt(70))
+    error_deg = survey.vector[still, 0] - window_truth[index][still, 0]
+    assert np.abs(error_deg).max() < 4 * std_deg + MEAN_TOL_DEG
+    np.testing.assert_allclose(imu.linear_acceleration_covariance[:, [0, 4, 8]],
+                               NOISE_MPS2 ** 2 / 70, rtol=1e-12)

@@ -31,6 +31,9 @@ import numpy as np
 #: a dead magnetometer (``plausibility.FIELD_NT``; a raw reading beyond its upper end is
 #: dropped before it is paired, ``plausibility.field_reading_ok``).
 MIN_FIELD_NT = FIELD_NT[0]
+#: An averaged window whose readings scatter more than this many times the per-sample
+#: noise (largest per-axis sample std) held a moving tool (``average``).
+MOVING_SIGMA = 3.0
 #: Variance of a yaw that nothing observes: uniform on [-pi, pi).
 UNOBSERVED_YAW_VARIANCE = math.pi ** 2 / 3.0
 #: Per-sample QC limits are the station limits widened by this many sigma of the
@@ -170,7 +173,8 @@ def sensor_vectors(tool_mps2, settings):
 
 
 def resolve_azimuth(corrected_mps2, field_nT, model, settings, magnetic_settings,
-                    covariance_mps2, tilt_var_rad2, temperature_c=None, averaged=1):
+                    covariance_mps2, tilt_var_rad2, temperature_c=None, averaged=1,
+                    field_averaged=None):
     """
     Return the AzimuthSurvey of corrected accelerometer and uncorrected magnetometer readings.
 
@@ -181,10 +185,11 @@ def resolve_azimuth(corrected_mps2, field_nT, model, settings, magnetic_settings
     vector (``magnetics.gravity_from_specific_force``) for the azimuth of seed
     001 Eq. 4.  Its 1 sigma (``uncertainty.azimuth_std_rad``) takes the
     accelerometer's covariance and calibration tilt, the magnetometer's noise
-    (over ``averaged`` samples) and the MSA interference's own 1 sigma (which
-    holds the reference field's uncertainty).  Defined (``defined_azimuth_deg``):
-    a finite azimuth of a field above MIN_FIELD_NT whose sigma is within
-    ``azimuth_max_std_deg`` (near vertical the azimuth is undefined).  Trusted:
+    (over ``field_averaged`` readings, default ``averaged``) and the MSA
+    interference's own 1 sigma (which holds the reference field's uncertainty).
+    Defined (``defined_azimuth_deg``): a finite azimuth of a field above
+    MIN_FIELD_NT whose sigma is within ``azimuth_max_std_deg`` (near vertical
+    the azimuth is undefined).  Trusted:
     defined and passing QC against the reference (limits widened by QC_SIGMA of
     the sample's own noise).
     """
@@ -193,8 +198,9 @@ def resolve_azimuth(corrected_mps2, field_nT, model, settings, magnetic_settings
     azimuth = azimuth_deg(gravity, field)
     field_total_nT = b_total_nT(field)
     flip = np.diag([-1.0, 1.0, 1.0])          # G = (-f_x, f_y, f_z)
-    noise_nT = magnetic_settings.noise_std_nT / math.sqrt(averaged)
-    field_covariance = noise_nT ** 2 * np.eye(3)
+    field_averaged = averaged if field_averaged is None else np.maximum(field_averaged, 1)
+    noise_nT = magnetic_settings.noise_std_nT / np.sqrt(field_averaged)
+    field_covariance = np.square(noise_nT)[..., None, None] * np.eye(3)
     stage = model.magnetic
     if stage is not None and stage.interference_std_nT is not None:
         field_covariance = field_covariance + np.diag(np.square(stage.interference_std_nT))
@@ -206,13 +212,13 @@ def resolve_azimuth(corrected_mps2, field_nT, model, settings, magnetic_settings
     trusted = defined.copy()
     qc = None
     if magnetic_settings.reference_total_nT > 0:
-        g_std = settings.noise_std_mps2 / math.sqrt(averaged)
+        g_std = settings.noise_std_mps2 / np.sqrt(averaged)
         limits = magnetic_settings.limits
         widened = QcLimits(
-            b_total_tolerance_nT=math.hypot(limits.b_total_tolerance_nT, QC_SIGMA * noise_nT),
+            b_total_tolerance_nT=np.hypot(limits.b_total_tolerance_nT, QC_SIGMA * noise_nT),
             dip_tolerance_deg=np.hypot(limits.dip_tolerance_deg, QC_SIGMA * np.degrees(
                 dip_std_rad(gravity, field, g_std, noise_nT))),
-            g_total_tolerance=math.hypot(limits.g_total_tolerance, QC_SIGMA * g_std))
+            g_total_tolerance=np.hypot(limits.g_total_tolerance, QC_SIGMA * g_std))
         qc = survey_qc(gravity, field, magnetic_settings.reference_total_nT,
                        magnetic_settings.reference_dip_deg, settings.gravity_mps2, widened)
         trusted &= qc.ok
@@ -253,13 +259,14 @@ def run(raw, model, settings, temperature_c=None, field_nT=None,
 
 
 def correct(tool_mps2, model, settings, temperature_c=None, field_nT=None,
-            magnetic_settings=MagneticSettings(), codes=None, averaged=1):
+            magnetic_settings=MagneticSettings(), codes=None, averaged=1, field_averaged=None):
     """
     Correct and resolve accepted readings already in the tool axes (M x 3).
 
     What ``run`` does after screening and the axes maps; a capture that
     averages the Survey's ``uncorrected_mps2`` (and ``uncorrected_nT``)
-    corrects its mean here (``averaged`` samples).  ``codes`` (N,): the
+    corrects its mean here (``averaged`` samples; ``field_averaged`` distinct
+    magnetometer readings, default ``averaged``).  ``codes`` (N,): the
     screening codes of the batch, its M accepted ones in order (default: all
     accepted); samples that cannot be gravity after the correction
     (``screening.screen_corrected``) are dropped and their codes set.
@@ -280,9 +287,12 @@ def correct(tool_mps2, model, settings, temperature_c=None, field_nT=None,
         temperature_c = np.asarray(temperature_c)[good]
     if field_nT is not None:
         field_nT = np.asarray(field_nT, dtype=float).reshape(-1, 3)[good]
-    noise_mps2 = settings.noise_std_mps2 / math.sqrt(averaged)
-    covariance = specific_force_covariance(sensor, noise_mps2, settings.accelerometer_axes,
-                                           model.linear_map)
+    if np.ndim(averaged):   # one count per row (averaged windows)
+        averaged = np.asarray(averaged)[good]
+        field_averaged = None if field_averaged is None else np.asarray(field_averaged)[good]
+    noise_mps2 = settings.noise_std_mps2 / np.sqrt(averaged)
+    covariance = specific_force_covariance(sensor, np.reshape(noise_mps2, (-1, 1, 1)),
+                                           settings.accelerometer_axes, model.linear_map)
     tilt_var = model.tilt_std_rad ** 2
     incl_deg = np.degrees(inclination(corrected))
     toolface_deg = np.degrees(TOOLFACE_CONVENTIONS[settings.toolface_convention](corrected))
@@ -296,7 +306,36 @@ def correct(tool_mps2, model, settings, temperature_c=None, field_nT=None,
                   toolface_std_deg=toolface_std_deg,
                   magnetic=None if field_nT is None else resolve_azimuth(
                       corrected, field_nT, model, settings, magnetic_settings,
-                      covariance, tilt_var, temperature_c, averaged))
+                      covariance, tilt_var, temperature_c, averaged, field_averaged))
+
+
+def average(windows, model, settings, magnetic_settings=None):
+    """
+    Return (kept (W,), [(rows, Survey)]): the angles of the averaged readings of ``windows``.
+
+    ``windows`` (``averaging.Windows``): mean readings in the tool axes, each
+    corrected by ``correct`` as a station of ``samples`` readings: its noise,
+    and so every 1 sigma and covariance, is the standard error (the per-sample
+    noise / sqrt(n); the field's over its distinct readings), at its mean
+    temperature.  A window whose readings scatter more than MOVING_SIGMA
+    times the per-sample noise held a moving tool: not kept (its mean is no
+    attitude and its standard error would be false).  The kept windows come
+    in one Survey, or two when only some had a temperature (those without it
+    compensate at the reference temperature): ``rows`` are their indices.
+    With ``magnetic_settings`` the mean fields give the azimuth.
+    """
+    kept = ~(windows.scatter_mps2 > MOVING_SIGMA * settings.noise_std_mps2)
+    known = np.isfinite(windows.temperature_c)
+    parts = []
+    for rows in (np.flatnonzero(kept & ~known), np.flatnonzero(kept & known)):
+        if rows.size:
+            parts.append((rows, correct(
+                windows.raw_mps2[rows], model, settings,
+                windows.temperature_c[rows] if known[rows[0]] else None,
+                None if magnetic_settings is None else windows.field_nT[rows],
+                magnetic_settings or MagneticSettings(), averaged=windows.samples[rows],
+                field_averaged=windows.field_samples[rows])))
+    return kept, parts
 
 
 def imu_covariances(survey):

@@ -36,6 +36,14 @@ dip, G-total), NaN elsewhere.  The reference is ``--reference-total-nT``,
 calibration's multi-station analysis; an azimuth is never written without
 one to check it against.
 
+With ``--average-samples N`` or ``--output-rate-hz R`` (as the node's
+``output.*``) OUT gets, instead of every sample, the mean of every N
+accepted samples or of the accepted samples of each 1/R of stamp time: the
+angles of the mean reading at the mean stamp, its covariances the standard
+error of the mean (``pipeline.average``); windows of a tool that moved are
+not written, and the samples of the window still open at the end are not
+either (both counted).
+
 OUT is written under a temporary name and renamed when complete; an OUT
 that exists is refused unless ``--force``, and IN or the calibration file
 never (``io.files.Outputs``).  A damaged IN (a read that fails or yields
@@ -55,14 +63,15 @@ from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.mounting import add_axes_map_arguments, settings_maps
 from inclino_ros.cli.options import add_force_argument, between, node_parameter
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
+from inclino_ros.core.averaging import Averager
 from inclino_ros.core.screening import count_reasons, REASONS
 from inclino_ros.io.bag import (
-    BagWriter, CHUNK_SIZE, concatenate, IMU, ImuSeries, MAGNETIC_FIELD, not_measured_covariance,
-    read, STORAGES, TEMPERATURE, TemperatureSeries, topic_info, VECTOR3_STAMPED, Vector3Series)
+    BagWriter, CHUNK_SIZE, concatenate, IMU, MAGNETIC_FIELD, read, STORAGES, TEMPERATURE,
+    TemperatureSeries, topic_info, VECTOR3_STAMPED)
 from inclino_ros.io.files import Outputs
 from inclino_ros.io.timing import pair_nearest
-from inclino_ros.pipeline import (
-    imu_covariances, MagneticSettings, run as run_pipeline, Settings)
+from inclino_ros.node.outputs import outputs
+from inclino_ros.pipeline import average, MagneticSettings, run as run_pipeline, Settings
 import numpy as np
 from tqdm import tqdm
 
@@ -128,6 +137,11 @@ class Summary:
         self._g_offset_sum_sq = 0.0
         self.toolface_imprecise = 0
         self.magnetic = None
+        self.written = 0           # messages on each output topic
+        self.averaged = False      # --average-samples / --output-rate-hz
+        self.windows_moving = 0    # windows of a tool that moved: not written
+        self.windows_dropped = 0   # mean readings that could not be gravity
+        self.samples_not_averaged = 0   # in the window still open at the end of IN
 
     @property
     def accepted(self):
@@ -194,6 +208,11 @@ class Summary:
             lines += [f'{name}: {count}' for name, count in self.magnetic.items()]
         if magnetometer is not None:
             lines.append(f'mag_readings_dropped: {magnetometer.dropped}')
+        if self.averaged:
+            lines += [f'windows_written: {self.written}',
+                      f'windows_moving: {self.windows_moving}',
+                      f'windows_dropped: {self.windows_dropped}',
+                      f'samples_not_averaged: {self.samples_not_averaged}']
         if n == 0:
             return lines + ['inclination_deg: none accepted', 'g_total_mps2: none accepted']
         g_mean = self.gravity_mps2 + self._g_offset_sum / n
@@ -262,6 +281,14 @@ def register(subparsers):
                 'two axes: a steeper sample is dropped')
     parser.add_argument('--chunk-size', type=between(1, 1_000_000, int), default=CHUNK_SIZE,
                         help='samples processed per batch (default: %(default)s)')
+    averaging = parser.add_mutually_exclusive_group()
+    node_option(averaging, '--average-samples', 'output.average_samples',
+                'write the mean of every N accepted samples (the angles of the mean reading, '
+                'the standard error in the covariances) instead of every sample',
+                metavar='N')
+    node_option(averaging, '--output-rate-hz', 'output.rate_hz',
+                'write the mean of the accepted samples of each 1/rate of stamp time instead '
+                'of every sample')
     add_axes_map_arguments(parser, 'accelerometer', 'magnetometer')
     magnetic = parser.add_argument_group('magnetic azimuth (seed 002)')
     magnetic.add_argument('--mag-topic', metavar='TOPIC',
@@ -296,10 +323,12 @@ def run(args):
         output = outputs.path(args.output)
         model, settings, count, temperature = _prepare(args)
         magnetometer = _magnetometer(args, model)
+        averager = (Averager(args.average_samples, args.output_rate_hz)
+                    if args.average_samples > 1 or args.output_rate_hz > 0 else None)
         with BagWriter(output, args.storage) as out:
             summary = process(args.input, args.topic, out, model, settings,
-                              args.chunk_size, count, temperature, magnetometer)
-    print(f'wrote {args.output} ({args.storage}): {summary.accepted} messages on each of '
+                              args.chunk_size, count, temperature, magnetometer, averager)
+    print(f'wrote {args.output} ({args.storage}): {summary.written} messages on each of '
           f'{SURVEY_TOPIC} and {IMU_TOPIC}')
     print('\n'.join(summary.lines(magnetometer)))
     loud = summary.mostly_dropped()
@@ -404,12 +433,14 @@ def _magnetometer(args, model):
 
 
 def process(in_path, topic, out, model, settings, chunk_size, count=None, temperature=None,
-            magnetometer=None):
+            magnetometer=None, averager=None):
     """
     Correct ``topic`` of the bag ``in_path`` into the open BagWriter ``out``.
 
     ``temperature`` (a TemperatureSeries or None) gives each sample its
-    temperature, ``magnetometer`` (a Magnetometer or None) its field.
+    temperature, ``magnetometer`` (a Magnetometer or None) its field; with
+    an ``averager`` (``core.averaging.Averager``) the windows it closes are
+    written instead of the samples.
     Returns the Summary; shows a progress bar of ``count`` messages on stderr.
     """
     out.add_topic(SURVEY_TOPIC, VECTOR3_STAMPED)
@@ -418,14 +449,16 @@ def process(in_path, topic, out, model, settings, chunk_size, count=None, temper
     with tqdm(total=count, unit='msg', desc='inclino process', file=sys.stderr) as progress:
         try:
             _process_batches(read(in_path, topic, chunk_size), out, model, settings,
-                             temperature, magnetometer, summary, progress)
+                             temperature, magnetometer, summary, progress, averager)
         except KeyboardInterrupt:
             raise KeyboardInterrupt(f'after {summary.samples_in} of {count} messages') from None
+    if averager is not None:
+        summary.averaged, summary.samples_not_averaged = True, averager.pending
     return summary
 
 
 def _process_batches(batches, out, model, settings, temperature, magnetometer, summary,
-                     progress):
+                     progress, averager=None):
     """Correct each batch into ``out``, counting in ``summary`` (see ``process``)."""
     for batch in batches:
         temperature_c = None if temperature is None else temperature.at(batch.stamps_ns)
@@ -438,26 +471,38 @@ def _process_batches(batches, out, model, settings, temperature, magnetometer, s
                                   temperature_c, field_nT, magnetometer.settings)
             summary.add_magnetic(survey, paired, magnetometer.non_finite)
         summary.add(survey)
-        out.write_series(_outputs(batch, survey))
+        accepted = survey.accepted
+        stamps_ns, frame_ids = batch.stamps_ns[accepted], batch.frame_ids[accepted]
+        if averager is None:
+            _write(out, outputs(stamps_ns, frame_ids, survey), summary)
+        else:
+            _average(averager, out, model, settings, magnetometer, summary, survey, stamps_ns,
+                     frame_ids, temperature_c)
         progress.update(batch.stamps_ns.size)
 
 
-def _outputs(batch, survey):
-    """Return ``{topic: series}`` of the accepted samples of ``batch``."""
-    accepted = survey.accepted
-    stamps_ns, frame_ids = batch.stamps_ns[accepted], batch.frame_ids[accepted]
+def _average(averager, out, model, settings, magnetometer, summary, survey, stamps_ns,
+             frame_ids, temperature_c):
+    """Push a batch's accepted samples into ``averager``; write the windows it closes."""
     n = stamps_ns.size
-    acceleration_cov, orientation_cov = imu_covariances(survey)
-    w, x, y, z = survey.orientation_wxyz.T
-    azimuth_deg = np.full(n, np.nan) if survey.magnetic is None else survey.magnetic.azimuth_deg
-    return {
-        SURVEY_TOPIC: Vector3Series(
-            stamps_ns, frame_ids,
-            np.stack([survey.inclination_deg, survey.toolface_deg, azimuth_deg], axis=1)),
-        IMU_TOPIC: ImuSeries(
-            stamps_ns, frame_ids, orientation_xyzw=np.stack([x, y, z, w], axis=1),
-            orientation_covariance=orientation_cov, angular_velocity_radps=np.zeros((n, 3)),
-            angular_velocity_covariance=not_measured_covariance(n),
-            linear_acceleration_mps2=survey.corrected_mps2,
-            linear_acceleration_covariance=acceleration_cov),
-    }
+    temperature_c = (np.full(n, np.nan) if temperature_c is None
+                     else np.broadcast_to(temperature_c, survey.codes.shape)[survey.accepted])
+    windows = averager.push(stamps_ns, frame_ids, survey.uncorrected_mps2, temperature_c,
+                            np.full((n, 3), np.nan) if survey.magnetic is None
+                            else survey.magnetic.uncorrected_nT)
+    if windows is None:
+        return
+    kept, parts = average(windows, model, settings,
+                          None if magnetometer is None else magnetometer.settings)
+    summary.windows_moving += int(windows.count - np.count_nonzero(kept))
+    for rows, averaged in parts:
+        rows = rows[averaged.accepted]
+        summary.windows_dropped += int(averaged.codes.size - rows.size)
+        _write(out, outputs(windows.stamps_ns[rows], windows.frame_ids[rows], averaged),
+               summary)
+
+
+def _write(out, published, summary):
+    """Write one batch's Outputs (``node.outputs``) to /survey and /imu/data."""
+    out.write_series({SURVEY_TOPIC: published.survey, IMU_TOPIC: published.imu})
+    summary.written += published.inclination_deg.size

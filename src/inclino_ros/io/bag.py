@@ -20,6 +20,7 @@ changed inside a value cannot be told from a reading.)
 
 from contextlib import contextmanager
 from dataclasses import dataclass, fields
+from functools import lru_cache
 
 import numpy as np
 from rosbags.rosbag2 import Reader, ReaderError, StoragePlugin, Writer, WriterError
@@ -215,6 +216,7 @@ def _values_offset(frame_len):
     return 4 + (12 + frame_len + 1 + 7) // 8 * 8
 
 
+@lru_cache(maxsize=64)
 def _record_dtype(frame_field_len, values_offset, n_values):
     """Return the structured dtype of one message with a fixed-size frame_id field."""
     return np.dtype({
@@ -274,6 +276,17 @@ def encode(series):
         for i, data in zip(index.tolist(), encoded):
             messages[i] = data
     return messages
+
+
+def encode_float64(values):
+    """Return the little-endian CDR of std_msgs/Float64 messages of ``values`` (list of bytes)."""
+    records = np.zeros(np.size(values), dtype=np.dtype(
+        {'names': ['encapsulation', 'data'], 'formats': [('u1', 4), '<f8'], 'offsets': [0, 4],
+         'itemsize': 12}))
+    records['encapsulation'] = _CDR_LE
+    records['data'] = np.reshape(values, -1)
+    blob = records.tobytes()
+    return [blob[i:i + 12] for i in range(0, len(blob), 12)]
 
 
 def _frame_ids(frame_bytes, lengths):

@@ -184,10 +184,20 @@ class Collector:
     def _now_s(self):
         return self.node.get_clock().now().nanoseconds * 1e-9
 
-    def add_sample(self, raw, temperature_c, field_nT, stamp_s):
-        """Give an accepted sample to the running capture, if any."""
-        if self.capture is not None:
-            self.capture.add(raw, temperature_c, field_nT, stamp_s)
+    def add_samples(self, raw, temperature_c, field_nT, stamps_s):
+        """
+        Give accepted samples to the running capture, if any.
+
+        ``raw`` (M, 3) and ``field_nT`` (M, 3, NaN rows unpaired; None without a
+        magnetometer) in the tool axes, ``temperature_c`` one value for the
+        batch or None, ``stamps_s`` (M,).
+        """
+        if self.capture is None:
+            return
+        if field_nT is None:
+            field_nT = np.full_like(raw, np.nan)
+        for row, field, stamp_s in zip(raw.tolist(), field_nT.tolist(), stamps_s.tolist()):
+            self.capture.add(row, temperature_c, field, stamp_s)
 
     async def collect(self, prefix, duration_s=None):
         """
@@ -200,6 +210,8 @@ class Collector:
             raise CaptureRefused('a capture is already running')
         node = self.node
         service = self.service
+        # Samples queued before the call (the sample path batches them) are not its own.
+        node.process_queued()
         count = None if duration_s else node.param(f'{prefix}.samples')
         wait_s = duration_s or node.param(f'{prefix}.timeout_s')
         capture = self.capture = Capture(count, wait_s, self._now_s())

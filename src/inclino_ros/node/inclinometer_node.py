@@ -24,15 +24,19 @@ from inclino_ros.calibration.model import (
     utc_now_iso)
 from inclino_ros.calibration.plausibility import check_for_sensor, Implausible
 from inclino_ros.calibration.stations import load_stations, StationsFileError
+from inclino_ros.core.averaging import Averager
 from inclino_ros.core.magnetics import QcLimits
-from inclino_ros.core.screening import ACCEPTED
+from inclino_ros.io.bag import encode, encode_float64, IMU, MAGNETIC_FIELD
 from inclino_ros.node.capture import Collector, latched_qos
 from inclino_ros.node.executor import run_node
 from inclino_ros.node.magnetic_services import MagneticServices
+from inclino_ros.node.outputs import outputs
 from inclino_ros.node.parameters import PARAMETERS, refusal
+from inclino_ros.node.sample_path import (
+    BatchWaker, decode_messages, ServedElsewhere, take_serialized)
 from inclino_ros.node.services import CalibrationServices
 from inclino_ros.node.stats import InputStats, MagneticInput, TemperatureInput
-from inclino_ros.pipeline import imu_covariances, MagneticSettings, run, Settings
+from inclino_ros.pipeline import average, MagneticSettings, run, Settings
 import numpy as np
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
@@ -42,10 +46,6 @@ from rclpy.qos import (
     DurabilityPolicy, HistoryPolicy, qos_profile_sensor_data, QoSProfile, ReliabilityPolicy)
 from sensor_msgs.msg import Imu, MagneticField, Temperature
 from std_msgs.msg import Float64, String
-
-
-#: Most raw samples one executor wake-up takes from the input queue.
-MAX_BATCH = 64
 
 
 class InclinometerNode(Node):
@@ -84,12 +84,6 @@ class InclinometerNode(Node):
         self.temperature = TemperatureInput()
         self.magnetometer = MagneticInput()
 
-        # Output messages are built once and refilled per sample (publish copies them).
-        self._survey_msg = Vector3Stamped()
-        self._inclination_msg, self._toolface_msg = Float64(), Float64()
-        self._azimuth_msg = Float64()
-        self._imu_msg = Imu()
-        self._imu_msg.angular_velocity_covariance[0] = -1.0  # no angular rate is measured
         # Every QoS event handler is one more waitable the executor polls on every
         # wake-up (~150 us per message with rclpy's defaults on all seven entities):
         # only the raw input keeps one, to say why a publisher does not match.
@@ -100,25 +94,41 @@ class InclinometerNode(Node):
                 for kind, topic in ((Vector3Stamped, 'survey'), (Float64, 'inclination'),
                                     (Float64, 'toolface'), (Float64, 'azimuth'),
                                     (Imu, 'imu/data'), (DiagnosticArray, '/diagnostics')))
+        self._take_limit = self.param('imu_queue_depth')
         sensor_qos = QoSProfile(
-            history=HistoryPolicy.KEEP_LAST, depth=self.param('imu_queue_depth'),
+            history=HistoryPolicy.KEEP_LAST, depth=self._take_limit,
             reliability=ReliabilityPolicy.BEST_EFFORT, durability=DurabilityPolicy.VOLATILE)
+        # The raw inputs are taken by _on_batch, woken by the BatchWaker (node.sample_path):
+        # the executor never calls these subscriptions' callbacks.
+        served = ServedElsewhere()
         self._imu_subscription = self.create_subscription(
-            Imu, 'imu/data_raw', self._on_imu, sensor_qos,
+            Imu, 'imu/data_raw', served_elsewhere, sensor_qos, callback_group=served,
             event_callbacks=SubscriptionEventCallbacks(
                 incompatible_qos=self._on_incompatible_qos, use_default_callbacks=False))
+        self._mag_subscription = self.create_subscription(
+            MagneticField, 'imu/mag', served_elsewhere, sensor_qos, callback_group=served,
+            event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
         self.create_subscription(
             Temperature, 'imu/temperature', self._on_temperature, qos_profile_sensor_data,
             event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
-        self._mag_subscription = self.create_subscription(
-            MagneticField, 'imu/mag', self._on_mag, sensor_qos,
-            event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
+        average_samples, rate_hz = self.param('output.average_samples'), \
+            self.param('output.rate_hz')
+        self.averager = (Averager(average_samples, rate_hz)
+                         if average_samples > 1 or rate_hz > 0 else None)
+        self.windows_moving = 0
         self.calibration_pub = self.create_publisher(String, '~/calibration', latched_qos())
         self.apply_model(self.model)
         self.collector = Collector(self)
         self.calibration = CalibrationServices(self, self.collector)
         self.magnetic = MagneticServices(self, self.collector, stations)
         self.create_timer(self.param('diagnostics_period_s'), self._publish_diagnostics)
+        self._waker = BatchWaker(self, [self._imu_subscription, self._mag_subscription],
+                                 self.param('input_batch_period_s'), self._on_batch)
+
+    def destroy_node(self):
+        """Stop the sample path's waker, then destroy the node."""
+        self._waker.stop()
+        return super().destroy_node()
 
     def apply_model(self, model):
         """Use ``model`` from now on and publish it on the latched ``~/calibration``."""
@@ -192,74 +202,71 @@ class InclinometerNode(Node):
         if any(p.name.startswith('magnetic.') for p in parameters):
             self.magnetic_settings = self._magnetic_settings()
 
-    def _on_mag(self, msg):
-        field = msg.magnetic_field
-        self.magnetometer.update(stamp_ns(msg.header.stamp), (field.x, field.y, field.z))
+    def process_queued(self):
+        """Correct and publish what waits on the inputs now (before a capture starts)."""
+        self._on_batch()
 
-    def _on_imu(self, msg):
+    def _on_batch(self):
         """
-        Process ``msg`` and the samples already queued behind it, as one batch.
+        Correct and publish every sample queued on imu/data_raw, as one batch.
 
-        Under load each executor wake-up costs more than the arithmetic: taking
-        what is queued (up to MAX_BATCH) amortises it, and the core runs
-        vectorised over the batch.  Every sample is still published on its own.
+        The magnetometer readings queued are kept first (the samples pair with
+        them).  Every accepted sample is published, or with ``output.*``
+        averaging the windows it closes (``core.averaging``,
+        ``pipeline.average``; a window of a moving tool is dropped, counted).
         """
-        messages = [msg] + take_queued(self._imu_subscription, Imu, MAX_BATCH - 1)
-        for mag in take_queued(self._mag_subscription, MagneticField, MAX_BATCH):
-            self._on_mag(mag)  # the readings to pair with may wait behind this batch
-        raw = np.array([(m.linear_acceleration.x, m.linear_acceleration.y,
-                         m.linear_acceleration.z) for m in messages])
+        mags = take_serialized(self._mag_subscription, self._take_limit)
+        if mags:
+            self.magnetometer.update(decode_messages(mags, MAGNETIC_FIELD, MagneticField))
+        messages = take_serialized(self._imu_subscription, self._take_limit)
+        if not messages:
+            return
+        batch = decode_messages(messages, IMU, Imu)
         temperature_c = self.temperature.value_c
         field_nT = None
         if self.magnetometer.stamp_ns is not None:  # no azimuth work without a magnetometer
-            field_nT = self.magnetometer.paired(
-                [stamp_ns(m.header.stamp) for m in messages],
-                self.param('magnetic.max_pairing_s'))
-        survey = run(raw, self.model, self.settings, temperature_c, field_nT,
-                     self.magnetic_settings)
-        covariances = imu_covariances(survey)
-        row = 0
-        for message, code in zip(messages, survey.codes.tolist()):
-            if code != ACCEPTED:
-                self.stats.drop(code)
-                continue
-            self.stats.accept(float(survey.g_total_mps2[row]),
-                              math.isnan(survey.toolface_deg[row]))
-            field = (math.nan,) * 3
-            if survey.magnetic is not None:
-                field = tuple(survey.magnetic.uncorrected_nT[row])
-                self.magnetometer.count(survey.magnetic, row, math.isfinite(field[0]))
-            self.collector.add_sample(tuple(survey.uncorrected_mps2[row]), temperature_c, field,
-                                      stamp_ns(message.header.stamp) * 1e-9)
-            self._publish(message.header, survey, row, covariances)
-            row += 1
+            field_nT = self.magnetometer.paired(batch.stamps_ns,
+                                                self.param('magnetic.max_pairing_s'))
+        survey = run(batch.linear_acceleration_mps2, self.model, self.settings, temperature_c,
+                     field_nT, self.magnetic_settings)
+        self.stats.count(survey)
+        accepted = survey.accepted
+        stamps_ns = batch.stamps_ns[accepted]
+        frame_ids = (np.full(stamps_ns.size, self.frame_id) if self.frame_id
+                     else batch.frame_ids[accepted])
+        field_nT = None if survey.magnetic is None else survey.magnetic.uncorrected_nT
+        if field_nT is not None:
+            self.magnetometer.count(survey.magnetic)
+        self.collector.add_samples(survey.uncorrected_mps2, temperature_c, field_nT,
+                                   stamps_ns * 1e-9)
+        if self.averager is None:
+            self._publish(outputs(stamps_ns, frame_ids, survey))
+            return
+        windows = self.averager.push(
+            stamps_ns, frame_ids, survey.uncorrected_mps2,
+            np.full(stamps_ns.size, math.nan if temperature_c is None else temperature_c),
+            np.full_like(survey.uncorrected_mps2, math.nan) if field_nT is None else field_nT)
+        if windows is None:
+            return
+        kept, parts = average(windows, self.model, self.settings,
+                              None if self.magnetometer.stamp_ns is None
+                              else self.magnetic_settings)
+        self.windows_moving += int(windows.count - np.count_nonzero(kept))
+        for rows, averaged in parts:
+            rows = rows[averaged.accepted]
+            self._publish(outputs(windows.stamps_ns[rows], windows.frame_ids[rows], averaged))
 
-    def _publish(self, header, survey, row, covariances):
-        """Publish the outputs of accepted sample ``row``, reusing the message objects."""
-        if self.frame_id:
-            header.frame_id = self.frame_id
-        survey_msg, imu = self._survey_msg, self._imu_msg
-        incl_deg = float(survey.inclination_deg[row])
-        toolface_deg = float(survey.toolface_deg[row])
-        survey_msg.header = imu.header = header
-        azimuth = survey.magnetic
-        survey_msg.vector.x, survey_msg.vector.y = incl_deg, toolface_deg
-        survey_msg.vector.z = math.nan if azimuth is None else float(azimuth.azimuth_deg[row])
-        self.survey_pub.publish(survey_msg)
-        if azimuth is not None:
-            self._azimuth_msg.data = float(azimuth.true_azimuth_deg[row])
-            self.azimuth_pub.publish(self._azimuth_msg)
-        self._inclination_msg.data = incl_deg
-        self.inclination_pub.publish(self._inclination_msg)
-        self._toolface_msg.data = toolface_deg
-        self.toolface_pub.publish(self._toolface_msg)
-        acc = imu.linear_acceleration
-        acc.x, acc.y, acc.z = survey.corrected_mps2[row].tolist()
-        q = imu.orientation
-        q.w, q.x, q.y, q.z = survey.orientation_wxyz[row].tolist()
-        imu.linear_acceleration_covariance = covariances[0][row]
-        imu.orientation_covariance = covariances[1][row]
-        self.imu_pub.publish(imu)
+    def _publish(self, out):
+        """Publish a batch's Outputs (``node.outputs``), serialized at once."""
+        for publisher, messages in (
+                (self.survey_pub, encode(out.survey)),
+                (self.inclination_pub, encode_float64(out.inclination_deg)),
+                (self.toolface_pub, encode_float64(out.toolface_deg)),
+                (self.azimuth_pub, () if out.true_azimuth_deg is None
+                 else encode_float64(out.true_azimuth_deg)),
+                (self.imu_pub, encode(out.imu))):
+            for data in messages:
+                publisher.publish(data)
 
     def _publish_diagnostics(self):
         now = self.get_clock().now()
@@ -321,21 +328,9 @@ class InclinometerNode(Node):
         return status
 
 
-def take_queued(subscription, kind, limit):
-    """Return up to ``limit`` messages already queued on ``subscription``, without waiting."""
-    messages = []
-    with subscription.handle:
-        while len(messages) < limit:
-            taken = subscription.handle.take_message(kind, False)
-            if taken is None:
-                break
-            messages.append(taken[0])
-    return messages
-
-
-def stamp_ns(stamp):
-    """Return a builtin_interfaces/Time as integer nanoseconds."""
-    return stamp.sec * 1_000_000_000 + stamp.nanosec
+def served_elsewhere(_):
+    """Stand for the callback of a subscription the executor never serves (``_on_batch`` does)."""
+    raise AssertionError('a subscription of the sample path was served by the executor')
 
 
 def main(args=None):

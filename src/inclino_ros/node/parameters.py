@@ -100,6 +100,17 @@ PARAMETERS = (
     Parameter('imu_queue_depth', 50,
               'Depth of the sensor-data (best-effort) subscription queue on '
               'imu/data_raw.', 1, 10000),
+    Parameter('input_batch_period_s', 0.005,
+              'After a sample arrives, wait this long [s] for more and correct them as one '
+              'batch (one executor wake-up for all): the added latency, at most; 0: at once. '
+              'imu_queue_depth must hold the samples of one period and one batch.', 0.0, 0.1),
+    Parameter('output.average_samples', 1,
+              'Publish the mean of every N accepted samples (a station: the angles of the mean '
+              'reading, the standard error in the covariances) instead of every sample; '
+              '1: every sample.', 1, 1000000),
+    Parameter('output.rate_hz', 0.0,
+              'Publish the mean of the accepted samples of each 1/rate of stamp time instead of '
+              'every sample (not with output.average_samples); 0: every sample.', 0.0, 10000.0),
     Parameter('diagnostics_period_s', 1.0,
               'Period of the /diagnostics report [s].', 0.1, 60.0),
     Parameter('still.max_drift_deg_per_s', 0.02,

@@ -6,10 +6,10 @@ from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 
 from inclino_ros.calibration.model import age_seconds, MOUNT_STAGES
 from inclino_ros.calibration.plausibility import field_reading_ok, temperature_ok
-from inclino_ros.core.screening import REASONS
+from inclino_ros.core.screening import count_reasons, REASONS
 from inclino_ros.core.temperature import in_range
-from inclino_ros.io.bag import NT_PER_TESLA
 from inclino_ros.io.timing import pair_nearest
+import numpy as np
 
 
 class InputStats:
@@ -26,18 +26,17 @@ class InputStats:
         self._period_g_sum = 0.0
         self._period_start_s = None
 
-    def accept(self, g_total_mps2, toolface_nan=False):
-        """Count one accepted sample, its G-total and whether its toolface was NaN."""
-        self.accepted_total += 1
-        self._period_accepted += 1
-        self._period_g_sum += g_total_mps2
-        self._period_toolface_nan += bool(toolface_nan)
-
-    def drop(self, code):
-        """Count one dropped sample under its screening reason."""
-        self.dropped_total[code] += 1
-        self._period_reasons[code] += 1
-        self._period_dropped += 1
+    def count(self, survey):
+        """Count a batch (a ``pipeline.Survey``): accepted samples, G-totals, NaN toolfaces."""
+        accepted = survey.g_total_mps2.size
+        self.accepted_total += accepted
+        self._period_accepted += accepted
+        self._period_g_sum += float(survey.g_total_mps2.sum())
+        self._period_toolface_nan += int(np.isnan(survey.toolface_deg).sum())
+        for code, dropped in enumerate(count_reasons(survey.codes).values()):
+            self.dropped_total[code] += dropped
+            self._period_reasons[code] += dropped
+            self._period_dropped += dropped
 
     def status(self, node_name, now_s, gravity_mps2, g_tolerance_mps2):
         """Return the input DiagnosticStatus for the period ending now; reset it."""
@@ -172,34 +171,35 @@ class MagneticInput:
         """Return the stamp of the latest reading, None before the first."""
         return self.recent[-1][0] if self.recent else None
 
-    def update(self, stamp_ns, field_tesla):
+    def update(self, series):
         """
-        Keep a reading (converted to nT) to pair with; count one no magnetometer gives.
+        Keep the readings of a MagneticFieldSeries (in nT) to pair with; count those refused.
 
-        Dropped: a non-finite one, and one beyond an Earth field plus
+        Refused: a non-finite one, and one beyond an Earth field plus
         interference (``plausibility.field_reading_ok``).
         """
-        field_nT = tuple(v * NT_PER_TESLA for v in field_tesla)
-        if field_reading_ok(field_nT)[0]:
-            self.recent.append((stamp_ns, field_nT))
-        else:
-            self.rejected += 1
+        field_nT = series.field_nT
+        ok = field_reading_ok(field_nT)
+        self.recent.extend(zip(series.stamps_ns[ok].tolist(), map(tuple, field_nT[ok])))
+        self.rejected += int(ok.size - np.count_nonzero(ok))
 
     def paired(self, stamps_ns, max_pairing_s):
         """Return (N, 3) fields [nT] paired with ``stamps_ns`` (NaN rows: none near enough)."""
         stamps, fields = zip(*self.recent)
         return pair_nearest(stamps_ns, stamps, fields, round(max_pairing_s * 1e9))[0]
 
-    def count(self, azimuth_survey, row, paired):
-        """Count the azimuth outcome of one sample (``row`` of an AzimuthSurvey)."""
-        if azimuth_survey.trusted[row]:
-            key = 'trusted'
-        elif not paired:
-            key = 'unpaired'
-        else:
-            key = 'imprecise' if azimuth_survey.imprecise[row] else 'untrusted'
-        self._period[key] += 1
-        self._last = (azimuth_survey, row)
+    def count(self, azimuth_survey):
+        """Count the azimuth outcomes of an AzimuthSurvey's rows (unpaired: a NaN field)."""
+        trusted = azimuth_survey.trusted
+        if trusted.size == 0:
+            return
+        paired = np.isfinite(azimuth_survey.uncorrected_nT).all(axis=1)
+        imprecise = azimuth_survey.imprecise
+        self._period['trusted'] += int(trusted.sum())
+        self._period['unpaired'] += int((~trusted & ~paired).sum())
+        self._period['imprecise'] += int((~trusted & paired & imprecise).sum())
+        self._period['untrusted'] += int((~trusted & paired & ~imprecise).sum())
+        self._last = (azimuth_survey, trusted.size - 1)
 
     def status(self, node_name, settings, model_stage, stations, model=None, now=None):
         """

@@ -1,0 +1,129 @@
+"""
+Averaged survey output: the mean of every N accepted samples, or of each output period.
+
+An MWD tool sends stations, not every sample of a fast sensor: the mean of the
+readings over a window, whose noise is the per-sample noise / sqrt(n).  The
+readings are averaged before the correction and the angles are those of the
+mean reading (the captures of seed 000 and 001 do the same).  Windows are cut
+over the accepted samples of a stream, across batches (the rows of an open
+window wait for the next batch):
+
+- by count: every ``samples`` accepted samples;
+- by time: the samples whose stamps fall in one period of ``rate_hz``, the
+  periods aligned to multiples of 1 / rate on the stamp clock; a window
+  closes when a sample of a later period arrives.
+
+A window also says how far its readings scatter (the largest per-axis sample
+standard deviation): a tool that moved within it has no meaningful mean, and
+``pipeline.average`` drops such a window.  A magnetometer slower than the
+accelerometer pairs one reading with several samples: the magnetometer's
+noise averages over the distinct readings of the window only
+(``field_samples``).
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Windows:
+    """Closed windows of a stream, in the order they closed."""
+
+    stamps_ns: np.ndarray      # (W,) int64 mean stamp of the window's samples
+    frame_ids: np.ndarray      # (W,) frame_id of each window's last sample
+    raw_mps2: np.ndarray       # (W, 3) mean reading (tool axes, before correction)
+    temperature_c: np.ndarray  # (W,) mean temperature, NaN where no sample had one
+    field_nT: np.ndarray       # (W, 3) mean of the paired field readings, NaN: none paired
+    samples: np.ndarray        # (W,) accelerometer samples averaged
+    field_samples: np.ndarray  # (W,) distinct magnetometer readings averaged
+    scatter_mps2: np.ndarray   # (W,) largest per-axis sample std of the readings (0 for one)
+
+    @property
+    def count(self):
+        """Return the number of windows."""
+        return self.stamps_ns.size
+
+
+def _group_sums(index, values, count):
+    """Return per-group sums (count, k) of ``values`` (N, k) for group ``index`` (N,)."""
+    return np.stack([np.bincount(index, weights=column, minlength=count)
+                     for column in values.T], axis=1)
+
+
+def close_windows(index, stamps_ns, frame_ids, raw, temperature_c, field_nT):
+    """
+    Return the Windows of rows grouped by ``index`` (N,) = 0 .. W-1, every group non-empty.
+
+    ``temperature_c`` (N,) NaN where unknown; ``field_nT`` (N, 3) NaN rows
+    where no reading was paired.
+    """
+    count = int(index.max()) + 1
+    samples = np.bincount(index, minlength=count)
+    base = stamps_ns[0]
+    stamps = base + np.round(np.bincount(index, weights=(stamps_ns - base).astype(float))
+                             / samples).astype(np.int64)
+    mean = _group_sums(index, raw, count) / samples[:, None]
+    deviation = raw - mean[index]
+    variance = (_group_sums(index, deviation * deviation, count)
+                / np.maximum(samples - 1, 1)[:, None])
+    known = np.isfinite(temperature_c)
+    with np.errstate(invalid='ignore', divide='ignore'):
+        temperature = (np.bincount(index, weights=np.where(known, temperature_c, 0.0),
+                                   minlength=count)
+                       / np.bincount(index, weights=known.astype(float), minlength=count))
+        paired = np.isfinite(field_nT).all(axis=1)
+        field = (_group_sums(index, np.where(paired[:, None], field_nT, 0.0), count)
+                 / np.bincount(index, weights=paired.astype(float), minlength=count)[:, None])
+    distinct = np.unique(np.column_stack([index[paired], field_nT[paired]]), axis=0)
+    last = np.zeros(count, dtype=np.int64)
+    np.maximum.at(last, index, np.arange(index.size))
+    return Windows(stamps_ns=stamps, frame_ids=np.asarray(frame_ids, dtype=object)[last],
+                   raw_mps2=mean, temperature_c=temperature, field_nT=field, samples=samples,
+                   field_samples=np.bincount(distinct[:, 0].astype(np.int64), minlength=count),
+                   scatter_mps2=np.sqrt(variance.max(axis=1)))
+
+
+class Averager:
+    """Cuts a stream of accepted samples into windows, by count or by time."""
+
+    def __init__(self, samples=1, rate_hz=0.0):
+        """Average every ``samples`` samples, or (``rate_hz`` > 0) each 1 / rate_hz of stamps."""
+        if rate_hz < 0 or samples < 1 or (rate_hz > 0 and samples > 1):
+            raise ValueError('average by a count of samples >= 1 or by an output rate > 0, '
+                             f'not both (samples {samples}, rate_hz {rate_hz})')
+        self.samples = int(samples)
+        self.period_ns = round(1e9 / rate_hz) if rate_hz > 0 else None
+        self._pending = None
+
+    @property
+    def pending(self):
+        """Return how many samples wait in the open window."""
+        return 0 if self._pending is None else self._pending[0].size
+
+    def push(self, stamps_ns, frame_ids, raw, temperature_c, field_nT):
+        """
+        Add accepted samples (N rows); return the Windows this closes, or None.
+
+        ``temperature_c``: (N,) NaN where unknown; ``field_nT``: (N, 3) NaN rows
+        where none was paired.
+        """
+        rows = (np.asarray(stamps_ns, dtype=np.int64), np.asarray(frame_ids, dtype=object),
+                np.asarray(raw, dtype=float).reshape(-1, 3),
+                np.asarray(temperature_c, dtype=float).reshape(-1),
+                np.asarray(field_nT, dtype=float).reshape(-1, 3))
+        if self._pending is not None:
+            rows = tuple(np.concatenate([old, new]) for old, new in zip(self._pending, rows))
+        if rows[0].size == 0:
+            return None
+        if self.period_ns is None:
+            key = np.arange(rows[0].size) // self.samples
+            closed = key < rows[0].size // self.samples
+        else:
+            key = rows[0] // self.period_ns
+            closed = key < key[-1]
+        self._pending = tuple(column[~closed] for column in rows) if not closed.all() else None
+        if not closed.any():
+            return None
+        _, index = np.unique(key[closed], return_inverse=True)
+        return close_windows(index.reshape(-1), *(column[closed] for column in rows))

@@ -1,0 +1,78 @@
+"""The live node's averaged survey output (output.average_samples, output.rate_hz)."""
+
+import math
+
+from inclino_ros.sim import sensor_model
+import numpy as np
+from ros_harness import G
+
+NOISE_MPS2 = 0.01   # the node's default accelerometer_noise_std_mps2
+RATE_HZ = 100.0
+
+
+def still_readings(count, seed, inclination_deg=30.0, toolface_deg=40.0):
+    """Return ``count`` readings of a still, ideal tool with the node's default noise."""
+    tool = sensor_model.Tool(accelerometer=sensor_model.Triad(noise_std=NOISE_MPS2))
+    return sensor_model.read(tool, np.full(count, inclination_deg), toolface_deg,
+                             rng=seed).accel_mps2
+
+
+def stamps_ns(message):
+    """Return a header stamp in nanoseconds."""
+    return message.header.stamp.sec * 1_000_000_000 + message.header.stamp.nanosec
+
+
+def stream_all(probe, readings, expected, key='survey'):
+    """Publish every reading at RATE_HZ (stamps index / RATE_HZ); wait for ``expected`` outputs."""
+    probe.stamp_period_s = 1.0 / RATE_HZ
+    probe.stream(lambda i: readings[i], rate_hz=400.0, count=len(readings))
+    probe.spin_until(lambda: len(probe.received[key]) >= expected)
+    probe.spin_for(0.5)
+
+
+def test_every_n_samples_becomes_one_station_with_its_standard_error(start_node, probe):
+    """
+    output.average_samples 20, 200 samples: 10 stations, each the angles of the mean reading.
+
+    Stamp: the mean of its 20 stamps.  Inclination: that of the mean reading
+    (independent numpy here).  Covariance of the corrected acceleration: the
+    per-sample noise^2 / 20 on the diagonal (no calibration: the identity).
+    """
+    start_node(**{'output.average_samples': 20})
+    probe.wait_for_node()
+    readings = still_readings(200, seed=1)
+    stream_all(probe, readings, 10)
+    surveys = probe.received['survey']
+    assert len(surveys) == len(probe.received['inclination']) == len(probe.received['imu/data'])
+    assert len(surveys) == 10
+    means = readings.reshape(10, 20, 3).mean(axis=1)
+    expected_deg = np.degrees(np.arctan2(np.hypot(means[:, 0], means[:, 1]), means[:, 2]))
+    np.testing.assert_allclose([s.vector.x for s in surveys], expected_deg, atol=1e-9)
+    expected_stamps = (np.arange(10) * 20 + 9.5) / RATE_HZ * 1e9
+    np.testing.assert_allclose([stamps_ns(s) for s in surveys], expected_stamps, atol=1.0)
+    for imu in probe.received['imu/data']:
+        np.testing.assert_allclose(np.reshape(imu.linear_acceleration_covariance, (3, 3)),
+                                   NOISE_MPS2 ** 2 / 20 * np.eye(3), rtol=1e-12)
+        assert imu.linear_acceleration.z > 0.8 * G
+
+
+def test_an_output_rate_averages_each_period_of_stamps(start_node, probe):
+    """output.rate_hz 10 on 100 Hz stamps: windows of 10 samples; the open one waits."""
+    start_node(**{'output.rate_hz': 10.0})
+    probe.wait_for_node()
+    readings = still_readings(95, seed=2)
+    stream_all(probe, readings, 9)
+    surveys = probe.received['survey']
+    assert len(surveys) == 9
+    np.testing.assert_allclose([stamps_ns(s) for s in surveys],
+                               (np.arange(9) * 10 + 4.5) / RATE_HZ * 1e9, atol=1.0)
+    for imu in probe.received['imu/data']:
+        assert math.isclose(imu.linear_acceleration_covariance[0], NOISE_MPS2 ** 2 / 10,
+                            rel_tol=1e-12)
+
+
+def test_both_averaging_modes_stop_the_node(start_node):
+    """A count and a rate at once: the node refuses to start, saying why."""
+    node = start_node(**{'output.average_samples': 10, 'output.rate_hz': 5.0})
+    assert node.process.wait(timeout=20) == 1
+    assert 'not both' in node.log()
