@@ -76,3 +76,22 @@ def test_both_averaging_modes_stop_the_node(start_node):
     node = start_node(**{'output.average_samples': 10, 'output.rate_hz': 5.0})
     assert node.process.wait(timeout=20) == 1
     assert 'not both' in node.log()
+
+
+def test_a_moving_tool_gives_no_station_and_the_diagnostics_say_so(start_node, probe):
+    """The toolface turning 2 deg a sample: every window scatters; none published, all counted."""
+    start_node(**{'output.average_samples': 20})
+    probe.wait_for_node()
+    tool = sensor_model.Tool(accelerometer=sensor_model.Triad(noise_std=NOISE_MPS2))
+    turning = sensor_model.read(tool, np.full(100, 30.0), 2.0 * np.arange(100), rng=3).accel_mps2
+    probe.stamp_period_s = 1.0 / RATE_HZ
+    probe.stream(lambda i: turning[i], rate_hz=400.0, count=100)
+
+    def windows_moving():
+        values = [dict((kv.key, kv.value) for kv in status.values)
+                  for array in probe.received['/diagnostics'] for status in array.status
+                  if status.name.endswith(': input')]
+        return int(values[-1].get('windows_moving', -1)) if values else -1
+
+    probe.spin_until(lambda: windows_moving() == 5)
+    assert probe.received['survey'] == []

@@ -115,13 +115,14 @@ class InclinometerNode(Node):
             self.param('output.rate_hz')
         self.averager = (Averager(average_samples, rate_hz)
                          if average_samples > 1 or rate_hz > 0 else None)
-        self.windows_moving = 0
         self.calibration_pub = self.create_publisher(String, '~/calibration', latched_qos())
         self.apply_model(self.model)
         self.collector = Collector(self)
         self.calibration = CalibrationServices(self, self.collector)
         self.magnetic = MagneticServices(self, self.collector, stations)
         self.create_timer(self.param('diagnostics_period_s'), self._publish_diagnostics)
+        if self.averager is not None:
+            self.stats.windows_moving = 0
         self._waker = BatchWaker(self, [self._imu_subscription, self._mag_subscription],
                                  self.param('input_batch_period_s'), self._on_batch)
 
@@ -251,7 +252,7 @@ class InclinometerNode(Node):
         kept, parts = average(windows, self.model, self.settings,
                               None if self.magnetometer.stamp_ns is None
                               else self.magnetic_settings)
-        self.windows_moving += int(windows.count - np.count_nonzero(kept))
+        self.stats.windows_moving += int(windows.count - np.count_nonzero(kept))
         for rows, averaged in parts:
             rows = rows[averaged.accepted]
             self._publish(outputs(windows.stamps_ns[rows], windows.frame_ids[rows], averaged))

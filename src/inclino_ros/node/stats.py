@@ -25,6 +25,7 @@ class InputStats:
         self._period_toolface_nan = 0
         self._period_g_sum = 0.0
         self._period_start_s = None
+        self.windows_moving = None   # averaged output: windows of a moving tool, not published
 
     def count(self, survey):
         """Count a batch (a ``pipeline.Survey``): accepted samples, G-totals, NaN toolfaces."""
@@ -71,6 +72,8 @@ class InputStats:
                   'toolface_nan': str(self._period_toolface_nan)}
         values.update({f'dropped_{reason}': str(n)
                        for reason, n in zip(REASONS, self.dropped_total)})
+        if self.windows_moving is not None:
+            values['windows_moving'] = str(self.windows_moving)
         status.values = [KeyValue(key=k, value=v) for k, v in values.items()]
         self._period_accepted = self._period_dropped = self._period_toolface_nan = 0
         self._period_reasons = [0] * len(REASONS)
