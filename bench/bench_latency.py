@@ -688,7 +688,7 @@ def report(runs, args, command, started, host, failures=()):
         f'- node: `{shorten(args.node_command)}`, {calibration}, in each output mode: '
         + '; '.join(f'{mode} `{" ".join(params) or "(defaults)"}`'
                     for mode, params in MODES.items() if mode in args.modes)
-        + '; relay: `bench/relay.py` (subscribe and republish, the node\'s QoS and executor)',
+        + "; relay: `bench/relay.py` (subscribe and republish, the node's QoS and executor)",
         '- input: one best-effort (sensor-data QoS) publisher on `imu/data_raw` feeding node '
         f'and relay, {args.seconds:g} s per rate after a 1 s warm-up at 200 Hz; '
         'receiver in its own process on `survey`, `relay/imu` and `/diagnostics`',
@@ -697,7 +697,7 @@ def report(runs, args, command, started, host, failures=()):
         'dropped); relay loss: inputs that never came out of the relay',
         '- latency: DDS reception time in the receiver minus `header.stamp` (send time); the '
         'node waits `input_batch_period_s` (5 ms) after a sample for more before it corrects '
-        'the batch, so its latency is up to that much above the relay\'s',
+        "the batch, so its latency is up to that much above the relay's",
         f'- targets: every-sample at {CPU_TARGET_RATE} Hz, node CPU <= relay CPU and node '
         f'input loss <= relay loss + {MAX_LOSS_PCT:g} %; average-500hz at '
         f'{AVERAGED_TARGET_RATE} Hz, node input loss <= {MAX_LOSS_PCT:g} %', '']

@@ -88,7 +88,7 @@ def test_a_moving_tool_gives_no_station_and_the_diagnostics_say_so(start_node, p
     probe.stream(lambda i: turning[i], rate_hz=400.0, count=100)
 
     def windows_moving():
-        values = [dict((kv.key, kv.value) for kv in status.values)
+        values = [{kv.key: kv.value for kv in status.values}
                   for array in probe.received['/diagnostics'] for status in array.status
                   if status.name.endswith(': input')]
         return int(values[-1].get('windows_moving', -1)) if values else -1

@@ -25,7 +25,7 @@ def test_float64_bytes_are_rclpys(value):
 
 
 def test_a_nan_float64_reads_back_as_nan():
-    """NaN (an angle withheld) survives the encoding."""
+    """A NaN (an angle withheld) survives the encoding."""
     (data,) = bag.encode_float64(np.array([math.nan]))
     assert math.isnan(deserialize_message(data, Float64).data)
 
