@@ -97,10 +97,10 @@ PARAMETERS = (
     Parameter('frame_id', '',
               'frame_id of the corrected outputs (the ideal tool frame, at most 256 '
               'characters); empty: the input frame_id.'),
-    Parameter('imu_queue_depth', 500,
+    Parameter('imu_queue_depth', 2000,
               'Depth of the sensor-data (best-effort) subscription queues on imu/data_raw and '
-              'imu/mag: what waits while the node is busy (0.1 s at 5 kHz) before samples are '
-              'lost.', 1, 10000),
+              'imu/mag: what waits while the node is held up (0.4 s at 5 kHz: another process '
+              'on the CPU) before samples are lost.', 1, 10000),
     Parameter('input_batch_period_s', 0.005,
               'After a sample arrives, wait this long [s] for more and correct them as one '
               'batch (one executor wake-up for all): the added latency, at most; 0: at once. '
