@@ -5,11 +5,13 @@ Subscribes ``imu/data_raw`` (sensor_msgs/Imu, sensor-data QoS),
 ``imu/temperature`` (sensor_msgs/Temperature) and ``imu/mag``
 (sensor_msgs/MagneticField), publishes the corrected ``survey``,
 ``inclination``, ``toolface``, ``azimuth`` and ``imu/data`` for every accepted
-sample, reports health on ``/diagnostics``, the calibration in use on the
-latched ``~/calibration`` (std_msgs/String, JSON) and calibrates through the
-services of ``node.services`` and ``node.magnetic_services`` (their progress
-on ``~/capture_progress``).  All arithmetic is in ``inclino_ros.pipeline``
-and the modules it uses.
+sample (or, with ``output.*``, for every averaged window), reports health on
+``/diagnostics``, the calibration in use on the latched ``~/calibration``
+(std_msgs/String, JSON) and calibrates through the services of
+``node.services`` and ``node.magnetic_services`` (their progress on
+``~/capture_progress``).  The raw inputs are taken in batches, serialized
+(``node.sample_path``).  All arithmetic is in ``inclino_ros.pipeline`` and the
+modules it uses.
 """
 
 import json
