@@ -255,3 +255,27 @@ def test_capture_progress_and_calibration_are_latched_topics(start_node, probe, 
     refused = probe.call('solve_stand_calibration')
     probe.spin_for(0.3)
     assert progress[-1]['state'] == 'refused' and progress[-1]['message'] == refused.message
+
+
+def test_samples_queued_before_a_capture_are_not_captured(start_node, probe, tmp_path):
+    """
+    50 samples of a tool tilted 3 deg wait in the node's queue when ~/calibrate_level comes.
+
+    With a 0.1 s input_batch_period_s they are still queued when the call is
+    taken; they are corrected and published first, and the capture holds only
+    the level samples streamed after the call: gamma and beta are the level
+    bench's (a capture that took the tilted ones would be refused as moving,
+    or off by degrees).
+    """
+    start_node(**NODE, input_batch_period_s=0.1)
+    probe.wait_for_node()
+    tilted = tilted_reading(3.0, 45.0, GAMMA_DEG, BETA_DEG)
+    for _ in range(50):
+        probe.publish(tilted)
+    response = probe.calibrate(level_samples())
+    assert response.success, response.message
+    angles = parse_angles(response.message)
+    assert angles['gamma_deg'] == pytest.approx(GAMMA_DEG, abs=ANGLE_TOL_DEG)
+    assert angles['beta_deg'] == pytest.approx(BETA_DEG, abs=ANGLE_TOL_DEG)
+    assert load_model(tmp_path / 'calibration.json').installation.sample_count == \
+        CAPTURE_SAMPLES
