@@ -70,8 +70,8 @@ from inclino_ros.io.bag import (
     TemperatureSeries, topic_info, VECTOR3_STAMPED)
 from inclino_ros.io.files import Outputs
 from inclino_ros.io.timing import pair_nearest
-from inclino_ros.node.outputs import outputs
-from inclino_ros.pipeline import average, MagneticSettings, run as run_pipeline, Settings
+from inclino_ros.node.outputs import averaged_outputs, outputs
+from inclino_ros.pipeline import MagneticSettings, run as run_pipeline, Settings
 import numpy as np
 from tqdm import tqdm
 
@@ -476,30 +476,14 @@ def _process_batches(batches, out, model, settings, temperature, magnetometer, s
         if averager is None:
             _write(out, outputs(stamps_ns, frame_ids, survey), summary)
         else:
-            _average(averager, out, model, settings, magnetometer, summary, survey, stamps_ns,
-                     frame_ids, temperature_c)
+            moving, dropped, published = averaged_outputs(
+                averager, stamps_ns, frame_ids, survey, temperature_c, model, settings,
+                None if magnetometer is None else magnetometer.settings)
+            summary.windows_moving += moving
+            summary.windows_dropped += dropped
+            for windows in published:
+                _write(out, windows, summary)
         progress.update(batch.stamps_ns.size)
-
-
-def _average(averager, out, model, settings, magnetometer, summary, survey, stamps_ns,
-             frame_ids, temperature_c):
-    """Push a batch's accepted samples into ``averager``; write the windows it closes."""
-    n = stamps_ns.size
-    temperature_c = (np.full(n, np.nan) if temperature_c is None
-                     else np.broadcast_to(temperature_c, survey.codes.shape)[survey.accepted])
-    windows = averager.push(stamps_ns, frame_ids, survey.uncorrected_mps2, temperature_c,
-                            np.full((n, 3), np.nan) if survey.magnetic is None
-                            else survey.magnetic.uncorrected_nT)
-    if windows is None:
-        return
-    kept, parts = average(windows, model, settings,
-                          None if magnetometer is None else magnetometer.settings)
-    summary.windows_moving += int(windows.count - np.count_nonzero(kept))
-    for rows, averaged in parts:
-        rows = rows[averaged.accepted]
-        summary.windows_dropped += int(averaged.codes.size - rows.size)
-        _write(out, outputs(windows.stamps_ns[rows], windows.frame_ids[rows], averaged),
-               summary)
 
 
 def _write(out, published, summary):

@@ -32,13 +32,13 @@ from inclino_ros.io.bag import encode, encode_float64, IMU, MAGNETIC_FIELD
 from inclino_ros.node.capture import Collector, latched_qos
 from inclino_ros.node.executor import run_node
 from inclino_ros.node.magnetic_services import MagneticServices
-from inclino_ros.node.outputs import outputs
+from inclino_ros.node.outputs import averaged_outputs, outputs
 from inclino_ros.node.parameters import PARAMETERS, refusal
 from inclino_ros.node.sample_path import (
     BatchWaker, decode_messages, ServedElsewhere, take_serialized)
 from inclino_ros.node.services import CalibrationServices
 from inclino_ros.node.stats import InputStats, MagneticInput, TemperatureInput
-from inclino_ros.pipeline import average, MagneticSettings, run, Settings
+from inclino_ros.pipeline import MagneticSettings, run, Settings
 import numpy as np
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
@@ -124,7 +124,7 @@ class InclinometerNode(Node):
         self.magnetic = MagneticServices(self, self.collector, stations)
         self.create_timer(self.param('diagnostics_period_s'), self._publish_diagnostics)
         if self.averager is not None:
-            self.stats.windows_moving = 0
+            self.stats.count_windows(0, 0)
         self._waker = BatchWaker(self, [self._imu_subscription, self._mag_subscription],
                                  self.param('input_batch_period_s'), self._on_batch)
 
@@ -245,19 +245,12 @@ class InclinometerNode(Node):
         if self.averager is None:
             self._publish(outputs(stamps_ns, frame_ids, survey))
             return
-        windows = self.averager.push(
-            stamps_ns, frame_ids, survey.uncorrected_mps2,
-            np.full(stamps_ns.size, math.nan if temperature_c is None else temperature_c),
-            np.full_like(survey.uncorrected_mps2, math.nan) if field_nT is None else field_nT)
-        if windows is None:
-            return
-        kept, parts = average(windows, self.model, self.settings,
-                              None if self.magnetometer.stamp_ns is None
-                              else self.magnetic_settings)
-        self.stats.windows_moving += int(windows.count - np.count_nonzero(kept))
-        for rows, averaged in parts:
-            rows = rows[averaged.accepted]
-            self._publish(outputs(windows.stamps_ns[rows], windows.frame_ids[rows], averaged))
+        moving, dropped, published = averaged_outputs(
+            self.averager, stamps_ns, frame_ids, survey, temperature_c, self.model,
+            self.settings, None if self.magnetometer.stamp_ns is None else self.magnetic_settings)
+        self.stats.count_windows(moving, dropped)
+        for out in published:
+            self._publish(out)
 
     def _publish(self, out):
         """Publish a batch's Outputs (``node.outputs``), serialized at once."""

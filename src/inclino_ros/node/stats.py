@@ -25,7 +25,7 @@ class InputStats:
         self._period_toolface_nan = 0
         self._period_g_sum = 0.0
         self._period_start_s = None
-        self.windows_moving = None   # averaged output: windows of a moving tool, not published
+        self.windows = None   # averaged output: [moving, dropped] windows, not published
 
     def count(self, survey):
         """Count a batch (a ``pipeline.Survey``): accepted samples, G-totals, NaN toolfaces."""
@@ -38,6 +38,10 @@ class InputStats:
             self.dropped_total[code] += dropped
             self._period_reasons[code] += dropped
             self._period_dropped += dropped
+
+    def count_windows(self, moving, dropped):
+        """Count averaged windows not published: of a moving tool, and not gravity."""
+        self.windows = [a + b for a, b in zip(self.windows or (0, 0), (moving, dropped))]
 
     def status(self, node_name, now_s, gravity_mps2, g_tolerance_mps2):
         """Return the input DiagnosticStatus for the period ending now; reset it."""
@@ -72,8 +76,9 @@ class InputStats:
                   'toolface_nan': str(self._period_toolface_nan)}
         values.update({f'dropped_{reason}': str(n)
                        for reason, n in zip(REASONS, self.dropped_total)})
-        if self.windows_moving is not None:
-            values['windows_moving'] = str(self.windows_moving)
+        if self.windows is not None:
+            values.update(windows_moving=str(self.windows[0]),
+                          windows_dropped=str(self.windows[1]))
         status.values = [KeyValue(key=k, value=v) for k, v in values.items()]
         self._period_accepted = self._period_dropped = self._period_toolface_nan = 0
         self._period_reasons = [0] * len(REASONS)
