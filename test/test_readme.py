@@ -17,6 +17,7 @@ import os
 import pathlib
 import re
 import shutil
+import signal
 import subprocess
 import sys
 
@@ -79,9 +80,31 @@ def test_readme_block_runs(line, code, tmp_path):
                ROS_DOMAIN_ID=str(150 + (line + os.getpid()) % 80),
                ROS_LOG_DIR=str(tmp_path / 'log'), MPLBACKEND='Agg')
     env.pop('INCLINO_TEST_DOMAIN_ID', None)
-    result = subprocess.run(['bash', '-euo', 'pipefail', '-c', code], cwd=work, env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                            timeout=900)
-    assert result.returncode == 0, (
-        f'README.md:{line} exited {result.returncode}:\n{code}\n--- output ---\n'
-        f'{result.stdout[-6000:]}')
+    returncode, output = run_block(code, work, env, tmp_path / 'output.txt')
+    assert returncode == 0, (
+        f'README.md:{line} exited {returncode}:\n{code}\n--- output ---\n{output[-6000:]}')
+
+
+def run_block(code, work, env, output_path, timeout_s=900):
+    """
+    Run ``code`` with bash in a session of its own; return (exit code, output).
+
+    A block that fails half-way may leave what it started in the background
+    (a node): the whole session is killed once bash ends, so that the failure
+    is reported at once, with its output, and nothing outlives the test.
+    """
+    with open(output_path, 'w') as output:
+        shell = subprocess.Popen(['bash', '-euo', 'pipefail', '-c', code], cwd=work, env=env,
+                                 stdout=output, stderr=subprocess.STDOUT,
+                                 start_new_session=True)
+        try:
+            returncode = shell.wait(timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            returncode = f'nothing: still running after {timeout_s} s'
+        finally:
+            try:
+                os.killpg(shell.pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+            shell.wait()
+    return returncode, output_path.read_text()
