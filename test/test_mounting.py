@@ -35,7 +35,8 @@ def test_signed_permutations_written_out():
 @pytest.mark.parametrize('spec,words', [
     ('+X+X+Z', 'each sensor axis'), ('XYZ', 'neither'), ('+X+Y', 'neither'),
     ('+X+Y+W', 'neither'), ('rpy:0,90', 'neither'), ('rpy:a,0,0', 'three angles'),
-    ('rpy:nan,0,0', 'finite'), ('+X+Y-Z', 'left-handed'), ('-Y-X+Z', 'left-handed')])
+    ('rpy:nan,0,0', 'finite'), ('rpy:1e308,0,0', r'within -360 \.\. 360'),
+    ('rpy:0,0,-361', 'within'), ('+X+Y-Z', 'left-handed'), ('-Y-X+Z', 'left-handed')])
 def test_invalid_maps_are_refused_with_the_reason(spec, words):
     """Each axis once, signs given, right-handed; the message says what is wrong."""
     with pytest.raises(ValueError, match=words):

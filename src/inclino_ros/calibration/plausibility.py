@@ -85,7 +85,8 @@ MAX_MAGNETOMETER_SCALE_ERROR = 0.5
 MAX_COUNT = 10 ** 9
 
 #: Units a magnetometer may wrongly be read in, and their nT.
-_FIELD_UNITS = (('tesla', 1e9), ('gauss', 1e5), ('microtesla', 1e3), ('milligauss', 1e2))
+_FIELD_UNITS = (('tesla', 1e9), ('gauss', 1e5), ('microtesla (uT)', 1e3),
+                ('milligauss (mG)', 1e2))
 #: Units an accelerometer may wrongly be read in, and their m/s^2.
 _ACCELERATION_UNITS = (('g', STANDARD_GRAVITY_MPS2), ('mg', STANDARD_GRAVITY_MPS2 / 1000.0))
 
@@ -117,18 +118,35 @@ def _unit_hint(value, units, expected, unit):
     return ''
 
 
-def check_field_readings(field_nT, what='the magnetometer readings'):
-    """Raise Implausible unless the finite readings (N, 3) [nT] are Earth fields, in nT."""
-    size = magnitude(np.asarray(field_nT, dtype=float).reshape(-1, 3))
+def _finite_magnitudes(vectors, what):
+    """Return the finite |v| of (N, 3) vectors; Implausible if there is none."""
+    size = magnitude(np.asarray(vectors, dtype=float).reshape(-1, 3))
     size = size[np.isfinite(size)]
     if size.size == 0:
         raise Implausible(f'{what} hold no finite value')
+    return size
+
+
+def check_field_unit(field_nT, what='the magnetometer readings'):
+    """
+    Raise Implausible unless the median |B| of the readings (N, 3) is an Earth field in nT.
+
+    Only the median: single readings beyond (a tool passing iron) are the
+    caller's to screen.  Returns the finite magnitudes.
+    """
+    size = _finite_magnitudes(field_nT, what)
     median = float(np.median(size))
     if not FIELD_NT[0] <= median <= FIELD_NT[1]:
         raise Implausible(
             f'{what} have |B| = {median:.4g} nT (median), not an Earth field plus '
             f'interference ({FIELD_NT[0]:g} .. {FIELD_NT[1]:g} nT): a dead magnetometer, '
             'or readings not in nT' + _unit_hint(median, _FIELD_UNITS, EARTH_FIELD_NT, 'nT'))
+    return size
+
+
+def check_field_readings(field_nT, what='the magnetometer readings'):
+    """Raise Implausible unless the finite readings (N, 3) [nT] are Earth fields, in nT."""
+    size = check_field_unit(field_nT, what)
     beyond = np.flatnonzero(size > FIELD_NT[1])
     if beyond.size:
         raise Implausible(f'{what}: {beyond.size} reading(s) beyond {FIELD_NT[1]:g} nT '
@@ -141,12 +159,14 @@ def field_reading_ok(field_nT):
     return np.isfinite(field_nT).all(axis=1) & (magnitude(field_nT) <= FIELD_NT[1])
 
 
-def check_accelerometer_readings(readings, gravity_mps2, what='the readings'):
-    """Raise Implausible unless the finite readings (N, 3) are of a still tool, in m/s^2."""
-    size = magnitude(np.asarray(readings, dtype=float).reshape(-1, 3))
-    size = size[np.isfinite(size)]
-    if size.size == 0:
-        raise Implausible(f'{what} hold no finite value')
+def check_acceleration_unit(readings, gravity_mps2, what='the readings'):
+    """
+    Raise Implausible unless the median |A| of the readings (N, 3) is gravity in m/s^2.
+
+    Only the median (g or mg instead of m/s^2 is named): single readings of
+    a moving tool are the caller's to screen.  Returns the finite magnitudes.
+    """
+    size = _finite_magnitudes(readings, what)
     median = float(np.median(size))
     still = (gravity_mps2 * (1.0 - STILL_G_FRACTION), gravity_mps2 * (1.0 + STILL_G_FRACTION))
     if not still[0] <= median <= still[1]:
@@ -154,6 +174,12 @@ def check_accelerometer_readings(readings, gravity_mps2, what='the readings'):
             f'{what} have |A| = {median:.4g} m/s^2 (median), not gravity ({gravity_mps2:g} '
             f'm/s^2 within {STILL_G_FRACTION:.0%})'
             + _unit_hint(median, _ACCELERATION_UNITS, still, 'm/s^2'))
+    return size
+
+
+def check_accelerometer_readings(readings, gravity_mps2, what='the readings'):
+    """Raise Implausible unless the finite readings (N, 3) are of a still tool, in m/s^2."""
+    size = check_acceleration_unit(readings, gravity_mps2, what)
     beyond = np.flatnonzero(size > MAX_STILL_G * gravity_mps2)
     if beyond.size:
         raise Implausible(f'{what}: {beyond.size} reading(s) beyond {MAX_STILL_G:g} g (largest '

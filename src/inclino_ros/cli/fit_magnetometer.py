@@ -38,6 +38,7 @@ from dataclasses import replace
 import math
 
 from inclino_ros.calibration.magnetometer import calibrate_from_shots
+from inclino_ros.calibration.plausibility import check_field_unit, Implausible
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_file_arguments, finish_figure, is_bag, load_existing, new_figure, read_topic, Refused,
@@ -193,9 +194,10 @@ def fit(args, lines, outputs):
     else:
         accel, field, labels, temperature_c = read_shots(args.input)
     if accel.shape[0]:
-        problem = magnetics.field_unit_problem(np.median(np.linalg.norm(field, axis=1)))
-        if problem:
-            raise Refused(f'bx, by, bz must be in nT: {problem}')
+        try:
+            check_field_unit(field, 'bx, by, bz')
+        except Implausible as err:
+            raise Refused(err.reason) from None
     limits = replace(ShotLimits(), max_dip_rms_deg=args.max_dip_rms_deg,
                      max_b_rms_fraction=args.max_b_rms_fraction)
     try:

@@ -9,7 +9,9 @@ the calibration file, as in the node and ``inclino process``.
 Output: the input columns (one whose name the output uses is kept as
 ``input_<name>``) plus ``inclination_deg``, ``toolface_deg``, ``azimuth_deg``,
 ``g_total_mps2``, ``b_total_nT``, ``dip_deg`` and ``status`` (``ok`` or why
-the row gave no angles: ``non_finite``, ``saturated``, ``zero``).  The
+the row gave no angles: ``non_finite``, ``saturated``, ``zero``; or
+``temperature_outside_fit``: a temperature outside the calibration's fitted
+range).  The
 azimuth is written wherever it is defined (a field of at least 1000 nT, a
 1 sigma within ``--azimuth-max-std-deg``: not near vertical): QC is a column
 here, not a filter.  With a reference field (``--reference-total-nT`` and
@@ -20,7 +22,9 @@ reference) the QC columns follow: ``b_total_delta_nT``, ``dip_delta_deg``,
 ``true_azimuth_deg``.
 
 Exit codes: 0 written, 2 an input that cannot be used (missing column, a
-field not in nT, no calibration file).
+row with a cell too many or too few, a blank line, readings not in m/s^2 or
+nT, a temperature missing, not a number or not one a sensor reads, no
+calibration file).
 """
 
 import csv
@@ -28,12 +32,15 @@ import math
 import sys
 
 from inclino_ros.calibration.model import CalibrationFileError, load_model
+from inclino_ros.calibration.plausibility import (
+    check_acceleration_unit, check_field_unit, check_temperatures, Implausible)
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import NODE_DEFAULTS, node_option
 from inclino_ros.cli.options import add_force_argument, node_parameter
 from inclino_ros.cli.process import add_limit_arguments
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
-from inclino_ros.core.magnetics import field_unit_problem, QcLimits, true_azimuth_deg
+from inclino_ros.core.magnetics import QcLimits, true_azimuth_deg
+from inclino_ros.core.temperature import in_range
 from inclino_ros.core.screening import ACCEPTED, REASONS
 from inclino_ros.io import tables
 from inclino_ros.io.files import Outputs
@@ -43,6 +50,8 @@ import numpy as np
 INPUT_COLUMNS = ('ax', 'ay', 'az', 'bx', 'by', 'bz')
 ANGLE_COLUMNS = ('inclination_deg', 'toolface_deg', 'azimuth_deg', 'g_total_mps2',
                  'b_total_nT', 'dip_deg')
+#: Status of a row whose temperature lies outside the fitted range of a temperature stage.
+OUTSIDE_FIT = 'temperature_outside_fit'
 QC_COLUMNS = ('b_total_delta_nT', 'dip_delta_deg', 'g_total_delta_mps2', 'qc_b_total',
               'qc_dip', 'qc_g_total', 'qc_ok')
 
@@ -105,6 +114,47 @@ def _model(path):
         raise CommandError(str(err)) from None
 
 
+def _temperatures(args, header, rows, model):
+    """
+    Return the temperature_c column [deg C] (None without one); CommandError if unusable.
+
+    Every cell must be a number a sensor reads (``plausibility.TEMPERATURE_C``:
+    1e6 or text is no temperature); a calibration with a temperature stage
+    needs the column (without it the readings would be compensated at the
+    reference temperature, silently).
+    """
+    stages = [name for name in ('temperature', 'magnetometer_temperature')
+              if getattr(model, name) is not None]
+    if 'temperature_c' not in header:
+        if stages:
+            raise CommandError(f'{args.input} has no temperature_c column but '
+                               f'{args.calibration} compensates temperature ({", ".join(stages)}'
+                               '): give the temperature of every row')
+        return None
+    temperature_c = _numbers(rows, header, 'temperature_c')
+    unread = np.flatnonzero(~np.isfinite(temperature_c))
+    if unread.size:
+        raise CommandError(f'{args.input} data row {unread[0] + 1}: temperature_c '
+                           f'{rows[unread[0]][header.index("temperature_c")]!r} is not a '
+                           f'number ({unread.size} such row(s))')
+    try:
+        check_temperatures(temperature_c, f'{args.input} temperature_c')
+    except Implausible as err:
+        raise CommandError(err.reason) from None
+    return temperature_c
+
+
+def _outside_fit(model, temperature_c):
+    """Return which rows lie outside the fitted range of a temperature stage (None: none)."""
+    if temperature_c is None:
+        return None
+    outside = np.zeros(temperature_c.shape, dtype=bool)
+    for stage in (model.temperature, model.magnetometer_temperature):
+        if stage is not None:
+            outside |= ~in_range(temperature_c, stage)
+    return outside
+
+
 def survey(args, outputs):
     """Compute and write the survey; return (rows, rows with an azimuth)."""
     try:
@@ -117,17 +167,16 @@ def survey(args, outputs):
                            f'{", ".join(header)}')
     raw, field = (np.column_stack([_numbers(rows, header, n) for n in names])
                   for names in (INPUT_COLUMNS[:3], INPUT_COLUMNS[3:]))
-    temperature_c = (_numbers(rows, header, 'temperature_c') if 'temperature_c' in header
-                     else None)
-    magnitude = np.linalg.norm(field, axis=1)
-    if np.isfinite(magnitude).any():
-        problem = field_unit_problem(np.nanmedian(magnitude))
-        if problem:
-            raise CommandError(f'bx, by, bz must be in nT: {problem}')
+    try:
+        check_acceleration_unit(raw, args.gravity_mps2, 'ax, ay, az')
+        check_field_unit(field, 'bx, by, bz')
+    except Implausible as err:
+        raise CommandError(err.reason) from None
     model = _model(args.calibration)
     if model.accelerometer_axes != 3:
         raise CommandError(f'{args.calibration} is for a two-axis accelerometer: a survey '
                            'needs three axes')
+    temperature_c = _temperatures(args, header, rows, model)
     stage = model.magnetic
     fallback = ((stage.msa_reference_total_nT, stage.msa_reference_dip_deg)
                 if stage is not None and stage.msa_method is not None else (None, None))
@@ -150,7 +199,8 @@ def survey(args, outputs):
                                 azimuth_max_std_deg=args.azimuth_max_std_deg)
     result = run_pipeline(raw, model, settings, temperature_c, field, magnetic)
     columns = output_columns(result, declination_deg, total_nT is not None)
-    write(outputs.path(args.output), header, rows, result.codes, columns)
+    outside = _outside_fit(model, temperature_c)
+    write(outputs.path(args.output), header, rows, result.codes, columns, outside)
     return len(rows), int(np.isfinite(columns['azimuth_deg'][1]).sum())
 
 
@@ -179,8 +229,14 @@ def _cell(value):
     return repr(float(value))
 
 
-def write(path, header, rows, codes, columns):
-    """Write the input rows with the output columns (and the status) to ``path``."""
+def write(path, header, rows, codes, columns, outside=None):
+    """
+    Write the input rows with the output columns (and the status) to ``path``.
+
+    ``outside``: rows whose temperature lies outside the calibration's fitted
+    range, their status ``temperature_outside_fit`` (the compensation holds
+    the range's edge there).
+    """
     names = list(columns) + ['status']
     renamed = [f'input_{name}' if name in names else name for name in header]
     if renamed != header:
@@ -188,6 +244,11 @@ def write(path, header, rows, codes, columns):
               + ', '.join(n for n, r in zip(header, renamed) if n != r)
               + ' kept as input_<name>', file=sys.stderr)
     status = ['ok' if code == ACCEPTED else REASONS[code] for code in codes]
+    if outside is not None and outside.any():
+        status = [OUTSIDE_FIT if far and text == 'ok' else text
+                  for text, far in zip(status, outside)]
+        print(f'inclino survey: {int(outside.sum())} row(s) with a temperature outside the '
+              f'calibration\'s fitted range: status {OUTSIDE_FIT}', file=sys.stderr)
     full = {}
     for name, (accepted, values) in columns.items():
         column = np.full(len(rows), math.nan, dtype=object)

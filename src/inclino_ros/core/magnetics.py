@@ -86,34 +86,6 @@ def expected_field_tool_nT(inclination_deg, toolface_deg, azimuth_deg, b_total_n
     return iscwsa_from_tool(field)
 
 
-#: The Earth's field at the surface spans 22000 .. 67000 nT (real-sensors.md); readings
-#: whose typical magnitude lies a factor of ten or more outside are a unit error or a
-#: dead sensor, not a field.
-EARTH_FIELD_RANGE_NT = (22000.0, 67000.0)
-#: Units a magnetometer stream is often given in by mistake, and their size in nT.
-FIELD_UNITS_NT = (('uT', 1e3), ('gauss', 1e5), ('mG', 1e2), ('T', 1e9))
-
-
-def field_unit_problem(b_total_nT):
-    """
-    Return why readings of typical magnitude ``b_total_nT`` are no field in nT, or None.
-
-    A magnitude a factor of ten or more outside EARTH_FIELD_RANGE_NT is
-    refused; when it fits the Earth's field in another unit (uT, gauss, mG,
-    tesla) the reason names that unit and the factor to nT.
-    """
-    low, high = EARTH_FIELD_RANGE_NT
-    value = float(b_total_nT)
-    if low / 10.0 < value < high * 10.0:
-        return None
-    for unit, nT in FIELD_UNITS_NT:
-        if low / 2.0 <= value * nT <= high * 2.0:
-            return (f'the field magnitude is {value:.6g}, which is the Earth field in {unit}, '
-                    f'not in nT: multiply the readings by {nT:g}')
-    return (f'the field magnitude {value:.6g} nT is no Earth field ({low:g} .. {high:g} nT): '
-            'a dead sensor or a unit error')
-
-
 def _wrap_360(angle_deg):
     """
     Return ``angle mod 360`` in [0, 360); NaN stays NaN.

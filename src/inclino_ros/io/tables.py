@@ -65,42 +65,59 @@ def _header(reader, path):
     return header
 
 
-def _rows(reader, path, header, whole=True):
-    """Yield the data rows of an open csv reader, at most MAX_ROWS; ``whole``: len(header) each."""
+def _rows(reader, path, header, max_rows=MAX_ROWS):
+    """
+    Yield the data rows of an open csv reader: at most ``max_rows``, len(header) cells each.
+
+    A row with a cell too many or too few would shift every later column (a
+    value read under another's name), a blank line would be a row of no
+    values: either refuses the table, naming the line.
+    """
     for count, row in enumerate(reader, start=1):
-        if (len(row) != len(header)) if whole else len(row) > MAX_COLUMNS:
+        if not row:
+            raise TableError(f'{path} line {reader.line_num} is blank: every row needs '
+                             f'{len(header)} values (remove the line)')
+        if len(row) != len(header):
             raise TableError(f'{path} line {reader.line_num}: every row needs {len(header)} '
-                             f'values, this one has {len(row)}')
-        if count > MAX_ROWS:
-            raise TableError(f'{path} has more than {MAX_ROWS} rows')
+                             f'values ({", ".join(header)}), this one has {len(row)}: '
+                             'its values would be read under the wrong columns')
+        if count > max_rows:
+            raise TableError(f'{path} has more than {max_rows} rows, the most this command '
+                             'reads')
         yield row
 
 
-def read_csv(path, required, optional=(), text=()):
+def read_csv(path, required, optional=(), text=(), max_rows=MAX_ROWS):
     """
     Return ``{column: float array}`` of a CSV file with a header row.
 
     ``required`` columns must be present, ``optional`` ones are returned when
     present; ``text`` columns (optional) come back as lists of stripped
     strings; other columns are ignored (but every row must have a value for
-    each).  Raises TableError otherwise.
+    each).  At most ``max_rows`` data rows (a command passes what it needs,
+    memory grows with it).  Raises TableError otherwise.
     """
     return _open_reader(path, lambda reader: _read_table(reader, path, required, optional,
-                                                         text))
+                                                         text, max_rows))
 
 
-def read_rows(path):
-    """Return (header names, data rows as lists of strings) of a CSV file; TableError if empty."""
+def read_rows(path, max_rows=MAX_ROWS):
+    """
+    Return (header names, data rows as lists of strings) of a CSV file.
+
+    The rows are checked as ``read_csv``'s (len(header) cells, no blank
+    line, at most ``max_rows``); TableError otherwise or if there is none.
+    """
     def read(reader):
         header = _header(reader, path)
-        rows = list(_rows(reader, path, header, whole=False))
+        rows = list(_rows(reader, path, header, max_rows))
         if not rows:
             raise TableError(f'{path} has no data rows')
         return header, rows
     return _open_reader(path, read)
 
 
-def _read_table(reader, path, required, optional, text):
+def _read_table(reader, path, required, optional, text, max_rows):
     """Return the columns of an open csv reader (see ``read_csv``)."""
     header = _header(reader, path)
     missing = [name for name in required if name not in header]
@@ -111,7 +128,7 @@ def _read_table(reader, path, required, optional, text):
     used = [header.index(name) for name in names]
     words = {name: [] for name in text if name in header}
     blocks, block, filled = [], np.empty((_BLOCK_ROWS, len(used))), 0
-    for row in _rows(reader, path, header):
+    for row in _rows(reader, path, header, max_rows):
         try:
             block[filled] = [float(row[i]) for i in used]
         except ValueError as err:

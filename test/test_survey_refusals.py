@@ -1,0 +1,118 @@
+"""
+``inclino survey`` refuses what would give silently wrong numbers (issue 21).
+
+A row with a cell too many or too few, a blank line, readings in g, mg or
+ten times nT, and temperatures that are text, absurd or outside the fitted
+range: each named, none giving an "ok" row.
+"""
+
+from inclino_ros.calibration.model import CalibrationModel, save_model, Temperature, utc_now_iso
+from inclino_ros.sim import sensor_model
+import numpy as np
+import pytest
+import shots_sim
+from test_msa_cli import quiet
+from test_survey_cli import read_rows, write_rows
+
+HEADER = ['shot', 'ax', 'ay', 'az', 'bx', 'by', 'bz']
+
+
+def shots(count=20, seed=21):
+    """Return (accel (N, 3) m/s^2, field (N, 3) nT) of an ideal tool at random attitudes."""
+    rng = np.random.default_rng(seed)
+    incl, tf, azim = shots_sim.random_attitudes(rng, count)
+    return shots_sim.read(shots_sim.tool(sensor_model.IDEAL), incl, tf, azim, rng)
+
+
+def calibration(path, temperature=False):
+    """Write an empty calibration, or one with a temperature stage fitted over 20 .. 60 C."""
+    stage = None
+    if temperature:
+        stage = Temperature(coefficients=((1.0, 0.0),) * 3, t_min_c=20.0, t_max_c=60.0,
+                            reference_temperature_c=25.0, rms_residual_mps2=(1e-4,) * 3,
+                            samples=100, fitted_at=utc_now_iso())
+    save_model(path, CalibrationModel(accelerometer_axes=3, temperature=stage))
+    return path
+
+
+def survey(tmp_path, header, rows, temperature=False):
+    """Run survey on ``rows``; return (exit code, stderr, output rows or None)."""
+    write_rows(tmp_path / 'in.csv', header, rows)
+    code, _, err = quiet(['survey', tmp_path / 'in.csv', '-o', tmp_path / 'out.csv',
+                          '--calibration', calibration(tmp_path / 'cal.json', temperature)])
+    out = tmp_path / 'out.csv'
+    return code, err, read_rows(out) if out.exists() else None
+
+
+def numbered(accel, field):
+    """Return the rows ``shot, ax, ay, az, bx, by, bz``."""
+    return [[k, *a, *b] for k, (a, b) in enumerate(zip(accel, field))]
+
+
+@pytest.mark.parametrize('change', ['extra', 'missing'])
+def test_row_with_a_cell_too_many_or_too_few_is_refused(tmp_path, change):
+    """A row shifted by one cell would read its inclination from a stray value: refused, named."""
+    rows = numbered(*shots())
+    rows[5] = rows[5] + ['7.5'] if change == 'extra' else rows[5][:-1]
+    code, err, out = survey(tmp_path, HEADER, rows)
+    assert code == 2 and out is None
+    assert 'line 7' in err and f'this one has {8 if change == "extra" else 6}' in err
+
+
+def test_blank_line_is_refused(tmp_path):
+    """A blank line is no row of NaN: the file is refused, the line named."""
+    write_rows(tmp_path / 'in.csv', HEADER, numbered(*shots()))
+    lines = (tmp_path / 'in.csv').read_text().splitlines(keepends=True)
+    (tmp_path / 'in.csv').write_text(''.join(lines[:4] + ['\r\n'] + lines[4:]))
+    code, _, err = quiet(['survey', tmp_path / 'in.csv', '-o', tmp_path / 'out.csv',
+                          '--calibration', calibration(tmp_path / 'cal.json')])
+    assert code == 2 and 'line 5 is blank' in err
+    assert not (tmp_path / 'out.csv').exists()
+
+
+@pytest.mark.parametrize('factor,named', [(1.0 / 9.80665, 'g'), (1000.0 / 9.80665, 'mg')])
+def test_acceleration_in_g_or_mg_is_refused_naming_the_unit(tmp_path, factor, named):
+    """Readings in g or mg made every row 'dynamic' or 'saturated' with exit 0: the unit named."""
+    accel, field = shots()
+    code, err, out = survey(tmp_path, HEADER, numbered(accel * factor, field))
+    assert code == 2 and out is None
+    assert f'is it in {named}?' in err
+
+
+def test_field_ten_times_too_large_is_refused(tmp_path):
+    """|B| ten times nT gave 'ok' azimuths up to 3.9 deg off: refused as not nT."""
+    accel, field = shots()
+    code, err, out = survey(tmp_path, HEADER, numbered(accel, field * 10.0))
+    assert code == 2 and out is None
+    assert 'not in nT' in err
+
+
+@pytest.mark.parametrize('value,named', [('warm', "'warm' is not a number"),
+                                         ('', "'' is not a number"),
+                                         ('1e6', 'outside -60 .. 260 C')])
+def test_temperature_not_a_number_or_absurd_is_an_error(tmp_path, value, named):
+    """Text, an empty cell or 1e6 C was clamped or ignored with status ok: an error, named."""
+    accel, field = shots()
+    rows = [row + [30.0] for row in numbered(accel, field)]
+    rows[3][-1] = value
+    code, err, out = survey(tmp_path, HEADER + ['temperature_c'], rows, temperature=True)
+    assert code == 2 and out is None
+    assert named in err
+
+
+def test_temperature_column_missing_with_a_temperature_stage_is_an_error(tmp_path):
+    """A calibration that compensates temperature needs it: not silently the reference one."""
+    code, err, out = survey(tmp_path, HEADER, numbered(*shots()), temperature=True)
+    assert code == 2 and out is None
+    assert 'no temperature_c column' in err
+
+
+def test_temperature_outside_the_fitted_range_is_flagged_on_every_row(tmp_path):
+    """In deg F (or beyond the fit) a temperature is outside 20 .. 60 C: those rows never 'ok'."""
+    accel, field = shots()
+    fahrenheit = np.where(np.arange(len(accel)) % 2, 104.0, 40.0)   # 40 C as deg F, and 40 C
+    rows = [row + [t] for row, t in zip(numbered(accel, field), fahrenheit)]
+    code, err, out = survey(tmp_path, HEADER + ['temperature_c'], rows, temperature=True)
+    assert code == 0, err
+    assert [r['status'] for r in out] == ['ok', 'temperature_outside_fit'] * (len(rows) // 2)
+    assert f'{len(rows) // 2} row(s) with a temperature outside' in err
