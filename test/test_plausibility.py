@@ -45,6 +45,14 @@ HAND_EDITS = {
                              'is not a sensor'),
     'K scale 1.45': ('stand', {'scale_matrix': [[1.45, 0, 0], [0, 1, 0], [0, 0, 1]]},
                      'is not a sensor'),
+    'K element 0.4': ('stand', {'scale_matrix': [[1, 0.4, 0], [0, 1, 0], [0, 0, 1]]},
+                      'cross terms at most 0.05'),
+    'K mirrored': ('stand', {'scale_matrix': [[1, 0, 0], [0, 1, 0], [0, 0, -1]]}, 'mirrors'),
+    'K tilted 60 deg': ('stand', {'scale_matrix': [[1, 0, 0], [0, 0.5, -0.866025],
+                                                   [0, 0.866025, 0.5]]},
+                        'turns the tool axis by 60'),
+    'captured in 2100': ('installation', {'captured_at': '2100-01-01T00:00:00+00:00'},
+                         'in the future'),
     'hard iron 1e300': ('magnetic', {'hard_iron_nT': [1e300, 0.0]}, 'magnetic.hard_iron_nT'),
     'soft iron ratio 1.9': ('magnetic', {'soft_iron': [[1.3, 0], [0, 0.7]]},
                             'magnetic.soft_iron'),
@@ -88,6 +96,31 @@ def test_an_absurd_stage_is_never_written(tmp_path, case):
     with pytest.raises(ValueError, match=reason.replace('.', r'\.')):
         save_model(target, replace(GOOD, **{section: stage}))
     assert not target.exists()
+
+
+#: The real MPU-9150 units of /work/shared/data/real/mpu9150_multiposition, as their
+#: authors fitted them (real_imu.png, accelerometer): scale s [%], misalignment m [deg]
+#: (yz, xy, xz), bias b [m/s^2], units #1 .. #5.
+MPU9150_UNITS = (
+    ((0.363, 0.315, 0.647), (0.123, 0.02, 0.317), (0.103, 0.097, 0.344)),
+    ((0.471, 0.482, 0.932), (-0.284, -0.01, 0.145), (0.09, 0.07, 0.338)),
+    ((0.382, 0.355, 0.78), (0.26, -0.012, 0.282), (0.096, 0.008, -0.045)),
+    ((0.263, 0.448, 0.721), (-0.009, -0.028, -0.104), (0.065, 0.092, -0.009)),
+    ((0.251, 0.286, 0.804), (0.056, 0.0, 0.191), (0.07, 0.036, 0.182)))
+
+
+@pytest.mark.parametrize('unit', range(len(MPU9150_UNITS)))
+def test_real_mpu9150_units_are_plausible(unit):
+    """The datasheet-derived bounds leave real parts room: each unit's K, b loads, rolled too."""
+    scale, (m_yz, m_xy, m_xz), bias = MPU9150_UNITS[unit]
+    m_yz, m_xy, m_xz = np.radians([m_yz, m_xy, m_xz])
+    k = np.diag(1.0 + np.array(scale) / 100.0) @ np.array(
+        [[1.0, -m_xy, m_xz], [0.0, 1.0, -m_yz], [0.0, 0.0, 1.0]])
+    roll = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])   # board turned 90 deg
+    for matrix in (k, roll @ k):
+        stand = replace(GOOD.stand, scale_matrix=as_stage_value(matrix.tolist()),
+                        bias_mps2=tuple(bias), condition_number=float(np.linalg.cond(matrix)))
+        plausibility.check_stand(stand, 2.0 * G)
 
 
 def test_stand_bias_against_the_sensor_range():

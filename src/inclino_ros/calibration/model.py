@@ -743,6 +743,7 @@ def _time(section, name, key):
         raise ValueError(f'{name}.{key} = {section[key]!r} is not an ISO 8601 time') from None
     if moment.tzinfo is None:
         raise ValueError(f'{name}.{key} has no time zone')
+    plausibility.check_time(moment, f'{name}.{key}')
 
 
 def installation_from_dict(section):
