@@ -69,6 +69,21 @@ def test_time_windows_hold_the_samples_of_each_period():
     assert np.concatenate([w.samples for w in closed]).tolist() == [len(groups[k]) for k in keys]
 
 
+def test_stamps_going_back_close_the_open_window():
+    """A replay loop's stamps jump back each second: windows keep closing, nothing piles up."""
+    rng = np.random.default_rng(3)
+    loop = np.arange(1000) * 1_000_000 + 10**18        # 1 s at 1 kHz, again and again
+    stamps = np.tile(loop, 5)
+    raw = rng.normal(size=(stamps.size, 3))
+    averager = Averager(rate_hz=10.0)
+    closed = push_in_batches(averager, stamps, raw, [100])
+    samples = np.concatenate([w.samples for w in closed])
+    # Ten periods of 100 samples a loop; the last period of the last loop still open.
+    assert samples.tolist() == [100] * 49
+    assert averager.pending == 100
+    np.testing.assert_allclose(closed[-1].raw_mps2[-1], raw[-200:-100].mean(axis=0), atol=1e-12)
+
+
 def test_both_modes_at_once_are_refused():
     """A count and a rate: which one? Refused, as a count below 1 or a negative rate."""
     for samples, rate_hz in ((10, 5.0), (0, 0.0), (1, -1.0)):
@@ -149,3 +164,11 @@ def test_windows_with_and_without_a_temperature_come_in_two_parts():
                        MagneticSettings())
     assert [rows.tolist() for rows, _ in parts] == [[0, 1], [2]]
     assert all(survey.magnetic is not None for _, survey in parts)
+
+
+@pytest.mark.parametrize('rate_hz', [1e-12, 1e-300, 0.009])
+def test_an_output_rate_below_a_window_of_100_s_is_refused(rate_hz):
+    """1e-12 Hz overflowed on the first batch, 1e-300 at start: below 0.01 Hz, a ValueError."""
+    with pytest.raises(ValueError, match='below 0.01 Hz'):
+        Averager(rate_hz=rate_hz)
+    assert Averager(rate_hz=0.01).period_ns == 100_000_000_000

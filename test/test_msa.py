@@ -452,3 +452,14 @@ def test_msa_on_a_real_tool(name, heading_deg):
         print(f'magnetometer left as it reads: {refused}')
     else:
         assert np.max(np.abs(error)) > MAX_ERROR_DEG
+
+
+def test_no_station_is_refused_not_an_index_error():
+    """~/solve_msa with no stations answered 'internal error (IndexError)': a refusal now."""
+    from inclino_ros.core.msa import improved_cross_axial
+    none = np.zeros((0, 3))
+    assert toolface_gap_deg(none) == 360.0
+    with pytest.raises(MsaRefused, match='only 0 usable station'):
+        improved_cross_axial(none, none, *REFERENCE)
+    with pytest.raises(MsaRefused, match='only 0 usable station'):
+        solve_msa_axial(none, none, *REFERENCE)

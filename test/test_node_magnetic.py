@@ -4,7 +4,7 @@ import json
 import math
 
 from diagnostic_msgs.msg import DiagnosticStatus
-from inclino_ros.calibration.model import load_model
+from inclino_ros.calibration.model import CalibrationModel, load_model, save_model
 from inclino_ros.core.magnetics import forward, iscwsa_from_tool
 import numpy as np
 import pytest
@@ -214,6 +214,17 @@ def test_axes_maps_turn_both_sensors_before_every_capture(start_node, probe, tmp
     # A station keeps the field as read (axes map applied): MSA applies the magnetometer's
     # stages, the shared mount among them, itself (calibration.stations).
     np.testing.assert_allclose(stored['field_nT'], c @ readings(40.0, 200.0, 70.0)[1], atol=5.0)
+
+
+def test_a_calibration_fitted_in_other_axes_maps_stops_the_node(start_node, probe, tmp_path):
+    """A file fitted in '+X-Z+Y' read through the identity: refused, both maps named."""
+    save_model(tmp_path / 'calibration.json',
+               CalibrationModel(accelerometer_axes=3, axes_maps=('+X-Z+Y', '+Y+X-Z')))
+    node = start_node()
+    assert node.process.wait(timeout=30) != 0
+    assert "fitted with the accelerometer axes map '+X-Z+Y'" in node.log()
+    start_node(accelerometer_axes_map='+X-Z+Y', magnetometer_axes_map='+Y+X-Z')
+    probe.wait_for_node()
 
 
 def test_a_left_handed_axes_map_stops_the_node(start_node):

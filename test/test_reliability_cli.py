@@ -301,7 +301,8 @@ def test_negative_stamps_are_a_message(tmp_path, bench):
 @pytest.mark.parametrize('option,value', [
     ('--gravity-mps2', '0'), ('--gravity-mps2', 'nan'), ('--gravity-mps2', '-9.8'),
     ('--range-mps2', 'nan'), ('--range-mps2', 'inf'), ('--noise-mps2', 'nan'),
-    ('--chunk-size', '0'), ('--max-pairing-s', '-1'), ('--reference-total-nT', 'inf')])
+    ('--chunk-size', '0'), ('--max-pairing-s', '-1'), ('--reference-total-nT', 'inf'),
+    ('--output-rate-hz', '1e-12'), ('--output-rate-hz', '1e-300')])
 def test_process_options_are_checked(bench, tmp_path, option, value):
     """0, NaN or negative g turned the zero check off, NaN range let 1e300 through; now exit 2."""
     _, sim, calibration = bench
@@ -344,6 +345,10 @@ def test_every_option_is_checked(tmp_path, monkeypatch, argv, named):
     (['call', 'calibrate_level', '--wait-s', 'inf'], '--wait-s'),
     (['monitor', '--period-s', '0'], '--period-s'),
     (['monitor', '--count', '0'], '--count'),
+    (['play', 'bag', '--rate', '1e-300'], '--rate'),
+    (['play', 'bag', '--wait-s', '1e308'], '--wait-s'),
+    (['monitor', '--period-s', '1e308'], '--period-s'),
+    (['call', 'calibrate_level', '--wait-s', '1e308'], '--wait-s'),
 ])
 def test_live_tool_options_are_checked(argv, named):
     """The live tools' times and rates: a usage error naming the option, before any ROS."""

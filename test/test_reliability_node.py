@@ -13,6 +13,7 @@ import json
 import math
 import os
 import subprocess
+import time
 
 from hypothesis import given, HealthCheck, settings, strategies as st
 from inclino_ros.calibration.model import load_model
@@ -119,6 +120,8 @@ def test_a_field_of_1e200_tesla_gives_no_azimuth(start_node, probe):
     (['-p', 'accelerometer_axes:=7'], 'out of range'),
     (['-p', 'magnetic.reference_total_nT:=5.0'], 'an Earth field'),
     (['-p', 'calibration_file:=" "'], 'must name a file'),
+    (['-p', 'output.rate_hz:=1e-12'], 'at least 0.01 Hz'),
+    (['-p', 'output.rate_hz:=1e-300'], 'at least 0.01 Hz'),
     (['-p', 'gravity_mps2'], "Couldn't parse parameter override rule"),
     (['--params-file', '/nonexistent.yaml'], "Couldn't parse params file"),
 ])
@@ -220,3 +223,14 @@ def fuzz_node(start_node, probe, tmp_path):
     yield node, probe, tmp_path
     assert node.process.poll() is None
     assert os.path.exists(node.log_path)
+
+
+def test_a_capture_under_sim_time_without_clock_ends(start_node, probe):
+    """use_sim_time and no /clock: the capture's progress froze for ever; refused, named."""
+    start_node(use_sim_time=True)
+    probe.wait_for_node()
+    started = time.monotonic()
+    answer = probe.call('calibrate_level', timeout_s=60.0)
+    assert answer is not None, 'no answer within 60 s'
+    assert not answer.success and 'ROS time stood still' in answer.message, answer.message
+    assert time.monotonic() - started >= 4.0   # not before the clock had a chance to tick

@@ -70,3 +70,21 @@ def test_a_big_endian_sender_is_decoded_through_rclpy():
     np.testing.assert_array_equal(series.linear_acceleration_mps2, [[1.0, 2.0, 9.5]] * 2)
     assert series.stamps_ns.tolist() == [1_500_000_000] * 2
     assert series.frame_ids.tolist() == ['tool'] * 2
+
+
+def test_a_stamp_with_nanosec_beyond_a_second_is_no_time():
+    """nanosec >= 1e9 read as 4 s later: the message is dropped, named; the others kept."""
+    good = [Imu(), Imu()]
+    for k, msg in enumerate(good):
+        msg.header.stamp.sec, msg.header.stamp.nanosec = 100 + k, 5
+        msg.linear_acceleration.z = 9.8
+    bad = Imu()
+    bad.header.stamp.sec, bad.header.stamp.nanosec = 100, 4_000_000_000
+    messages = [serialize_message(m) for m in (good[0], bad, good[1])]
+    with pytest.raises(bag.BagError, match='nanosec 4000000000'):
+        bag.decode(messages, bag.IMU)
+    dropped = []
+    series = decode_messages(messages, bag.IMU, Imu, dropped)
+    assert series.stamps_ns.tolist() == [100_000_000_005, 101_000_000_005]
+    assert len(dropped) == 1 and 'not a time' in dropped[0]
+    assert decode_messages(messages[1:2], bag.IMU, Imu).stamps_ns.size == 0

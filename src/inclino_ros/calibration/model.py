@@ -32,7 +32,9 @@ accelerometer frame, then the same mount, then seed 002's corrections:
 The magnetometer has its own: ``magnetometer_temperature`` (the same
 temperature model in nT) and ``magnetic`` (seed 002).  Every stage records
 the temperature its readings stood for (``temperature_c``; None: unknown);
-the file names the sensor it belongs to (``sensor_id``).
+the file names the sensor it belongs to (``sensor_id``) and the axes maps
+(``core.mounting``) its readings were turned by (``axes_maps``): a fit made
+in one map does not correct readings turned by another (``check_axes_maps``).
 
 The file is JSON, versioned, written atomically (temporary file, fsync,
 rename, ``io.files``) and validated on load and before every write: its
@@ -51,6 +53,7 @@ from inclino_ros.calibration import plausibility
 from inclino_ros.core.cross_axial import apply_cross_axial
 from inclino_ros.core.installation import (
     inverse_installation_matrix, pseudo_inclination, to_tool_frame)
+from inclino_ros.core.mounting import axes_map_matrix
 from inclino_ros.core.stand import correct_stand, rotation_part
 from inclino_ros.core.temperature import compensate_temperature, TemperatureFit
 from inclino_ros.io.files import read_json, write_json
@@ -72,6 +75,8 @@ MOUNT_STAGES = ('installation', 'tool_axis')
 #: The magnetometer's stages, in the order they are applied (the mount included).
 MAGNETOMETER_STAGES = ('magnetometer_temperature', 'magnetometer',
                        'magnetometer_alignment') + MOUNT_STAGES + ('magnetic',)
+#: The sensors of the ``axes_maps`` record, in the order of CalibrationModel.axes_maps.
+AXES_MAP_SENSORS = ('accelerometer', 'magnetometer')
 #: Sections of each readable schema version.
 SECTIONS = {1: ('installation',),
             2: ('temperature', 'stand', 'installation', 'magnetic'),
@@ -395,6 +400,9 @@ class CalibrationModel:
     magnetometer_alignment: MagnetometerAlignment = None
     magnetometer_temperature: MagnetometerTemperature = None
     sensor_id: str = None     # the sensor this calibration belongs to; None: not named
+    # The axes maps (core.mounting) its readings were turned by before the fits:
+    # (accelerometer, magnetometer); None: not recorded (older files, or no map known).
+    axes_maps: tuple = None
 
     @property
     def stages(self):
@@ -503,6 +511,8 @@ class CalibrationModel:
         """Return the JSON-ready document of this model."""
         doc = {'format': FORMAT, 'schema_version': SCHEMA_VERSION,
                'accelerometer_axes': self.accelerometer_axes, 'sensor_id': self.sensor_id}
+        if self.axes_maps is not None:
+            doc['axes_maps'] = dict(zip(AXES_MAP_SENSORS, self.axes_maps))
         for name in SECTIONS[SCHEMA_VERSION]:
             stage = getattr(self, name)
             if stage is not None:
@@ -562,7 +572,7 @@ def model_from_dict(doc):
         raise ValueError(f'accelerometer_axes {axes!r} is not 2 or 3')
     stages = SECTIONS[version]
     top = {'format', 'schema_version', 'accelerometer_axes'} | (
-        {'sensor_id'} if version >= 3 else set())
+        {'sensor_id', 'axes_maps'} if version >= 3 else set())
     unknown = set(doc) - top - set(stages)
     if unknown:
         raise ValueError(f'unknown sections {sorted(unknown)} in a version {version} file')
@@ -576,11 +586,45 @@ def model_from_dict(doc):
                'magnetometer_temperature': magnetometer_temperature_from_dict}
     sections = {name: _upgraded(doc[name], name, version)
                 for name in stages if doc.get(name) is not None}
-    model = CalibrationModel(accelerometer_axes=axes, sensor_id=sensor_id, **{
+    model = CalibrationModel(accelerometer_axes=axes, sensor_id=sensor_id,
+                             axes_maps=_axes_maps(doc.get('axes_maps')), **{
         name: readers[name](section) for name, section in sections.items()})
     if axes == 2 and (model.stand or model.temperature):
         raise ValueError('stand and temperature stages need a three-axis accelerometer')
     return model
+
+
+def _axes_maps(section):
+    """Return the (accelerometer, magnetometer) maps of an ``axes_maps`` section (None: none)."""
+    if section is None:
+        return None
+    if not isinstance(section, dict) or set(section) != set(AXES_MAP_SENSORS):
+        raise ValueError(f'axes_maps {section!r} must name the {" and ".join(AXES_MAP_SENSORS)} '
+                         'maps')
+    for name in AXES_MAP_SENSORS:
+        if not isinstance(section[name], str):
+            raise ValueError(f'axes_maps.{name} {section[name]!r} is not an axes map')
+        axes_map_matrix(section[name], allow_left_handed=True)   # ValueError if it is none
+    return tuple(section[name] for name in AXES_MAP_SENSORS)
+
+
+def check_axes_maps(model, maps, path):
+    """
+    Raise CalibrationFileError when ``model`` was fitted in other axes maps than ``maps``.
+
+    ``maps``: (accelerometer, magnetometer) axes maps the readings are turned
+    by now.  A calibration fitted on readings turned one way corrects
+    readings turned another way wrongly (degrees, silently), so the maps must
+    be the same turns; a file that records none (older files) matches any.
+    """
+    if model.axes_maps is None:
+        return
+    for name, fitted, used in zip(AXES_MAP_SENSORS, model.axes_maps, maps):
+        if not np.allclose(axes_map_matrix(fitted, allow_left_handed=True),
+                           axes_map_matrix(used, allow_left_handed=True), atol=1e-9):
+            raise CalibrationFileError(
+                path, f'was fitted with the {name} axes map {fitted!r}, but the readings are '
+                f'turned by {used!r}: use the map it was fitted in, or fit again')
 
 
 def _upgraded(section, name, version):

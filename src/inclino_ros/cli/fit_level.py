@@ -25,8 +25,8 @@ from inclino_ros.calibration.level_capture import (
 from inclino_ros.calibration.model import readings_temperature_c, temperature_conflict
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
-    add_common_arguments, add_still_options, AXIS_COLUMNS, finish_figure, has_topic, is_bag,
-    load_existing, new_figure, NODE_DEFAULTS, node_option, read_csv, read_topic, Refused,
+    add_common_arguments, add_still_options, axes_maps, AXIS_COLUMNS, finish_figure, has_topic,
+    is_bag, load_existing, new_figure, NODE_DEFAULTS, node_option, read_csv, read_topic, Refused,
     report_paths, run_fit, sample_temperatures, save, tool_axes, write_text)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.play import in_window
@@ -104,7 +104,8 @@ def load_input(args):
 
 def fit(args, lines, outputs):
     """Solve the installation stage of ``args.input`` into ``args.calibration``."""
-    existing = load_existing(args.calibration, args.sensor_id, axes=args.axes)
+    existing = load_existing(args.calibration, args.sensor_id, axes=args.axes,
+                             maps=axes_maps(args))
     axes = args.axes or existing.accelerometer_axes
     readings, temperature_c, times_s = load_input(args)
     readings = tool_axes(args, readings)

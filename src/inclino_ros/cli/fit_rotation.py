@@ -32,8 +32,8 @@ from inclino_ros.calibration.model import NO_MAGNETIC_CORRECTION, utc_now_iso
 from inclino_ros.calibration.plausibility import check_field_readings
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
-    add_file_arguments, finish_figure, is_bag, load_existing, new_figure, read_csv, read_topic,
-    Refused, report_paths, run_fit, save, tool_axes, write_text)
+    add_file_arguments, axes_maps, finish_figure, is_bag, load_existing, new_figure, read_csv,
+    read_topic, Refused, report_paths, run_fit, save, tool_axes, write_text)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.mounting import add_axes_map_arguments
 from inclino_ros.cli.options import finite
@@ -101,7 +101,7 @@ def load_readings(args):
 
 def fit(args, lines, outputs):
     """Fit the rotation of ``args.input`` into ``args.calibration``; see ``run_fit``."""
-    existing = load_existing(args.calibration, args.sensor_id)
+    existing = load_existing(args.calibration, args.sensor_id, maps=axes_maps(args))
     readings = tool_axes(args, load_readings(args), 'magnetometer')
     valued = np.isfinite(readings).all(axis=1)
     if valued.any() and not valued.all():  # a driver's NaN between two measurements

@@ -55,9 +55,9 @@ from inclino_ros.calibration.plausibility import check_accelerometer_readings
 from inclino_ros.calibration.still_capture import CaptureRefused, require_still_vectors
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
-    add_common_arguments, add_still_options, AXIS_COLUMNS, finish_figure, has_topic, is_bag,
-    load_existing, matrix_lines, new_figure, NODE_DEFAULTS, node_option, read_csv, read_topic,
-    Refused, report_paths, run_fit, sample_temperatures, save, tool_axes, write_text)
+    add_common_arguments, add_still_options, axes_maps, AXIS_COLUMNS, finish_figure, has_topic,
+    is_bag, load_existing, matrix_lines, new_figure, NODE_DEFAULTS, node_option, read_csv,
+    read_topic, Refused, report_paths, run_fit, sample_temperatures, save, tool_axes, write_text)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.options import between, node_parameter
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
@@ -134,7 +134,7 @@ def run(args):
 
 def fit(args, lines, outputs):
     """Fit the stand stage of ``args.input`` into ``args.calibration``; see ``run_fit``."""
-    existing = load_existing(args.calibration, args.sensor_id)
+    existing = load_existing(args.calibration, args.sensor_id, maps=axes_maps(args))
     readings, attitude_deg, temperature_c, times_s, fields = load_input(args)
     readings, fields = tool_axes(args, readings), tool_axes(args, fields, 'magnetometer')
     check_accelerometer_readings(readings, args.gravity_mps2)

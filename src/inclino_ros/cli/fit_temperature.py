@@ -44,9 +44,9 @@ from inclino_ros.calibration.plausibility import (
     STANDARD_GRAVITY_MPS2)
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
-    add_common_arguments, finish_figure, is_bag, load_existing, matrix_lines, new_figure,
-    node_option, read_csv, read_topic, Refused, report_paths, run_fit, sample_temperatures,
-    save, tool_axes, write_text)
+    add_common_arguments, axes_maps, finish_figure, is_bag, load_existing, matrix_lines,
+    new_figure, node_option, read_csv, read_topic, Refused, report_paths, run_fit,
+    sample_temperatures, save, tool_axes, write_text)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.options import between
 from inclino_ros.core.attitude import angle_between, inclination
@@ -120,7 +120,7 @@ def run(args):
 def fit(args, lines, outputs):
     """Fit the temperature stage of ``args.input`` into ``args.calibration``; see ``run_fit``."""
     _, _, unit, section, later = TRIADS[args.triad]
-    existing = load_existing(args.calibration, args.sensor_id)
+    existing = load_existing(args.calibration, args.sensor_id, maps=axes_maps(args))
     temperature_c, readings, reference, attitude = load_input(args)
     readings = tool_axes(args, readings, args.triad)
     reference = tool_axes(args, reference, args.triad)

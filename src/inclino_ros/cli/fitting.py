@@ -15,7 +15,8 @@ import os
 import sys
 
 from inclino_ros.calibration.model import (
-    CalibrationFileError, CalibrationModel, check_sensor, load_model, save_model)
+    CalibrationFileError, CalibrationModel, check_axes_maps, check_sensor, load_model,
+    save_model)
 from inclino_ros.calibration.plausibility import Implausible
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.mounting import add_axes_map_arguments, axes_matrix
@@ -56,6 +57,11 @@ def add_common_arguments(parser):
     parser.add_argument('--temperature-topic', default=TEMPERATURE_TOPIC,
                         help='sensor_msgs/Temperature topic of a bag (default: %(default)s)')
     add_axes_map_arguments(parser, 'accelerometer', 'magnetometer')
+
+
+def axes_maps(args):
+    """Return the (accelerometer, magnetometer) axes maps of the command line."""
+    return args.accelerometer_axes_map, args.magnetometer_axes_map
 
 
 def tool_axes(args, readings, sensor='accelerometer'):
@@ -135,23 +141,30 @@ def add_sensor_argument(parser):
                              'refused; a new or unnamed file is stamped with it (default: none)')
 
 
-def load_existing(path, sensor_id=None, axes=3):
+def load_existing(path, sensor_id=None, axes=3, maps=None):
     """
     Return the model in ``path``, a new ``axes``-axis one if there is none.
 
     CommandError for a file that cannot be used, or that is for another
     number of accelerometer axes (``axes`` None: any).  A file of another
     sensor than ``sensor_id`` is a CommandError (``model.check_sensor``); the
-    model returned names ``sensor_id`` (if given).
+    model returned names ``sensor_id`` (if given).  ``maps``: the axes maps
+    the readings are turned by (``axes_maps``; None: a command whose input is
+    in tool axes already): a file fitted in others is a CommandError, the
+    model returned records them.
     """
     try:
         model = load_model(path)
         check_sensor(model, sensor_id, path)
+        if maps is not None:
+            check_axes_maps(model, maps, path)
     except FileNotFoundError:
-        return CalibrationModel(accelerometer_axes=axes or 3, sensor_id=sensor_id or None)
+        return CalibrationModel(accelerometer_axes=axes or 3, sensor_id=sensor_id or None,
+                                axes_maps=maps)
     except (CalibrationFileError, OSError) as err:
         raise CommandError(str(err)) from None
-    model = replace(model, sensor_id=sensor_id or model.sensor_id)
+    model = replace(model, sensor_id=sensor_id or model.sensor_id,
+                    axes_maps=maps or model.axes_maps)
     if axes is not None and model.accelerometer_axes != axes:
         raise CommandError(f'{path} is for a {model.accelerometer_axes}-axis accelerometer, '
                            f'not {axes} axes' + ('; stand and temperature stages need three'

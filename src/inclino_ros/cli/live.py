@@ -12,7 +12,7 @@ import os
 import signal
 import time
 
-from inclino_ros.cli.options import non_negative
+from inclino_ros.cli.options import MAX_WAIT_S, wait_s
 
 DEFAULT_NODE = '/inclinometer'
 #: Seconds a command waits for the node (its service, its subscription) by default.
@@ -36,9 +36,9 @@ def add_node_arguments(parser, wait=True):
     parser.add_argument('--node', default=DEFAULT_NODE,
                         help='full name of the inclinometer node (default: %(default)s)')
     if wait:
-        parser.add_argument('--wait-s', type=non_negative, default=DEFAULT_WAIT_S, metavar='S',
-                            help='seconds to wait for the node before giving up '
-                                 '(default: %(default)s)')
+        parser.add_argument('--wait-s', type=wait_s, default=DEFAULT_WAIT_S, metavar='S',
+                            help='seconds to wait for the node before giving up, at most '
+                                 f'{MAX_WAIT_S:g} (default: %(default)s)')
 
 
 def node_name(name):

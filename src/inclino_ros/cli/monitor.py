@@ -19,7 +19,7 @@ import time
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.live import (
     add_node_arguments, domain_hint, LiveSession, namespace_of, node_name)
-from inclino_ros.cli.options import between, positive
+from inclino_ros.cli.options import between
 
 LEVELS = {0: 'OK', 1: 'WARN', 2: 'ERROR', 3: 'STALE'}
 #: ANSI: cursor home, clear the screen.
@@ -39,8 +39,8 @@ def register(subparsers):
         'On a terminal the view is redrawn in place; otherwise one block is printed per '
         'period. Ends on Ctrl-C (exit 0) or after --count views.')
     add_node_arguments(parser)
-    parser.add_argument('--period-s', type=positive, default=1.0, metavar='S',
-                        help='seconds between two views (default: %(default)s)')
+    parser.add_argument('--period-s', type=between(0.01, 3600.0), default=1.0, metavar='S',
+                        help='seconds between two views, 0.01 .. 3600 (default: %(default)s)')
     parser.add_argument('--count', type=between(1, None, int), metavar='N',
                         help='stop after N views (default: run until Ctrl-C)')
     parser.set_defaults(func=run)

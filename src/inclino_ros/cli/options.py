@@ -13,7 +13,7 @@ import math
 import os
 
 from inclino_ros.calibration.plausibility import EARTH_FIELD_NT
-from inclino_ros.node.parameters import PARAMETERS
+from inclino_ros.node.parameters import PARAMETERS, refusal
 
 #: Formats a report figure may be written in (by the extension of its name).
 REPORT_FORMATS = ('png', 'pdf', 'svg')
@@ -48,6 +48,10 @@ def between(low, high, kind=float, why=''):
 finite = between(None, None)
 #: A finite number >= 0.
 non_negative = between(0.0, None)
+#: Longest wait [s] of a live tool for a node or a subscriber: a day; beyond, a typo.
+MAX_WAIT_S = 86400.0
+#: A wait [s] of a live tool.
+wait_s = between(0.0, MAX_WAIT_S)
 
 
 def positive(text):
@@ -62,7 +66,16 @@ def node_parameter(name):
     """Return an argparse type with the range (and type) of the node's parameter ``name``."""
     (parameter,) = (p for p in PARAMETERS if p.name == name)
     kind = int if isinstance(parameter.default, int) else float
-    return between(parameter.low, parameter.high, kind, f" (the range of the node's {name})")
+    in_range = between(parameter.low, parameter.high, kind, f" (the range of the node's {name})")
+
+    def parse(text):
+        value = in_range(text)
+        reason = refusal(name, value)   # the node's rules beyond the range, the same
+        if reason:
+            raise argparse.ArgumentTypeError(reason)
+        return value
+    parse.__name__ = in_range.__name__
+    return parse
 
 
 #: A reference field total [nT]: an Earth field.

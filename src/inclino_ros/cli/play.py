@@ -17,7 +17,7 @@ import time
 
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.live import LiveSession
-from inclino_ros.cli.options import non_negative, positive
+from inclino_ros.cli.options import between, MAX_WAIT_S, non_negative, positive, wait_s
 from inclino_ros.io.bag import (
     BagError, concatenate, IMU, list_topics, MAGNETIC_FIELD, read, TEMPERATURE)
 import numpy as np
@@ -44,8 +44,9 @@ def register(subparsers):
     parser.add_argument('--topics', nargs='+', metavar='TOPIC',
                         help='topics to publish (default: every Imu, MagneticField and '
                              'Temperature topic of the bag)')
-    parser.add_argument('--rate', type=positive, default=1.0,
-                        help='speed factor: 2 plays twice as fast (default: %(default)s)')
+    parser.add_argument('--rate', type=between(1e-3, 1e6), default=1.0,
+                        help='speed factor, 0.001 .. 1e6: 2 plays twice as fast (default: '
+                             '%(default)s)')
     parser.add_argument('--start-s', type=non_negative, default=0.0, metavar='S',
                         help='start S seconds after the first message (default: 0)')
     parser.add_argument('--end-s', type=positive, metavar='S',
@@ -55,9 +56,9 @@ def register(subparsers):
                         help='play the bag (or the window) again and again until Ctrl-C')
     parser.add_argument('--best-effort', action='store_true',
                         help='publish best-effort instead of reliable')
-    parser.add_argument('--wait-s', type=non_negative, default=10.0, metavar='S',
-                        help='seconds to wait for a subscriber before playing '
-                             '(default: %(default)s)')
+    parser.add_argument('--wait-s', type=wait_s, default=10.0, metavar='S',
+                        help='seconds to wait for a subscriber before playing, at most '
+                             f'{MAX_WAIT_S:g} (default: %(default)s)')
     parser.set_defaults(func=run)
 
 

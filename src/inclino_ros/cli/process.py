@@ -54,7 +54,8 @@ from dataclasses import dataclass
 import math
 import sys
 
-from inclino_ros.calibration.model import CalibrationFileError, check_sensor, load_model
+from inclino_ros.calibration.model import (
+    CalibrationFileError, check_axes_maps, check_sensor, load_model)
 from inclino_ros.calibration.plausibility import (
     check_for_sensor, field_reading_ok, Implausible, temperature_ok)
 from inclino_ros.cli.errors import CommandError
@@ -374,7 +375,9 @@ def _prepare(args):
             g_total_tolerance_mps2=args.g_total_tolerance_mps2,
             two_axis_max_inclination_deg=args.two_axis_max_inclination_deg,
             **settings_maps(args))
-    except ValueError as err:
+        check_axes_maps(model, (args.accelerometer_axes_map, args.magnetometer_axes_map),
+                        args.calibration)
+    except (ValueError, CalibrationFileError) as err:
         raise CommandError(str(err)) from None
     msgtype, count = topic_info(args.input, args.topic)
     if msgtype != IMU:

@@ -11,7 +11,8 @@ window wait for the next batch):
 - by count: every ``samples`` accepted samples;
 - by time: the samples whose stamps fall in one period of ``rate_hz``, the
   periods aligned to multiples of 1 / rate on the stamp clock; a window
-  closes when a sample of a later period arrives.
+  closes when a sample of a later period arrives, or one whose stamp goes
+  back (a clock reset: a new run of periods starts there).
 
 A window also says how far its readings scatter (the largest per-axis sample
 standard deviation): a tool that moved within it has no meaningful mean, and
@@ -84,6 +85,12 @@ def close_windows(index, stamps_ns, frame_ids, raw, temperature_c, field_nT):
                    scatter_mps2=np.sqrt(variance.max(axis=1)))
 
 
+#: Slowest output rate [Hz] averaging by time: a window of at most 100 s, its samples held
+#: until it closes (1e6 samples at 10 kHz, as ``output.average_samples``' largest count);
+#: a station is still for tens of seconds, not longer.
+MIN_OUTPUT_RATE_HZ = 0.01
+
+
 class Averager:
     """Cuts a stream of accepted samples into windows, by count or by time."""
 
@@ -92,6 +99,10 @@ class Averager:
         if rate_hz < 0 or samples < 1 or (rate_hz > 0 and samples > 1):
             raise ValueError('average by a count of samples >= 1 or by an output rate > 0, '
                              f'not both (samples {samples}, rate_hz {rate_hz})')
+        if 0 < rate_hz < MIN_OUTPUT_RATE_HZ:
+            raise ValueError(f'an output rate of {rate_hz!r} Hz is below '
+                             f'{MIN_OUTPUT_RATE_HZ:g} Hz (a window of over '
+                             f'{1.0 / MIN_OUTPUT_RATE_HZ:g} s)')
         self.samples = int(samples)
         self.period_ns = round(1e9 / rate_hz) if rate_hz > 0 else None
         self._pending = None
@@ -120,10 +131,15 @@ class Averager:
             key = np.arange(rows[0].size) // self.samples
             closed = key < rows[0].size // self.samples
         else:
-            key = rows[0] // self.period_ns
-            closed = key < key[-1]
+            # A stamp earlier than the one before it (a clock reset, a replay) starts a new
+            # run of periods: the open window closes there, instead of waiting for ever
+            # for a later period while the samples pile up.
+            run = np.concatenate([[0], np.cumsum(np.diff(rows[0]) < 0)])
+            period = rows[0] // self.period_ns
+            closed = (run < run[-1]) | (period < period[-1])
+            key = np.column_stack([run, period])
         self._pending = tuple(column[~closed] for column in rows) if not closed.all() else None
         if not closed.any():
             return None
-        _, index = np.unique(key[closed], return_inverse=True)
+        _, index = np.unique(key[closed], axis=0, return_inverse=True)
         return close_windows(index.reshape(-1), *(column[closed] for column in rows))

@@ -228,8 +228,10 @@ def azimuth_difference_deg(azimuth_deg, other_deg):
 
 
 def toolface_gap_deg(G):
-    """Return the largest gap [deg] between the gravity toolfaces of the stations."""
+    """Return the largest gap [deg] between the gravity toolfaces of the stations (360: none)."""
     toolface = np.sort(magnetics.gravity_toolface_deg(G))
+    if toolface.size == 0:
+        return 360.0
     return float(np.max(np.diff(np.append(toolface, toolface[0] + 360.0))))
 
 
@@ -307,7 +309,7 @@ def improved_cross_axial(G, B, reference_total_nT, reference_dip_deg, given_nT=N
     if rotation_fitted_at is not None:
         return (0.0, 0.0), f'removed by the rotation fit of {rotation_fitted_at}', None
     gap_deg = toolface_gap_deg(G)
-    if gap_deg <= limits.max_toolface_gap_deg:
+    if gap_deg <= limits.max_toolface_gap_deg or len(G) == 0:   # none: the count refuses
         classic = solve_msa_classic(G, B, reference_total_nT, reference_dip_deg, limits,
                                     exclude_failing_qc, reference_std)
         return (tuple(float(v) for v in classic.eps_nT[:2]),

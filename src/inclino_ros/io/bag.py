@@ -315,7 +315,8 @@ def decode(messages, msgtype):
     """
     Return the series of ``msgtype`` held in ``messages`` (a list of CDR bytes).
 
-    Raises BagError for a message that is not little-endian CDR of that type.
+    Raises BagError for a message that is not little-endian CDR of that type,
+    or whose stamp is no time (nanosec of 1e9 or more: not a carry into sec).
     """
     n_values, series_type = _LAYOUTS[msgtype]
     sizes = np.fromiter(map(len, messages), dtype=np.int64, count=len(messages))
@@ -331,6 +332,10 @@ def decode(messages, msgtype):
         if np.any(records['encapsulation'] != _CDR_LE) \
                 or np.any(lengths < 1) or np.any(_values_offset(lengths - 1) != offset):
             raise BagError(f'a {msgtype} message is not little-endian CDR of that type')
+        late = records['nanosec'] >= 1_000_000_000
+        if np.any(late):
+            raise BagError(f'a {msgtype} message is stamped with nanosec '
+                           f'{int(records["nanosec"][late][0])} (at most 999999999): not a time')
         stamps.append((index, records['sec'].astype(np.int64) * 1_000_000_000
                        + records['nanosec']))
         frame_ids.append((index, _frame_ids(records['frame_id'], lengths)))

@@ -30,6 +30,7 @@ from inclino_ros.calibration.plausibility import check_for_sensor, Implausible
 from inclino_ros.calibration.still_capture import CaptureRefused
 from inclino_ros.core.screening import REASONS
 import numpy as np
+from rclpy.clock import Clock, ClockType
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.task import Future
 from std_msgs.msg import String
@@ -37,6 +38,9 @@ from std_srvs.srv import Trigger
 
 #: Seconds between two progress messages of a running capture.
 PROGRESS_PERIOD_S = 0.2
+#: Wall seconds of ROS time standing still after which a capture is refused: /clock of a
+#: playing bag ticks many times a second; 5 s without a tick is no clock at all.
+STALLED_CLOCK_S = 5.0
 
 #: Most samples a timed capture holds (even: halved when full).
 MAX_TIMED_ROWS = 65536
@@ -73,6 +77,7 @@ class Capture:
         self.stride = 1   # a timed capture holds every stride-th sample
         self.wait_s, self.started_s = wait_s, started_s
         self._directions = [0.0, 0.0, 0.0]   # sum of the unit directions of the readings
+        self.stalled = False                 # ended because ROS time stood still (ClockWatch)
 
     def add(self, raw, temperature_c, field_nT, stamp_s):
         """Add one accepted sample; complete the future when enough are in."""
@@ -122,6 +127,44 @@ class Capture:
         """Time is up: complete with what a timed capture holds, None for a counted one."""
         if not self.future.done():
             self.future.set_result(self._rows[:self.size] if self.count is None else None)
+
+    def stall(self):
+        """ROS time stands still: complete with nothing (``stalled`` says why)."""
+        if not self.future.done():
+            self.stalled = True
+            self.future.set_result(None)
+
+
+class ClockWatch:
+    """
+    Calls ``on_stall()`` when the node's ROS time stands still for STALLED_CLOCK_S of wall time.
+
+    A capture's time limit runs on the node's clock, which is ROS time: with
+    ``use_sim_time`` and nothing publishing ``/clock`` that time never moves,
+    and the capture would wait for ever (its progress frozen).  Wall time
+    bounds it: not as the limit itself (a bag played slower than real time
+    legitimately stretches a capture in wall time), but as proof that ROS time
+    moves at all.
+    """
+
+    def __init__(self, node, on_stall):
+        """Watch ``node``'s clock once a wall-clock second."""
+        self._node, self._on_stall = node, on_stall
+        self._last_ns = node.get_clock().now().nanoseconds
+        self._still_s = 0.0
+        self._timer = node.create_timer(1.0, self._check, clock=Clock(
+            clock_type=ClockType.STEADY_TIME))
+
+    def _check(self):
+        now_ns = self._node.get_clock().now().nanoseconds
+        self._still_s = self._still_s + 1.0 if now_ns == self._last_ns else 0.0
+        self._last_ns = now_ns
+        if self._still_s >= STALLED_CLOCK_S:
+            self._on_stall()
+
+    def destroy(self):
+        """Stop watching."""
+        self._node.destroy_timer(self._timer)
 
 
 def guarded(collector, callback):
@@ -217,6 +260,7 @@ class Collector:
         capture = self.capture = Capture(count, wait_s, self._now_s())
         dropped_before = list(node.stats.dropped_total)
         timer = node.create_timer(wait_s, capture.expire)
+        watch = ClockWatch(node, capture.stall)
         ticker = node.create_timer(PROGRESS_PERIOD_S, lambda: self.publish_progress(
             service, 'collecting', capture))
         self.publish_progress(service, 'collecting', capture)
@@ -227,8 +271,14 @@ class Collector:
         finally:
             node.destroy_timer(timer)
             node.destroy_timer(ticker)
+            watch.destroy()
             self.capture = None
             self.publish_progress(service, 'collected', capture)
+        if capture.stalled:
+            raise CaptureRefused(
+                f'ROS time stood still for {STALLED_CLOCK_S:g} s of wall time: use_sim_time is '
+                'set and nothing publishes /clock (play the bag with its clock, e.g. inclino '
+                'play, or set use_sim_time false)')
         if rows is None or rows.shape[0] == 0:
             dropped = {reason: after - before for reason, after, before in zip(
                 REASONS, node.stats.dropped_total, dropped_before) if after > before}

@@ -14,6 +14,7 @@ sample (or, with ``output.*``, for every averaged window), reports health on
 modules it uses.
 """
 
+from dataclasses import replace
 import json
 import math
 import os
@@ -22,8 +23,8 @@ import sys
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Vector3Stamped
 from inclino_ros.calibration.model import (
-    CalibrationFileError, CalibrationModel, check_sensor, load_model, stage_ages_s, stale_stages,
-    utc_now_iso)
+    CalibrationFileError, CalibrationModel, check_axes_maps, check_sensor, load_model,
+    stage_ages_s, stale_stages, utc_now_iso)
 from inclino_ros.calibration.plausibility import check_for_sensor, Implausible
 from inclino_ros.calibration.stations import load_stations, StationsFileError
 from inclino_ros.core.averaging import Averager
@@ -158,8 +159,10 @@ class InclinometerNode(Node):
             self.get_logger().warning(
                 f'no calibration file at {self.calibration_file}: running UNCALIBRATED '
                 '(raw angles); call ~/calibrate_level with the tool on a level bench')
-            return CalibrationModel(accelerometer_axes=axes, sensor_id=self.sensor_id)
+            return CalibrationModel(accelerometer_axes=axes, sensor_id=self.sensor_id,
+                                    axes_maps=self._axes_maps)
         check_sensor(model, self.sensor_id, self.calibration_file)
+        check_axes_maps(model, self._axes_maps, self.calibration_file)
         if model.sensor_id is None and self.sensor_id is not None:
             self.get_logger().warning(
                 f'{self.calibration_file} names no sensor: taken as sensor_id '
@@ -175,7 +178,12 @@ class InclinometerNode(Node):
             raise CalibrationFileError(self.calibration_file, err.reason) from None
         self.get_logger().info(
             f'loaded {self.calibration_file}: stages {", ".join(model.stages) or "none"}')
-        return model
+        return replace(model, axes_maps=self._axes_maps)   # what a new capture is made in
+
+    @property
+    def _axes_maps(self):
+        """Return the (accelerometer, magnetometer) axes maps of the parameters."""
+        return (self.settings.accelerometer_axes_map, self.settings.magnetometer_axes_map)
 
     def _on_incompatible_qos(self, event):
         self.get_logger().warning(
@@ -218,13 +226,19 @@ class InclinometerNode(Node):
         averaging the windows it closes (``core.averaging``,
         ``pipeline.average``; a window of a moving tool is dropped, counted).
         """
+        dropped = []
         mags = take_serialized(self._mag_subscription, self._take_limit)
         if mags:
-            self.magnetometer.update(decode_messages(mags, MAGNETIC_FIELD, MagneticField))
+            fields = decode_messages(mags, MAGNETIC_FIELD, MagneticField, dropped)
+            if fields.stamps_ns.size:
+                self.magnetometer.update(fields)
         messages = take_serialized(self._imu_subscription, self._take_limit)
-        if not messages:
+        batch = decode_messages(messages, IMU, Imu, dropped) if messages else None
+        if dropped:
+            self.get_logger().warning(f'{len(dropped)} input message(s) dropped: {dropped[0]}',
+                                      throttle_duration_sec=5.0)
+        if batch is None or not batch.stamps_ns.size:
             return
-        batch = decode_messages(messages, IMU, Imu)
         temperature_c = self.temperature.value_c
         field_nT = None
         if self.magnetometer.stamp_ns is not None:  # no azimuth work without a magnetometer

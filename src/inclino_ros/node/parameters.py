@@ -9,6 +9,7 @@ from dataclasses import dataclass
 import math
 
 from inclino_ros.calibration.plausibility import EARTH_FIELD_NT
+from inclino_ros.core.averaging import MIN_OUTPUT_RATE_HZ
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 
 GRAVITY_MPS2 = 9.80665
@@ -111,7 +112,8 @@ PARAMETERS = (
               '1: every sample.', 1, 1000000),
     Parameter('output.rate_hz', 0.0,
               'Publish the mean of the accepted samples of each 1/rate of stamp time instead of '
-              'every sample (not with output.average_samples); 0: every sample.', 0.0, 10000.0),
+              'every sample (not with output.average_samples); 0: every sample, else at least '
+              '0.01 (a window of at most 100 s).', 0.0, 10000.0),
     Parameter('diagnostics_period_s', 1.0,
               'Period of the /diagnostics report [s].', 0.1, 60.0),
     Parameter('still.max_drift_deg_per_s', 0.02,
@@ -241,6 +243,10 @@ def refusal(name, value):
         return f'{name} must name a file'
     if name == 'frame_id' and len(value) > MAX_FRAME_ID:
         return f'frame_id must be at most {MAX_FRAME_ID} characters, not {len(value)}'
+    if name == 'output.rate_hz' and 0.0 < value < MIN_OUTPUT_RATE_HZ:
+        return (f'output.rate_hz must be 0 (every sample) or at least {MIN_OUTPUT_RATE_HZ:g} Hz '
+                f'(a window of at most {1.0 / MIN_OUTPUT_RATE_HZ:g} s: the samples of an open '
+                f'window are held), not {value!r}')
     if name == 'magnetic.reference_total_nT' and value != 0.0 \
             and not EARTH_FIELD_NT[0] <= value <= EARTH_FIELD_NT[1]:
         return (f'magnetic.reference_total_nT must be 0 (unknown) or an Earth field, '

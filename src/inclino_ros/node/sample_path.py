@@ -18,7 +18,7 @@ for the callback to finish before it waits on the subscriptions again.
 from contextlib import ExitStack
 import threading
 
-from inclino_ros.io.bag import BagError, decode
+from inclino_ros.io.bag import BagError, concatenate, decode
 from rclpy.callback_groups import CallbackGroup
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.serialization import deserialize_message, serialize_message
@@ -108,15 +108,34 @@ def take_serialized(subscription, limit):
     return messages
 
 
-def decode_messages(messages, msgtype, ros_type):
-    """
-    Return the series (``io.bag``) of CDR ``messages`` of ``ros_type`` (``msgtype`` its name).
-
-    The batch decoder reads little-endian CDR; messages of another encoding
-    (a big-endian sender) go through rclpy's deserializer first.
-    """
+def _decode_one_way_or_other(messages, msgtype, ros_type):
+    """Return the series of ``messages``: as little-endian CDR, else through rclpy."""
     try:
         return decode(messages, msgtype)
     except BagError:
         return decode([serialize_message(deserialize_message(m, ros_type)) for m in messages],
                       msgtype)
+
+
+def decode_messages(messages, msgtype, ros_type, dropped=None):
+    """
+    Return the series (``io.bag``) of CDR ``messages`` of ``ros_type`` (``msgtype`` its name).
+
+    The batch decoder reads little-endian CDR; messages of another encoding
+    (a big-endian sender) go through rclpy's deserializer first.  A message
+    neither reads (a stamp with nanosec >= 1e9: no time) is left out, its
+    reason appended to ``dropped`` (a list), so one bad sender's message never
+    takes the batch, or the node, with it.
+    """
+    try:
+        return _decode_one_way_or_other(messages, msgtype, ros_type)
+    except BagError:
+        pass
+    kept = []
+    for message in messages:
+        try:
+            kept.append(_decode_one_way_or_other([message], msgtype, ros_type))
+        except BagError as err:
+            if dropped is not None:
+                dropped.append(str(err))
+    return concatenate(kept) if kept else decode([], msgtype)
