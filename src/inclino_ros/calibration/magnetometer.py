@@ -169,7 +169,7 @@ def calibrate_from_shots(existing, accel_mps2, field_nT, roll_group=None, temper
         stand = Stand(scale_matrix=_matrix(fit.accel_matrix),
                       bias_mps2=tuple(fit.accel_bias_mps2.tolist()), method='sphere',
                       condition_number=float(fit.condition_number), rms_inclination_deg=None,
-                      positions=int(accel.shape[0]), fitted_at=now)
+                      positions=int(fit.used.sum()), fitted_at=now)
         notes.append('accelerometer fitted too (no stand stage in the file): stand stage, '
                      'method sphere')
         if installation is not None:
@@ -185,19 +185,21 @@ def calibrate_from_shots(existing, accel_mps2, field_nT, roll_group=None, temper
     magnetometer = Magnetometer(
         scale_matrix=_matrix(k_m), bias_nT=tuple(fit.mag_bias_nT.tolist()), method='ellipsoid',
         condition_number=float(fit.condition_number),
-        rms_residual_nT=float(np.sqrt(np.mean((fit.b_total_nT - fit.field_nT) ** 2))),
-        field_nT=float(fit.field_nT), positions=int(accel.shape[0]), fitted_at=now)
+        rms_residual_nT=float(np.sqrt(np.mean((fit.b_total_nT[fit.used] - fit.field_nT) ** 2))),
+        field_nT=float(fit.field_nT), positions=int(fit.used.sum()), fitted_at=now)
     alignment = MagnetometerAlignment(
         rotation=_matrix(rotation), method='dip', dip_deg=float(fit.dip_deg),
-        dip_rms_deg=float(fit.dip_rms_deg), shots=int(accel.shape[0]), fitted_at=now)
+        dip_rms_deg=float(fit.dip_rms_deg), shots=int(fit.used.sum()), fitted_at=now)
     tool_axis = existing.tool_axis
     if fit.tool_axis is not None:
         axis = fit.tool_axis if installation is None else to_tool_frame(
             fit.tool_axis, installation.inverse_matrix)
         gamma, beta = (math.degrees(float(v)) for v in tilt_angles(axis))
+        in_groups = np.isin(np.asarray(roll_group), fit.groups) & fit.used
         tool_axis = ToolAxis(gamma_deg=gamma, beta_deg=beta, roll_groups=len(fit.groups),
-                             shots=int(np.sum(np.asarray(roll_group) >= 0)),
-                             axial_rms_deg=float(np.sqrt(np.mean(fit.axial_rms_deg ** 2))),
+                             shots=int(np.sum(in_groups)),
+                             axial_rms_deg=float(np.sqrt(np.mean(
+                                 fit.axial_rms_deg[list(fit.groups)] ** 2))),
                              fitted_at=now)
     elif fit_accel and tool_axis is not None:
         tool_axis = None
