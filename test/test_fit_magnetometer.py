@@ -188,8 +188,17 @@ BAD = {
     'one plane': ({'count_free': 0, 'per_group': 16, 'edit': one_plane}, 'one plane'),
     'microtesla': ({'scale_field': 1e-3}, 'uT'),
     'too few rows': ({'count_free': 3, 'per_group': 4}, 'only 11 shot(s)'),
-    'outlier': ({'edit': outlier}, 'outlier shot(s) 6'),
 }
+
+
+def test_an_outlier_is_named_and_the_fit_goes_on(tmp_path):
+    """Iron near shot 6: named and left out; the other 23 shots calibrate (issue 18)."""
+    calibration = tmp_path / 'cal.json'
+    code, out, err = quiet(['fit-magnetometer', shots_csv(tmp_path, edit=outlier),
+                            '--calibration', calibration])
+    assert code == 0, err
+    assert 'outlier shot 6:' in out and 'left out of the fit' in out
+    assert load_model(calibration).magnetometer.positions == 23
 
 
 @pytest.mark.parametrize('name', sorted(BAD) + ['missing column'])

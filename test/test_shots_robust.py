@@ -1,0 +1,150 @@
+"""
+Robust reference-free calibration (issue 18): real hand-held shots, pointing wander, outliers.
+
+Real data: six hand-held survey instruments' 24-shot sets (test/data/sap6, SOURCE.md): before
+this, one was refused for an 8 sigma outlier shot and one for a roll set wandering 0.715 deg.
+Simulated truth from the physical model (``sim.sensor_model.hand_held``, ``iron_near``): a MEMS
+instrument whose shots average 100 readings (2 mg, 100 nT each: 0.2 mg, 10 nT a shot, ~0.01 deg
+on each vector), as ``test_fit_magnetometer``'s MEMS case, whose targets (1.5 deg azimuth at
+random attitudes, 0.5 deg roll-group spread) hold here too: a pointing wander of 0.7 deg RMS
+moves each roll group's axis estimate by ~0.7 / sqrt(8) = 0.25 deg, within them.
+"""
+
+import math
+import pathlib
+
+from inclino_ros.calibration.magnetometer import calibrate_from_shots
+from inclino_ros.calibration.model import CalibrationModel, load_model
+from inclino_ros.cli.fit_magnetometer import survey_of
+from inclino_ros.core.shots import fit_shots, ShotFitRefused, ShotLimits
+from inclino_ros.sim import sensor_model
+import numpy as np
+import pytest
+import shots_sim
+from shots_sim import angle_error_deg
+from test_fit_magnetometer import azimuths
+from test_msa_cli import quiet
+
+SAP6 = pathlib.Path(__file__).parent / 'data' / 'sap6'
+#: Roll-set azimuth RMS each instrument reaches (all six measured 0.26-0.71 deg); raw 3-67 deg.
+SAP6_MAX_ROLL_RMS_DEG = 0.75
+
+
+def circular_deviation_deg(angles_deg):
+    """Return the deviations [deg] of angles from their circular mean."""
+    radians = np.radians(angles_deg)
+    mean = math.degrees(math.atan2(np.mean(np.sin(radians)), np.mean(np.cos(radians))))
+    return angle_error_deg(angles_deg, mean)
+
+
+@pytest.mark.parametrize('name', ['BB', 'CF', 'FG', 'HC', 'IB', 'JG'])
+def test_every_real_instrument_is_calibrated(tmp_path, name):
+    """Each of six real instruments calibrates; its roll sets then agree in azimuth."""
+    calibration = tmp_path / 'cal.json'
+    code, out, err = quiet(['fit-magnetometer', SAP6 / f'{name}.csv', '--calibration',
+                            calibration, '--report-dir', tmp_path])
+    assert code == 0, err
+    if name == 'BB':   # the 8 sigma shot of the issue, named and left out
+        assert 'outlier shot 22 (roll group 2)' in out
+    if name == 'FG':   # its wandering roll set is one shot off: named, the set kept
+        assert 'outlier shot 14 (roll group 1)' in out
+    model = load_model(calibration)
+    assert model.tool_axis is not None and model.tool_axis.roll_groups == 2
+    table = np.genfromtxt(SAP6 / f'{name}.csv', delimiter=',', names=True, dtype=None,
+                          encoding='utf-8')
+    accel = np.column_stack([table[c] for c in ('ax', 'ay', 'az')])
+    field = np.column_stack([table[c] for c in ('bx', 'by', 'bz')])
+    group = np.array([-1] * 8 + [0] * 8 + [1] * 8)
+    used = np.ones(24, dtype=bool)
+    used[{'BB': 21, 'FG': 13}.get(name, [])] = False
+    for the_model, low, high in ((CalibrationModel(3), 3.0, 90.0),
+                                 (model, 0.0, SAP6_MAX_ROLL_RMS_DEG)):
+        azimuth = survey_of(the_model, accel, field, None, 9.80665)['azimuth_deg']
+        deviation = np.concatenate([circular_deviation_deg(azimuth[(group == k) & used])
+                                    for k in (0, 1)])
+        assert low < np.sqrt(np.mean(deviation ** 2)) < high
+
+
+def hand_held_set(seed, wander_deg=0.0, outliers=(), iron_nT=0.0):
+    """Return (tool, accel, field, group, rng) of a MEMS shot set aimed by hand."""
+    rng = np.random.default_rng(seed)
+    tool = shots_sim.tool(sensor_model.MEMS)
+    incl, tf, azim, group = shots_sim.shot_attitudes(rng)
+    incl, tf, azim = sensor_model.hand_held(incl, tf, azim, wander_deg, rng)
+    interference = (np.asarray(shots_sim.INTERFERENCE_NT)
+                    + sensor_model.iron_near(len(incl), outliers, iron_nT, rng))
+    accel, field = shots_sim.read(tool, incl, tf, azim, rng, 100, interference)
+    return tool, accel, field, group, rng
+
+
+def assert_on_target(tool, model, rng, max_deg=1.5, min_inclination_deg=10.0):
+    """Azimuth at 1000 random attitudes within the MEMS target of test_fit_magnetometer."""
+    incl, tf, azim = shots_sim.random_attitudes(rng, 1000, min_inclination_deg)
+    azimuth, _ = azimuths(model, *shots_sim.read(tool, incl, tf, azim, rng, 100))
+    assert np.max(np.abs(angle_error_deg(azimuth, azim))) <= max_deg
+
+
+@pytest.mark.parametrize('seed', [2, 3, 5])
+def test_a_wandering_roll_set_is_weighted_and_reported(seed):
+    """
+    0.7 deg RMS of pointing wander (a real set's): calibrated, the wander reported.
+
+    These seeds leave a group above 0.5 deg RMS, which the fit refused before.  The wander
+    moves the tool axis found by ~0.7 / sqrt(8 shots x 2 groups) = 0.18 deg, an azimuth error
+    of 0.35 deg at I = 30 deg: 1.2 deg is 3.5 sigma (measured 0.6-0.9 deg max over 1000).
+    """
+    tool, accel, field, group, rng = hand_held_set(seed, wander_deg=0.7)
+    result = calibrate_from_shots(CalibrationModel(3), accel, field, group)
+    fit = result.fit
+    assert fit.groups == (0, 1) and fit.freed_groups == ()
+    # The wander reported: ~0.7 deg times the sine of the vectors' angle to the axis.
+    assert np.all((fit.axial_rms_deg > 0.2) & (fit.axial_rms_deg < 1.4)), fit.axial_rms_deg
+    assert fit.axial_rms_deg.max() > 0.5
+    assert_on_target(tool, result.model, rng, max_deg=1.2, min_inclination_deg=30.0)
+
+
+def test_a_roll_set_that_holds_no_direction_is_taken_as_free_shots():
+    """Wander of 4 deg: a group beyond 2 deg RMS measures no axis; named, the fit goes on."""
+    _, accel, field, group, _ = hand_held_set(4, wander_deg=4.0)
+    fit = fit_shots(accel, field, group)
+    assert len(fit.groups) < 2 and fit.freed_groups
+    assert all('wandered' in why for _, why in fit.freed_groups)
+
+
+@pytest.mark.parametrize('seed', [1, 2])
+def test_an_outlier_shot_is_named_and_left_out(seed):
+    """Iron near shot 6 (3000 nT, ~60 sigma): named, left out, the rest calibrates on target."""
+    tool, accel, field, group, rng = hand_held_set(seed, outliers=[5], iron_nT=3000.0)
+    result = calibrate_from_shots(CalibrationModel(3), accel, field, group)
+    assert [shot for shot, _ in result.fit.outliers] == [5]
+    assert result.fit.outliers[0][1] > 6.0 and not result.fit.used[5]
+    assert result.model.magnetometer.positions == 23
+    assert_on_target(tool, result.model, rng)
+
+
+def test_too_many_outliers_are_refused_naming_every_check():
+    """Three outliers where only two can be spared: refused, with every failed check at once."""
+    _, accel, field, group, _ = hand_held_set(5, outliers=[1, 4, 6], iron_nT=3000.0)
+    limits = ShotLimits(min_shots=22, max_dip_rms_deg=1e-3)
+    with pytest.raises(ShotFitRefused) as refused:
+        fit_shots(accel, field, group, limits=limits)
+    reasons = refused.value.reasons
+    assert any('outlier shot(s)' in r for r in reasons), reasons
+    assert any('the dip constant' in r for r in reasons), reasons
+    assert refused.value.fit is not None and not refused.value.fit.used.all()
+
+
+def test_a_refused_fit_writes_its_report(tmp_path):
+    """The command's refusal names every failed check and leaves fit_magnetometer_refused.txt."""
+    _, accel, field, group, _ = hand_held_set(6)
+    path = tmp_path / 'shots.csv'
+    shots_sim.write_shots(path, accel, field, group)
+    code, _, err = quiet(['fit-magnetometer', path, '--calibration', tmp_path / 'cal.json',
+                          '--max-dip-rms-deg', '1e-6', '--max-b-rms-fraction', '1e-9',
+                          '--max-g-rms-fraction', '1e-9'])
+    assert code == 1
+    for what in ('|B| constant', 'the dip constant', '|g| constant'):
+        assert what in err
+    report = (tmp_path / 'fit_magnetometer_refused.txt').read_text()
+    assert report.count('REFUSED: ') == 3 and 'dip [deg]' in report
+    assert not (tmp_path / 'cal.json').exists()
