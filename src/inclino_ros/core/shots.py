@@ -48,6 +48,8 @@ from scipy.spatial.transform import Rotation
 
 #: Upper-triangular (accelerometer) and symmetric (magnetometer) entries of a 3x3 matrix.
 _UPPER = np.triu_indices(3)
+#: Most refits of the robust loop (outliers left out, wandering groups freed); each settles in 2-4.
+_MAX_ROUNDS = 20
 
 
 class ShotFitRefused(Exception):
@@ -357,8 +359,9 @@ def fit_shots(accel_mps2, field_nT, roll_group=None, g=9.80665, reference_total_
     no groups); ``reference_total_nT``: the field to scale the magnetometer
     to (None: its own mean scale, det K_m = 1).
 
-    Robust: an outlier shot (``limits.outlier_sigma``) is left out and the fit
-    repeated, one shot at a time, the worst first; a roll group whose
+    Robust: the shots beyond ``limits.outlier_sigma`` of a fit are left out
+    and the fit repeated until the shots left out no longer change (a shot a
+    worse one had pushed out comes back); a roll group whose
     pointing wandered beyond ``limits.max_axial_rms_deg`` is taken as free
     shots; both are named in the ShotFit.  Refused, with the reason: too few
     shots, non-finite ones, a triad not turned or turned about one axis
@@ -382,18 +385,22 @@ def fit_shots(accel_mps2, field_nT, roll_group=None, g=9.80665, reference_total_
                                  f'{limits.min_group_shots}')
     used = np.ones(count, dtype=bool)
     kept = list(range(group_count))
-    outliers, freed, evaluations = [], [], 0
-    while True:
+    freed, evaluations = [], 0
+    for _ in range(_MAX_ROUNDS):
         fitted = _joint_fit(accel[used], field[used], _renumber(labels[used], kept), g,
                             reference_total_nT, fit_accel)
         evaluations += fitted[-1]
         model, x = fitted[0], fitted[1]
-        sigma = _shot_sigma(model.errors(x), model.labels)
-        worst = int(np.argmax(sigma))
-        if sigma[worst] > limits.outlier_sigma and used.sum() > limits.min_shots:
-            shot = int(np.flatnonzero(used)[worst])
-            used[shot] = False
-            outliers.append((shot, float(sigma[worst])))
+        # Every shot against this fit, in robust sigma of the shots used: an outlier is out,
+        # a shot a worse one had pushed out comes back.
+        whole = _Model(accel, field, _renumber(labels, kept), len(kept), g, model.field_nT,
+                       fit_accel)
+        sigma = _shot_sigma(whole.errors(x), whole.labels, used)
+        good = sigma <= limits.outlier_sigma
+        if good.sum() < limits.min_shots:   # keep the best min_shots: the checks will say
+            good[np.argsort(sigma)[:limits.min_shots]] = True
+        if not np.array_equal(good, used):
+            used = good
             for k in [k for k in kept if np.sum(used & (labels == k)) < limits.min_group_shots]:
                 kept.remove(k)
                 freed.append((k, f'fewer than {limits.min_group_shots} good shots left'))
@@ -406,6 +413,8 @@ def fit_shots(accel_mps2, field_nT, roll_group=None, g=9.80665, reference_total_
             kept.remove(group)
             continue
         break
+    bad = np.flatnonzero(~used)
+    outliers = [(int(i), float(sigma[i])) for i in bad[np.argsort(-sigma[bad])]]
     return _result(fitted, accel, field, labels, (kept, used, outliers, freed), limits,
                    evaluations)
 
@@ -466,13 +475,18 @@ def _rms(values):
     return float(np.sqrt(np.mean(values ** 2))) if values.size else 0.0
 
 
-def _shot_sigma(families, labels):
-    """Return per shot its largest residual in robust standard deviations (MAD) of any family."""
+def _shot_sigma(families, labels, used):
+    """
+    Return per shot its largest residual in robust standard deviations of any family.
+
+    The robust standard deviation of a family is 1.4826 times the median
+    absolute residual (MAD) of the ``used`` shots.
+    """
     grouped = np.flatnonzero(labels >= 0)
     worst = np.zeros(labels.size)
     for name, values in families.items():
-        scale = max(1.4826 * float(np.median(np.abs(values))), 1e-7)
         shots = grouped if name.startswith('axial') else np.arange(labels.size)
+        scale = max(1.4826 * float(np.median(np.abs(values[used[shots]]))), 1e-7)
         np.maximum.at(worst, shots, np.abs(values) / scale)
     return worst
 
@@ -507,14 +521,14 @@ def _result(fitted, accel_all, field_all, labels, robust, limits, evaluations):
                                        / (g_total * b_total), -1.0, 1.0)))
     dip_deg = math.degrees(math.asin(float(np.clip(values['sin_dip'], -1.0, 1.0))))
     problems = []
-    sigma = _shot_sigma(families, model.labels)
+    sigma = _shot_sigma(families, model.labels, np.ones(model.labels.size, dtype=bool))
     if np.any(sigma > limits.outlier_sigma):
         named = ', '.join(f'{i + 1} ({s:.0f} sigma)' for i, s in
                           zip(np.flatnonzero(used)[sigma > limits.outlier_sigma],
                               sigma[sigma > limits.outlier_sigma]))
         problems.append(f'outlier shot(s) {named} beyond {limits.outlier_sigma:g} robust sigma '
-                        f'remain after {len(outliers)} left out: {int(used.sum())} shots left, '
-                        f'need more than {limits.min_shots} to leave one more out')
+                        f'remain after {len(outliers)} left out: only {int(used.sum())} shots '
+                        f'left, the fit needs {limits.min_shots}')
     checks = [('|B|', _rms(families['b']), limits.max_b_rms_fraction, 'fraction'),
               ('the dip', _rms(dip[used] - dip_deg), limits.max_dip_rms_deg, 'deg')]
     if model.fit_accel:
