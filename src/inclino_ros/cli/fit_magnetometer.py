@@ -17,8 +17,10 @@ rotation between the triads (the dip is constant) and, from the roll
 groups, the tool axis (seed 000's installation without a level bench).  The
 file gets the stages ``magnetometer``, ``magnetometer_alignment``,
 ``tool_axis`` (with roll groups) and ``stand`` (method sphere, when fitted);
-its other stages are kept, but a new accelerometer frame drops the
-installation measured in the old one.  The field is scaled to
+its other stages are kept; the installation (level bench) too, carried
+into a new accelerometer frame, unless roll groups measure the tool axis.
+Nothing measuring the mount (a bag has no roll groups) is said loudly, on
+stderr too.  The field is scaled to
 ``--reference-total-nT`` (or ``--site``) if given, else to the sensor's own
 mean scale.
 
@@ -41,6 +43,7 @@ weighted by its own pointing wander (reported), and one that wandered beyond
 
 from dataclasses import replace
 import math
+import sys
 
 from inclino_ros.calibration.magnetometer import calibrate_from_shots
 from inclino_ros.cli.errors import CommandError
@@ -218,6 +221,9 @@ def fit(args, lines, outputs):
             lines += [f'REFUSED: {reason}' for reason in err.reasons]
             write_text(outputs.path(report_paths(args, REPORT_NAME + '_refused')[1]), lines)
         raise Refused(err.reason) from None
+    for note in result.notes:
+        if note.startswith('WARNING'):
+            print(f'inclino fit-magnetometer: {note}', file=sys.stderr)
     before = survey_of(existing, accel, field, temperature_c, args.gravity_mps2)
     after = survey_of(result.model, accel, field, temperature_c, args.gravity_mps2)
     lines += summary_lines(result, labels, before, after, total_nT, dip_ref, source)
