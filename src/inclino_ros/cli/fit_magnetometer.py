@@ -326,7 +326,8 @@ def summary_lines(result, labels, before, after, total_nT, dip_ref, source):
     for what, key in (('|g| [m/s^2]', 'g_total_mps2'), ('|B| [nT]', 'b_total_nT'),
                       ('dip [deg]', 'dip_deg')):
         lines.append(f'spread (std) of {what} over the shots used: before '
-                     f'{np.std(before[key][fit.used]):.5g}, after {np.std(after[key][fit.used]):.5g}')
+                     f'{np.std(before[key][fit.used]):.5g}, '
+                     f'after {np.std(after[key][fit.used]):.5g}')
     for k, ((az0, inc0), (az1, inc1)) in enumerate(zip(group_spreads(labels, before, fit.used),
                                                        group_spreads(labels, after, fit.used))):
         lines.append(f'roll group {k + 1}: azimuth spread {az0:.4f} -> {az1:.4f} deg RMS, '
