@@ -23,9 +23,7 @@ from inclino_ros.calibration.provenance import (
     stage_temperatures, STAGE_TIMES, stale_stages, temperature_conflict, TEMPERATURE_FIELDS,
     utc_now_iso)
 from inclino_ros.calibration.schema import (
-    alignment_from_dict, FORMAT, installation_from_dict, is_int, magnetic_from_dict,
-    magnetometer_from_dict, magnetometer_temperature_from_dict, model_from_dict,
-    model_to_dict, stand_from_dict, temperature_from_dict, tool_axis_from_dict)
+    FORMAT, is_int, model_from_dict, model_to_dict, STAGE_FIELDS, stage_from_dict)
 from inclino_ros.calibration.stages import (
     Installation, Magnetic, Magnetometer, MagnetometerAlignment, MagnetometerTemperature,
     NO_MAGNETIC_CORRECTION, Stand, Temperature, ToolAxis)
@@ -33,15 +31,13 @@ from inclino_ros.calibration.store import (
     CalibrationFileError, check_sensor, load_model, save_model)
 
 __all__ = [
-    'age_seconds', 'alignment_from_dict', 'CalibrationFileError', 'CalibrationModel',
-    'check_sensor', 'common_stage_temperature', 'FORMAT', 'Installation',
-    'installation_from_dict', 'is_int', 'load_model', 'Magnetic', 'magnetic_from_dict',
-    'MAGNETOMETER_STAGES', 'Magnetometer', 'MagnetometerAlignment', 'magnetometer_from_dict',
-    'MagnetometerTemperature', 'magnetometer_temperature_from_dict', 'model_from_dict',
-    'model_to_dict', 'MOUNT_STAGES', 'NO_MAGNETIC_CORRECTION', 'READABLE_VERSIONS',
-    'readings_temperature_c', 'save_model', 'SCHEMA_VERSION', 'SECTIONS', 'STAGE_TIMES',
-    'stage_ages_s', 'stage_temperatures', 'STAGES', 'stale_stages', 'Stand',
-    'stand_from_dict', 'STANDARD_GRAVITY_MPS2', 'Temperature', 'TEMPERATURE_FIELDS',
-    'temperature_conflict', 'temperature_from_dict', 'tool_axis_from_dict', 'ToolAxis',
-    'upgraded', 'utc_now_iso', 'VERSION_3_FIELDS',
+    'age_seconds', 'CalibrationFileError', 'CalibrationModel', 'check_sensor',
+    'common_stage_temperature', 'FORMAT', 'Installation', 'is_int', 'load_model', 'Magnetic',
+    'Magnetometer', 'MAGNETOMETER_STAGES', 'MagnetometerAlignment', 'MagnetometerTemperature',
+    'model_from_dict', 'model_to_dict', 'MOUNT_STAGES', 'NO_MAGNETIC_CORRECTION',
+    'READABLE_VERSIONS', 'readings_temperature_c', 'save_model', 'SCHEMA_VERSION', 'SECTIONS',
+    'stage_ages_s', 'STAGE_FIELDS', 'stage_from_dict', 'stage_temperatures', 'STAGE_TIMES',
+    'STAGES', 'stale_stages', 'Stand', 'STANDARD_GRAVITY_MPS2', 'Temperature',
+    'temperature_conflict', 'TEMPERATURE_FIELDS', 'ToolAxis', 'upgraded', 'utc_now_iso',
+    'VERSION_3_FIELDS',
 ]

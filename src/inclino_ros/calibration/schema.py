@@ -10,6 +10,7 @@ KeyError, TypeError) with the reason, never a silent zero correction.
 
 from dataclasses import asdict, fields
 from datetime import datetime
+from functools import partial
 import math
 
 from inclino_ros.calibration import plausibility
@@ -59,203 +60,178 @@ def model_from_dict(doc):
     sensor_id = doc.get('sensor_id') if version >= 3 else None
     if sensor_id is not None and not isinstance(sensor_id, str):
         raise ValueError(f'sensor_id {sensor_id!r} is not a string')
-    readers = {'installation': installation_from_dict, 'stand': stand_from_dict,
-               'temperature': temperature_from_dict, 'magnetic': magnetic_from_dict,
-               'tool_axis': tool_axis_from_dict, 'magnetometer': magnetometer_from_dict,
-               'magnetometer_alignment': alignment_from_dict,
-               'magnetometer_temperature': magnetometer_temperature_from_dict}
     sections = {name: upgraded(doc[name], name, version)
                 for name in stages if doc.get(name) is not None}
     model = CalibrationModel(accelerometer_axes=axes, sensor_id=sensor_id, **{
-        name: readers[name](section) for name, section in sections.items()})
+        name: stage_from_dict(name, section) for name, section in sections.items()})
     if axes == 2 and (model.stand or model.temperature):
         raise ValueError('stand and temperature stages need a three-axis accelerometer')
     return model
 
 
-def _optional_temperature(section, name):
-    """Raise ValueError unless ``section['temperature_c']`` is None or a sensor's deg C."""
-    value = section['temperature_c']
-    if value is not None:
-        (value,) = _finite(section, name, 'temperature_c')
-        plausibility.check_temperatures([value], f'{name}.temperature_c')
+def stage_from_dict(name, section):
+    """
+    Return the validated stage ``name`` from its file section; ValueError (the reason) if not.
 
-
-def _check_fields(section, kind, name):
-    """Raise ValueError unless ``section`` has exactly the fields of dataclass ``kind``."""
+    ``STAGE_FIELDS`` drives it: the section must hold exactly its dataclass's
+    fields, each field is read by its reader, then the checks across fields
+    and the stage's ``plausibility`` check run.
+    """
+    kind, readers, checks, plausible = STAGE_FIELDS[name]
     expected = {f.name for f in fields(kind)}
     if not isinstance(section, dict) or set(section) != expected:
         got = sorted(section) if isinstance(section, dict) else section
         raise ValueError(f'{name} needs exactly the fields {sorted(expected)}, got {got}')
+    values = {key: read(section, name, key) for key, read in readers.items()}
+    for check in checks:
+        check(values, name)
+    stage = kind(**values)
+    plausible(stage)
+    return stage
 
 
-def _finite(section, name, *keys, shape=()):
-    """Return ``section[key]`` as finite float arrays of ``shape``; ValueError if not."""
-    values = []
-    for key in keys:
-        value = section[key]
-        array = np.asarray(value, dtype=object)
-        if array.shape != shape or any(
-                isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v)
-                for v in array.flat):
-            what = 'a finite number' if shape == () else f'finite numbers of shape {shape}'
-            raise ValueError(f'{name}.{key} = {value!r} is not {what}')
-        values.append(np.asarray(value, dtype=float))
-    return values
+def _finite(section, name, key, shape=()):
+    """Return ``section[key]`` as a finite float array of ``shape``; ValueError if not."""
+    value = section[key]
+    array = np.asarray(value, dtype=object)
+    if array.shape != shape or any(
+            isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v)
+            for v in array.flat):
+        what = 'a finite number' if shape == () else f'finite numbers of shape {shape}'
+        raise ValueError(f'{name}.{key} = {value!r} is not {what}')
+    return np.asarray(value, dtype=float)
+
+
+def _number(section, name, key):
+    """Read a finite number, as written."""
+    _finite(section, name, key)
+    return section[key]
+
+
+def _array(*shape):
+    """Return the reader of finite numbers of ``shape``, as nested tuples of floats."""
+    def read(section, name, key):
+        value = _finite(section, name, key, shape)
+        return tuple(map(tuple, value.tolist())) if len(shape) == 2 else tuple(value.tolist())
+    return read
+
+
+def _optional(read):
+    """Return ``read`` letting None through."""
+    def read_optional(section, name, key):
+        return None if section[key] is None else read(section, name, key)
+    return read_optional
 
 
 def _count(section, name, key):
-    """Raise ValueError unless ``section[key]`` is a positive integer."""
+    """Read a positive integer."""
     if not is_int(section[key]) or section[key] < 1:
         raise ValueError(f'{name}.{key} = {section[key]!r} is not a positive integer')
+    return section[key]
 
 
 def _time(section, name, key):
-    """Raise ValueError unless ``section[key]`` is an ISO 8601 time with a zone."""
+    """Read an ISO 8601 time with a zone."""
     try:
         moment = datetime.fromisoformat(section[key])
     except (TypeError, ValueError):
         raise ValueError(f'{name}.{key} = {section[key]!r} is not an ISO 8601 time') from None
     if moment.tzinfo is None:
         raise ValueError(f'{name}.{key} has no time zone')
+    return section[key]
 
 
-def installation_from_dict(section):
-    """Return a validated Installation from its file section."""
-    _check_fields(section, Installation, 'installation')
-    _finite(section, 'installation', 'gamma_deg', 'beta_deg', 'std_deg', 'g_total_mps2')
-    _count(section, 'installation', 'sample_count')
-    _time(section, 'installation', 'captured_at')
-    _optional_temperature(section, 'installation')
-    stage = Installation(**section)
-    plausibility.check_installation(stage)
-    return stage
+def _choice(*options):
+    """Return the reader of one of ``options``."""
+    def read(section, name, key):
+        if section[key] not in options:
+            raise ValueError(f'{name}.{key} = {section[key]!r} is not '
+                             + ', '.join(options[:-1]) + f' or {options[-1]}')
+        return section[key]
+    return read
 
 
-def tool_axis_from_dict(section):
-    """Return a validated ToolAxis from its file section."""
-    _check_fields(section, ToolAxis, 'tool_axis')
-    _finite(section, 'tool_axis', 'gamma_deg', 'beta_deg', 'axial_rms_deg')
-    _count(section, 'tool_axis', 'roll_groups')
-    _count(section, 'tool_axis', 'shots')
-    _time(section, 'tool_axis', 'fitted_at')
-    stage = ToolAxis(**section)
-    plausibility.check_tool_axis(stage)
-    return stage
+def _temperature(section, name, key):
+    """Read the temperature [deg C] a stage's readings stood for: None or a sensor's."""
+    if section[key] is not None:
+        plausibility.check_temperatures([float(_finite(section, name, key))], f'{name}.{key}')
+    return section[key]
 
 
-def magnetometer_from_dict(section):
-    """Return a validated Magnetometer from its file section."""
-    _check_fields(section, Magnetometer, 'magnetometer')
-    (k,) = _finite(section, 'magnetometer', 'scale_matrix', shape=(3, 3))
-    _finite(section, 'magnetometer', 'bias_nT', shape=(3,))
-    _finite(section, 'magnetometer', 'condition_number', 'rms_residual_nT', 'field_nT')
-    if section['method'] not in ('stand', 'ellipsoid'):
-        raise ValueError(f'magnetometer.method = {section["method"]!r} is not stand or ellipsoid')
-    _count(section, 'magnetometer', 'positions')
-    _time(section, 'magnetometer', 'fitted_at')
-    stage = Magnetometer(**dict(section, scale_matrix=tuple(map(tuple, k.tolist())),
-                                bias_nT=tuple(section['bias_nT'])))
-    plausibility.check_magnetometer(stage)
-    return stage
+def _kept(section, name, key):
+    """Read a field the checks across fields look at (or none does), as written."""
+    return section[key]
 
 
-def alignment_from_dict(section):
-    """Return a validated MagnetometerAlignment from its file section."""
-    _check_fields(section, MagnetometerAlignment, 'magnetometer_alignment')
-    (r,) = _finite(section, 'magnetometer_alignment', 'rotation', shape=(3, 3))
-    if section['method'] not in ('dip', 'stand', 'given'):
-        raise ValueError(f'magnetometer_alignment.method = {section["method"]!r} is not dip, '
-                         'stand or given')
-    for key in ('dip_deg', 'dip_rms_deg'):
-        if section[key] is not None:
-            _finite(section, 'magnetometer_alignment', key)
-    _count(section, 'magnetometer_alignment', 'shots')
-    _time(section, 'magnetometer_alignment', 'fitted_at')
-    stage = MagnetometerAlignment(**dict(section, rotation=tuple(map(tuple, r.tolist()))))
-    plausibility.check_magnetometer_alignment(stage)
-    return stage
-
-
-def stand_from_dict(section):
-    """Return a validated Stand from its file section."""
-    _check_fields(section, Stand, 'stand')
-    (k,) = _finite(section, 'stand', 'scale_matrix', shape=(3, 3))
-    _finite(section, 'stand', 'bias_mps2', shape=(3,))
-    _finite(section, 'stand', 'condition_number')
-    if section['method'] not in ('stand', 'sphere'):
-        raise ValueError(f'stand.method = {section["method"]!r} is not stand or sphere')
-    if section['rms_inclination_deg'] is not None:
-        _finite(section, 'stand', 'rms_inclination_deg')
-    _count(section, 'stand', 'positions')
-    _time(section, 'stand', 'fitted_at')
-    _optional_temperature(section, 'stand')
-    stage = Stand(**dict(section, scale_matrix=tuple(map(tuple, k.tolist())),
-                         bias_mps2=tuple(section['bias_mps2'])))
-    plausibility.check_stand(stage)
-    return stage
-
-
-def temperature_from_dict(section):
-    """Return a validated (accelerometer) Temperature from its file section."""
-    return _temperature_stage(section, Temperature, 'temperature', 'mps2')
-
-
-def magnetometer_temperature_from_dict(section):
-    """Return a validated MagnetometerTemperature from its file section."""
-    return _temperature_stage(section, MagnetometerTemperature, 'magnetometer_temperature', 'nT')
-
-
-def _temperature_stage(section, kind, name, unit):
-    """Return a validated temperature stage ``kind``; its unit-named fields end in ``unit``."""
-    _check_fields(section, kind, name)
+def _rows(section, name, key):
+    """Read 3 rows of polynomial coefficients a0..an, shaped as ``coefficients``."""
     coefficients = np.asarray(section['coefficients'], dtype=object)
     if coefficients.ndim != 2 or coefficients.shape[0] != 3 or coefficients.shape[1] < 1:
         raise ValueError(f'{name}.coefficients must be 3 rows of a0..an')
-    _finite(section, name, 'coefficients', shape=coefficients.shape)
-    bias_key, rms_key = f'bias_coefficients_{unit}', f'rms_residual_{unit}'
-    if section[bias_key] is not None:
-        _finite(section, name, bias_key, shape=coefficients.shape)
-    t_min, t_max, t_ref = _finite(section, name, 't_min_c', 't_max_c',
-                                  'reference_temperature_c')
-    _finite(section, name, rms_key, shape=(3,))
+    return _array(*coefficients.shape)(section, name, key)
+
+
+def _temperature_range(values, name):
+    """Raise ValueError unless the fitted range is not empty and holds the reference."""
+    t_min, t_max, t_ref = (values[key] for key in ('t_min_c', 't_max_c',
+                                                   'reference_temperature_c'))
     if not t_min <= t_ref <= t_max or t_min == t_max:
-        raise ValueError(f'{name} range [{t_min}, {t_max}] C is empty or does not '
-                         f'contain the reference {t_ref} C')
-    _count(section, name, 'samples')
-    _count(section, name, 'attitudes')
-    _time(section, name, 'fitted_at')
-    bias = section[bias_key]
-    stage = kind(**dict(section, coefficients=tuple(map(tuple, section['coefficients'])),
-                        **{rms_key: tuple(section[rms_key]),
-                           bias_key: None if bias is None else tuple(map(tuple, bias))}))
-    plausibility.check_temperature(stage, name)
-    return stage
+        raise ValueError(f'{name} range [{float(t_min)}, {float(t_max)}] C is empty or does '
+                         f'not contain the reference {float(t_ref)} C')
 
 
-def magnetic_from_dict(section):
-    """Return a validated Magnetic from its file section."""
-    _check_fields(section, Magnetic, 'magnetic')
-    _finite(section, 'magnetic', 'soft_iron', shape=(2, 2))
-    _finite(section, 'magnetic', 'hard_iron_nT', shape=(2,))
-    _finite(section, 'magnetic', 'interference_nT', shape=(3,))
-    for key in ('rotation_fitted_at', 'msa_fitted_at'):
-        if section[key] is not None:
-            _time(section, 'magnetic', key)
-    if section['msa_method'] is not None:
-        if section['msa_method'] not in ('improved', 'classic', 'axial'):
-            raise ValueError(f'magnetic.msa_method = {section["msa_method"]!r} is unknown')
-        _count(section, 'magnetic', 'msa_stations')
-        _finite(section, 'magnetic', 'msa_reference_total_nT', 'msa_reference_dip_deg')
-    std = section['interference_std_nT']
-    if std is not None:
-        (std,) = _finite(section, 'magnetic', 'interference_std_nT', shape=(3,))
-        std = tuple(std.tolist())
-    _optional_temperature({'temperature_c': section['rotation_temperature_c']},
-                          'magnetic.rotation')
-    stage = Magnetic(**dict(section, hard_iron_nT=tuple(section['hard_iron_nT']),
-                            soft_iron=tuple(map(tuple, section['soft_iron'])),
-                            interference_nT=tuple(section['interference_nT']),
-                            interference_std_nT=std))
-    plausibility.check_magnetic(stage)
-    return stage
+def _msa(values, name):
+    """Raise ValueError unless a solved interference names its method, stations and field."""
+    if values['msa_method'] is not None:
+        _count(values, name, 'msa_stations')
+        for key in ('msa_reference_total_nT', 'msa_reference_dip_deg'):
+            _finite(values, name, key)
+
+
+def _temperature_fields(unit):
+    """Return the field readers of a temperature stage whose unit-named fields end in ``unit``."""
+    return {'coefficients': _rows, f'bias_coefficients_{unit}': _optional(_rows),
+            't_min_c': _number, 't_max_c': _number, 'reference_temperature_c': _number,
+            f'rms_residual_{unit}': _array(3), 'samples': _count, 'attitudes': _count,
+            'fitted_at': _time}
+
+
+#: Each stage's section: its dataclass, a reader per field (which validates and
+#: converts), the checks across fields, in the order they run, and what the stage can
+#: physically be (``plausibility``).
+STAGE_FIELDS = {
+    'installation': (Installation, {
+        'gamma_deg': _number, 'beta_deg': _number, 'std_deg': _number, 'g_total_mps2': _number,
+        'sample_count': _count, 'captured_at': _time, 'temperature_c': _temperature}, (),
+        plausibility.check_installation),
+    'tool_axis': (ToolAxis, {
+        'gamma_deg': _number, 'beta_deg': _number, 'axial_rms_deg': _number,
+        'roll_groups': _count, 'shots': _count, 'fitted_at': _time}, (),
+        plausibility.check_tool_axis),
+    'stand': (Stand, {
+        'scale_matrix': _array(3, 3), 'bias_mps2': _array(3), 'condition_number': _number,
+        'method': _choice('stand', 'sphere'), 'rms_inclination_deg': _optional(_number),
+        'positions': _count, 'fitted_at': _time, 'temperature_c': _temperature}, (),
+        plausibility.check_stand),
+    'magnetometer': (Magnetometer, {
+        'scale_matrix': _array(3, 3), 'bias_nT': _array(3), 'condition_number': _number,
+        'rms_residual_nT': _number, 'field_nT': _number,
+        'method': _choice('stand', 'ellipsoid'), 'positions': _count, 'fitted_at': _time}, (),
+        plausibility.check_magnetometer),
+    'magnetometer_alignment': (MagnetometerAlignment, {
+        'rotation': _array(3, 3), 'method': _choice('dip', 'stand', 'given'),
+        'dip_deg': _optional(_number), 'dip_rms_deg': _optional(_number), 'shots': _count,
+        'fitted_at': _time}, (), plausibility.check_magnetometer_alignment),
+    'temperature': (Temperature, _temperature_fields('mps2'), (_temperature_range,),
+                    partial(plausibility.check_temperature, name='temperature')),
+    'magnetometer_temperature': (
+        MagnetometerTemperature, _temperature_fields('nT'), (_temperature_range,),
+        partial(plausibility.check_temperature, name='magnetometer_temperature')),
+    'magnetic': (Magnetic, {
+        'soft_iron': _array(2, 2), 'hard_iron_nT': _array(2), 'interference_nT': _array(3),
+        'rotation_fitted_at': _optional(_time), 'msa_fitted_at': _optional(_time),
+        'msa_method': _optional(_choice('improved', 'classic', 'axial')),
+        'msa_stations': _kept, 'msa_reference_total_nT': _kept, 'msa_reference_dip_deg': _kept,
+        'interference_std_nT': _optional(_array(3)), 'rotation_temperature_c': _temperature},
+        (_msa,), plausibility.check_magnetic),
+}
