@@ -18,7 +18,7 @@ from inclino_ros.calibration.model import (
 from inclino_ros.core.attitude import angle_between
 from inclino_ros.core.installation import installation_matrix, to_tool_frame
 from inclino_ros.core.magnetics import expected_field_tool_nT
-from inclino_ros.core.shots import fit_shots, ShotLimits, tilt_angles
+from inclino_ros.core.shots import find_roll_groups, fit_shots, ShotLimits, tilt_angles
 from inclino_ros.core.stand import fit_stand, rotation_part, StandFitRefused
 import numpy as np
 
@@ -162,11 +162,16 @@ def installation_in_new_frame(installation, accel_matrix, accel_bias_mps2):
 
 @dataclass(frozen=True)
 class ShotCalibration:
-    """A reference-free calibration: the new model, the fit, and what changed (text lines)."""
+    """
+    A reference-free calibration: the new model, the fit, and what changed (text lines).
+
+    ``roll_group``: the labels the fit used (given, or found; None: none).
+    """
 
     model: object
     fit: object
     notes: tuple
+    roll_group: object = None
 
 
 def calibrate_from_shots(existing, accel_mps2, field_nT, roll_group=None, temperature_c=None,
@@ -182,15 +187,29 @@ def calibrate_from_shots(existing, accel_mps2, field_nT, roll_group=None, temper
     installation is kept, carried into a new accelerometer frame
     (``installation_in_new_frame``), and a model with no mount stage at all
     gets MOUNT_WARNING in its notes.  Every other stage is kept.  Raises
-    ShotFitRefused with the reason.
+    ShotFitRefused with the reason.  Without ``roll_group`` the roll sets among
+    shots taken in order are found (``core.shots.find_roll_groups``) and the
+    fit repeated with them.
     """
     fit_accel = existing.stand is None
     accel = existing.apply(accel_mps2, temperature_c,
                            before='stand' if fit_accel else 'installation')
     field = existing.apply_magnetic(field_nT, before='magnetometer')
     fit = fit_shots(accel, field, roll_group, gravity_mps2, reference_total_nT, fit_accel, limits)
-    now = utc_now_iso()
     notes = []
+    if roll_group is None:   # a bag, or a file without the column: roll sets in the shots?
+        found = find_roll_groups(fit.accel_corrected_mps2, fit.field_corrected_nT, limits)
+        if found.max(initial=-1) >= 0:
+            fit = fit_shots(accel, field, found, gravity_mps2, reference_total_nT, fit_accel,
+                            limits)
+            roll_group = found
+            notes.append(f'{found.max() + 1} roll group(s) found in the order of the shots '
+                         '(consecutive shots pointing within '
+                         f'{limits.max_pointing_deg:g} deg, turned about that axis): '
+                         + ', '.join(f'shots {np.flatnonzero(found == k)[0] + 1}-'
+                                     f'{np.flatnonzero(found == k)[-1] + 1}'
+                                     for k in range(found.max() + 1)))
+    now = utc_now_iso()
     stand = existing.stand
     installation = existing.installation
     if fit_accel:
@@ -245,4 +264,4 @@ def calibrate_from_shots(existing, accel_mps2, field_nT, roll_group=None, temper
                      'magnetometer correction; fit the rotation and MSA again')
     model = replace(existing, stand=stand, installation=installation, tool_axis=tool_axis,
                     magnetometer=magnetometer, magnetometer_alignment=alignment)
-    return ShotCalibration(model=model, fit=fit, notes=tuple(notes))
+    return ShotCalibration(model=model, fit=fit, notes=tuple(notes), roll_group=roll_group)

@@ -9,7 +9,8 @@ it) and ``temperature_c``; one row per still shot.  Or a bag: the still
 segments of ``--raw-topic`` and ``--mag-topic`` are found (every window of
 ``--still-window-s`` whose directions spread less than ``--max-still-deg``
 on both triads, joined into segments of at least ``--min-still-s``) and each
-becomes a shot (no roll groups).
+becomes a shot; roll sets among them are found as in a CSV without
+``roll_group`` (consecutive shots pointing one way while the tool turns).
 
 One joint fit (``core.shots``) finds the magnetometer ellipsoid (hard iron,
 full soft iron), the accelerometer's when the file has no stand stage, the
@@ -172,7 +173,7 @@ def still_segments(stamps_ns, accel, field, window_s, max_deg, min_s):
 
 
 def read_bag_shots(args, lines):
-    """Return the shots of the still segments of a bag (no roll groups)."""
+    """Return the shots of the still segments of a bag (roll groups: found by the fit)."""
     imu = read_topic(args.input, args.raw_topic)
     mag = read_topic(args.input, args.mag_topic)
     field, paired = pair_nearest(imu.stamps_ns, mag.stamps_ns, mag.field_nT,
@@ -221,6 +222,7 @@ def fit(args, lines, outputs):
             lines += [f'REFUSED: {reason}' for reason in err.reasons]
             write_text(outputs.path(report_paths(args, REPORT_NAME + '_refused')[1]), lines)
         raise Refused(err.reason) from None
+    labels = result.roll_group
     for note in result.notes:
         if note.startswith('WARNING'):
             print(f'inclino fit-magnetometer: {note}', file=sys.stderr)

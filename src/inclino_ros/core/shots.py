@@ -48,6 +48,8 @@ from scipy.spatial.transform import Rotation
 
 #: Upper-triangular (accelerometer) and symmetric (magnetometer) entries of a 3x3 matrix.
 _UPPER = np.triu_indices(3)
+#: The tool axis of a fit without roll groups: the accelerometer's z sensing axis.
+_Z = np.array([0.0, 0.0, 1.0])
 #: Most refits of the robust loop (outliers left out, wandering groups freed); each settles in 2-4.
 _MAX_ROUNDS = 20
 
@@ -93,6 +95,9 @@ class ShotLimits:
     axis.  Below it a group is weighted by its own spread (a hand-held real
     set wanders 0.1-0.7 deg RMS).  ``min_group_shots``, ``min_roll_deg``: a
     roll group needs three shots spread over this arc about its axis.
+    ``max_pointing_deg``: consecutive shots whose tool axes point within this
+    angle of their mean are one roll set (``find_roll_groups``): twice a
+    mount tilt of a few degrees, which a fit without roll sets leaves.
     """
 
     min_shots: int = 12
@@ -105,6 +110,7 @@ class ShotLimits:
     outlier_sigma: float = 6.0
     min_group_shots: int = 3
     min_roll_deg: float = 90.0
+    max_pointing_deg: float = 5.0
 
 
 @dataclass(frozen=True)
@@ -244,6 +250,62 @@ def _group_axis(accel, field, labels, group_count, g, field_nT):
 def tilt_angles(axis):
     """Return seed 000's (gamma, beta) [rad] of a unit tool axis u = C e_z (Eqs. 11-14)."""
     return installation_angles(*level_axis_angles(axis, 1.0))
+
+
+def pointing(accel, field):
+    """
+    Return the tool's z axis in NED (N, 3) of shots in the tool frame (unit vectors).
+
+    Down is against the specific force, east ``down x B``, north ``east x
+    down``; the tool axis's components on them are the third components.
+    """
+    down = -accel / np.linalg.norm(accel, axis=1)[:, None]
+    east = np.cross(down, field)
+    east /= np.linalg.norm(east, axis=1)[:, None]
+    north = np.cross(east, down)
+    return np.column_stack([north[:, 2], east[:, 2], down[:, 2]])
+
+
+def find_roll_groups(accel, field, limits=ShotLimits()):
+    """
+    Return roll-group labels (N,) of shots taken in order: -1 for a free shot.
+
+    Consecutive shots whose tool axes (``pointing``) lie within
+    ``limits.max_pointing_deg`` of their running mean are one run; a run of
+    ``limits.min_group_shots`` or more turned over ``limits.min_roll_deg`` or
+    more about the axis (``_roll_span_of``, as the fit checks it) is a roll
+    group.  ``accel``, ``field``: corrected, in one frame whose z is near the
+    tool axis (a fit without roll groups).
+    """
+    axes = pointing(accel, field)
+    labels = np.full(len(axes), -1)
+    start, group = 0, 0
+    for end in range(1, len(axes) + 1):
+        if end < len(axes):
+            mean = axes[start:end].sum(axis=0)
+            if math.degrees(float(angle_between(axes[end], mean))) <= limits.max_pointing_deg:
+                continue
+        if (end - start >= limits.min_group_shots and _roll_span_of(
+                accel[start:end], field[start:end], _Z) >= limits.min_roll_deg):
+            labels[start:end] = group
+            group += 1
+        start = end
+    return labels
+
+
+def _roll_span_of(accel, field, axis):
+    """
+    Return the roll span [deg] of shots about ``axis``: ``_roll_span_deg`` of one triad.
+
+    The triad whose vectors lie further from the axis (their cross-axial part,
+    relative to its largest) tells the roll: gravity unless the axis is near
+    vertical, the field unless it is near the field's direction.
+    """
+    across = [v - np.outer(v @ axis, axis) for v in (accel, field)]
+    triad = max(across, key=lambda v: np.mean(np.linalg.norm(v, axis=1)
+                                              / np.linalg.norm(v, axis=1).max()
+                                              if v.size else 0.0))
+    return _roll_span_deg(triad, axis)
 
 
 def _roll_span_deg(vectors, axis):
@@ -552,11 +614,7 @@ def _result(fitted, accel_all, field_all, labels, robust, limits, evaluations):
                  for v, scale in ((accel, model.g), (field, model.field_nT))])))
         if k not in kept:
             continue
-        across = [v[members] - np.outer(v[members] @ axis, axis) for v in (accel, field)]
-        triad = max(across, key=lambda v: np.mean(np.linalg.norm(v, axis=1)
-                                                  / np.linalg.norm(v, axis=1).max()
-                                                  if v.size else 0.0))
-        roll[k] = _roll_span_deg(triad, axis)
+        roll[k] = _roll_span_of(accel[members], field[members], axis)
         if roll[k] < limits.min_roll_deg:
             problems.append(f'roll group {k + 1} turns the tool over {roll[k]:.0f} deg about '
                             f'its axis, need {limits.min_roll_deg:g}: spread its shots around '
