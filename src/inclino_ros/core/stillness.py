@@ -29,6 +29,7 @@ matter (``StillLimits``).  Angles are in radians in, degrees in the result.
 from dataclasses import dataclass
 import math
 
+from inclino_ros.core.attitude import angle_between
 import numpy as np
 
 #: Blocks a capture is cut into (at most; at least 2 samples a block).
@@ -210,3 +211,21 @@ def judge(stillness, limits):
                   f'{stillness.samples} samples of noise {stillness.noise_deg:.3f} deg exceeds '
                   f'{limits.sem_name} {limits.max_sem_deg} deg)')
     return reason
+
+
+def label_attitudes(readings, separation_deg):
+    """
+    Return an attitude label per reading (N, 3): directions within ``separation_deg`` share one.
+
+    Greedy: the first unlabelled reading opens an attitude that takes every
+    unlabelled reading within ``separation_deg`` of its direction.
+    """
+    readings = np.asarray(readings, dtype=float)
+    labels = np.full(readings.shape[0], -1)
+    label = 0
+    while (labels < 0).any():
+        first = np.flatnonzero(labels < 0)[0]
+        near = np.degrees(angle_between(readings, readings[first])) <= separation_deg
+        labels[(labels < 0) & near] = label
+        label += 1
+    return labels
