@@ -25,16 +25,17 @@ def dead_pid():
 
 
 def test_existing_output_refused_unless_forced(tmp_path):
-    """An existing file or folder is refused (and left as it was); force replaces it."""
+    """An existing file or bag folder is refused (and left as it was); force replaces it."""
     csv, bag = tmp_path / 'out.csv', tmp_path / 'bag'
     csv.write_text('old')
     bag.mkdir()
-    (bag / 'x').write_text('old')
+    (bag / 'metadata.yaml').write_text('old')
+    (bag / 'bag_0.mcap').write_text('old')
     for final in (csv, bag):
         with pytest.raises(OutputError, match='exists already'):
             with Outputs() as outputs:
                 outputs.path(final)
-    assert csv.read_text() == 'old' and os.listdir(bag) == ['x']
+    assert csv.read_text() == 'old' and sorted(os.listdir(bag)) == ['bag_0.mcap', 'metadata.yaml']
     with Outputs(force=True) as outputs:
         with open(outputs.path(csv), 'x') as stream:
             stream.write('new')
@@ -89,7 +90,8 @@ def test_stale_temporaries_of_killed_writes_are_removed(tmp_path):
     stale.append(tmp_path / f'.calibration.json-{dead}-4567abcd.tmp')
     assert sorted(stale_temporaries(path)) == sorted(map(str, stale))
     save_model(str(path), CalibrationModel(accelerometer_axes=3))
-    assert sorted(os.listdir(tmp_path)) == sorted(['calibration.json', live.name, other.name])
+    assert sorted(os.listdir(tmp_path)) == sorted(['calibration.json', 'calibration.json.history',
+                                                   live.name, other.name])
     save_stations(str(tmp_path / 'stations.json'), [])
     assert (tmp_path / 'stations.json').exists()
 

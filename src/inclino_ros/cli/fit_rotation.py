@@ -122,7 +122,7 @@ def fit(args, lines, outputs):
                     rotation_fitted_at=utc_now_iso())
     png, txt = report_paths(args, REPORT_NAME)
     plot_rotation(outputs.path(png), readings, corrected, result)
-    save(args.calibration, replace(existing, magnetic=stage))
+    save(args, replace(existing, magnetic=stage), outputs)
     lines += [f'wrote the magnetic stage (hard and soft iron) to {args.calibration}',
               f'report: {png}, {txt}']
     write_text(outputs.path(txt), lines)

@@ -172,8 +172,8 @@ def fit(args, lines, outputs):
     if refusal:
         raise Refused(refusal)
     dropped = existing.installation is not None
-    save(args.calibration, replace(existing, stand=stage, installation=None, tool_axis=None,
-                                   **magnetometer))
+    save(args, replace(existing, stand=stage, installation=None, tool_axis=None,
+                       **magnetometer), outputs)
     lines.append(f'wrote {args.calibration}: stand stage ({args.method}, {stage.positions} '
                  f'{"positions" if args.method == "stand" else "readings"})'
                  + (', temperature stage kept' if existing.temperature else ''))
