@@ -141,8 +141,8 @@ def record(path, text, writer, sensor_id, written_at, outputs):
     number = max(numbers, default=0)
     entries = []
     if on_disk is not None and (not versions or versions[-1].sha256 != digest(on_disk)):
-        text = on_disk.decode('utf-8', errors='replace')
-        entries.append((UNKNOWN_WRITER, sensor_id_of(text), text))
+        found = on_disk.decode('utf-8', errors='replace')
+        entries.append((UNKNOWN_WRITER, sensor_id_of(found), found))
     entries.append((writer, sensor_id, text))
     for writer_name, sensor, content in entries:
         number += 1
