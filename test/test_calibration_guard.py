@@ -10,6 +10,7 @@ Who may change the calibration, through the real node (issues 23 and 21).
 - Every node write is a version in the file's history.
 """
 
+import os
 import subprocess
 
 from diagnostic_msgs.msg import DiagnosticStatus
@@ -85,3 +86,13 @@ def test_the_node_never_writes_over_an_offline_fit(start_node, probe, tmp_path):
     assert problems == []
     assert [v.writer for v in versions] == ['node /inclinometer/calibrate_level',
                                             'inclino fit-level']
+
+
+@pytest.mark.parametrize('which', ['calibration_file', 'stations_file'])
+def test_a_fifo_as_the_nodes_file_stops_it_with_the_reason(start_node, tmp_path, which):
+    """Before, the node waited for ever on the FIFO's writer; now it exits 1 naming it."""
+    fifo = tmp_path / 'fifo.json'
+    os.mkfifo(fifo)
+    node = start_node(**{which: str(fifo)})
+    assert node.process.wait(timeout=60) == 1
+    assert 'FIFO' in node.log()
