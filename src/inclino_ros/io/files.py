@@ -221,13 +221,8 @@ def _holds(folder, path):
     return path == folder or path.startswith(folder.rstrip(os.sep) + os.sep)
 
 
-def replace_refusal(final, inputs=()):
-    """
-    Return why the existing ``final`` may not be replaced (even with force), None if it may.
-
-    Only a regular file (or a link) or a bag folder (``is_bag_folder``) is an
-    output to replace; never one of ``inputs`` nor a folder holding one.
-    """
+def input_refusal(final, inputs=()):
+    """Return why ``final`` may never be written: it is one of ``inputs`` or a folder holding one."""
     for source in inputs:
         if same_file(final, source):
             return (f'{final} is the input {source}: an input is never overwritten (not even '
@@ -235,6 +230,19 @@ def replace_refusal(final, inputs=()):
         if os.path.isdir(final) and not os.path.islink(final) and _holds(final, source):
             return (f'{final} is a folder holding the input {source}: it is never replaced '
                     '(not even with --force); name another output')
+    return None
+
+
+def replace_refusal(final, inputs=()):
+    """
+    Return why the existing ``final`` may not be replaced (even with force), None if it may.
+
+    Only a regular file (or a link) or a bag folder (``is_bag_folder``) is an
+    output to replace; never one of ``inputs`` nor a folder holding one.
+    """
+    reason = input_refusal(final, inputs)
+    if reason is not None:
+        return reason
     try:
         kind = os.lstat(final).st_mode
     except FileNotFoundError:
@@ -283,12 +291,16 @@ class Outputs:
         final = os.path.abspath(os.path.expanduser(str(final)))
         if final in self._pending:
             raise OutputError(f'{final} is named twice as an output')
-        reason = replace_refusal(final, () if update else self.inputs)
+        inputs = () if update else self.inputs
+        reason = input_refusal(final, inputs)
         if reason is not None:
             raise OutputError(reason)
         if os.path.lexists(final) and (new or not (self.force or update)):
             raise OutputError(f'{final} exists already: give another name' + (
                 '' if new else ', or --force to replace it'))
+        reason = replace_refusal(final, inputs)
+        if reason is not None:
+            raise OutputError(reason)
         return final
 
     def path(self, final, new=False, update=False):
