@@ -27,9 +27,9 @@ OUTPUTS = ('survey', 'inclination', 'toolface', 'azimuth', 'imu/data', '/diagnos
 def rules(kind, attribute, value):
     """Return {enclave: set of names} of the ``kind`` rules whose ``attribute`` is ``value``."""
     found = {}
-    for context in ElementTree.parse(POLICY).getroot().iter('context'):
-        names = found.setdefault(context.get('path'), set())
-        for group in context.iter(f'{kind}s'):
+    for enclave in ElementTree.parse(POLICY).getroot().iter('enclave'):
+        names = found.setdefault(enclave.get('path'), set())
+        for group in enclave.iter(f'{kind}s'):
             if group.get(attribute) == value:
                 names.update(element.text for element in group.iter(kind))
     return found
