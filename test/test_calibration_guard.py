@@ -36,7 +36,7 @@ def refused_parameters(probe, **values):
 
 
 def test_field_mode_refuses_every_change_and_keeps_correcting(start_node, probe, tmp_path):
-    """Four services, a live parameter and field_mode itself: refused; file and outputs unchanged."""
+    """Four services, a live parameter, field_mode itself: refused; file and outputs unchanged."""
     path = tmp_path / 'calibration.json'
     save_model(path, CalibrationModel(3, installation=Installation(
         gamma_deg=GAMMA_DEG, beta_deg=BETA_DEG, captured_at=utc_now_iso(),

@@ -73,7 +73,7 @@ def test_every_write_keeps_the_version_it_replaces(tmp_path):
 
 
 def test_history_restore_and_diff(tmp_path):
-    """history lists the versions; restore brings one back as a new version; diff compares."""
+    """List the versions; restore brings one back as a new version; diff compares two."""
     calibration = str(tmp_path / 'cal.json')
     assert fit_level(level_csv(tmp_path / 'a.csv'), calibration)[0] == 0
     assert fit_level(level_csv(tmp_path / 'b.csv', gamma_deg=-0.4, beta_deg=0.3),
@@ -136,7 +136,7 @@ def test_a_damaged_history_never_blocks_the_file(tmp_path):
     assert read_model_history(broken)[1][0].startswith('the history')
 
 
-WRITER = '''
+WRITER = """
 import sys
 from inclino_ros.calibration.model import CalibrationModel, Installation, save_model
 path = sys.argv[1]
@@ -145,7 +145,7 @@ for i in range(100000):
         gamma_deg=(i % 100) * 0.01, beta_deg=0.0, captured_at='2026-03-01T10:20:30+00:00',
         sample_count=10, std_deg=0.001, g_total_mps2=9.80665)), 'kill test')
     print(i, flush=True)
-'''
+"""
 
 
 def test_kill_9_during_writes_leaves_file_and_history_valid(tmp_path):
@@ -183,8 +183,12 @@ def test_a_fifo_as_calibration_or_input_is_refused_at_once(tmp_path):
 
 
 def test_a_fifo_and_a_dangling_link_beside_the_output_change_nothing(tmp_path):
-    """Before, the whole folder was fsynced after the rename: hang on the FIFO, a refusal on
-    the dangling link while the new file was already in place."""
+    """
+    A FIFO and a dangling link beside the calibration file: written, and said so.
+
+    Before, the whole folder was fsynced after the rename: a hang on the FIFO, and a
+    refusal on the dangling link while the new file was already in place.
+    """
     folder = tmp_path / 'job'
     folder.mkdir()
     os.mkfifo(folder / 'pipe')

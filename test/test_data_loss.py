@@ -8,7 +8,7 @@ could not be written exited 2 after the calibration file was already replaced.
 
 import os
 
-from inclino_ros.calibration.model import read_model_history, save_model, CalibrationModel
+from inclino_ros.calibration.model import CalibrationModel, read_model_history, save_model
 import pytest
 from test_calibration_history import fit_level, level_csv
 from test_msa_cli import quiet
@@ -42,7 +42,7 @@ def test_process_force_never_deletes_the_folder_of_its_inputs(project):
 
 
 def test_survey_force_never_replaces_a_folder_of_the_user(project, tmp_path):
-    """survey -o DATA --force, where DATA is a folder holding the input: refused."""
+    """Survey -o DATA --force, where DATA is a folder holding the input: refused."""
     data = tmp_path / 'data'
     data.mkdir()
     (data / 'in.csv').write_text('ax,ay,az,bx,by,bz\n0,0,9.8,20000,0,40000\n')

@@ -603,7 +603,7 @@ def load_model(path, with_digest=False):
 
 
 def _check_text(text):
-    """ValueError unless ``text`` is a valid calibration file's text."""
+    """Raise ValueError unless ``text`` is a valid calibration file's text."""
     try:
         model_from_dict(loads_strict(text))
     except (KeyError, TypeError, ValueError, OverflowError, RecursionError) as err:
@@ -611,7 +611,7 @@ def _check_text(text):
 
 
 def read_model_history(path):
-    """Return (versions, problems) of the history of ``path`` (``history.read_history``), validated."""
+    """Return (versions, problems) of the history of ``path``, each version validated."""
     return history.read_history(path, _check_text)
 
 

@@ -40,7 +40,7 @@ def register(subparsers):
     """Add the ``calibration`` subcommand and its ``history``, ``restore`` and ``diff``."""
     parser = add_command(
         subparsers, 'calibration', 'versions of a calibration file: history, restore, diff',
-        'Every write of a calibration file (the node\'s services, every inclino fit-*, inclino '
+        "Every write of a calibration file (the node's services, every inclino fit-*, inclino "
         'msa, a restore) keeps the new version in the history beside it, FILE.history: no '
         'calibration is ever lost. history lists the versions, restore brings one back (the '
         'file it replaces is kept too), diff shows what changed between two versions, stage by '
@@ -164,7 +164,7 @@ def _show(value):
 
 
 def stage_changes(model_a, model_b):
-    """Return the lines of the stages removed, added and changed from ``model_a`` to ``model_b``."""
+    """Return the lines of the stages removed, added and changed from A to B."""
     lines = []
     for name in ALL_STAGES:
         a, b = getattr(model_a, name), getattr(model_b, name)
@@ -184,7 +184,7 @@ def stage_changes(model_a, model_b):
 
 
 def corrected_angles(model, raw):
-    """Return (inclination, toolface) [deg] of ``raw`` (N, 3) corrected by ``model``, NaN if dropped."""
+    """Return (inclination, toolface) [deg] of raw readings ``model`` corrects (NaN: dropped)."""
     settings = Settings(accelerometer_axes=model.accelerometer_axes, noise_std_mps2=1e-6,
                         toolface_max_std_deg=180.0, two_axis_max_inclination_deg=89.0)
     survey = run(raw, model, settings)

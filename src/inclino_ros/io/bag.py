@@ -376,7 +376,7 @@ def _open(path):
 
 
 def _check_regular_files(path):
-    """BagError when the bag ``path`` or a file in its folder is not a regular file (a FIFO)."""
+    """Raise BagError when the bag ``path`` or a file in its folder is not a regular file."""
     try:
         entries = [path] if not os.path.isdir(path) else [
             os.path.join(path, name) for name in os.listdir(path)]

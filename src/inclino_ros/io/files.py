@@ -186,7 +186,7 @@ def _fsync_written(path):
 
 
 def _fsync_folder(folder):
-    """Flush a folder's entries (a rename into it) to disk; best effort (some file systems cannot)."""
+    """Flush a folder's entries (a rename into it) to disk; best effort."""
     try:
         _fsync(folder, os.O_RDONLY | os.O_DIRECTORY)
     except OSError:
@@ -222,7 +222,7 @@ def _holds(folder, path):
 
 
 def input_refusal(final, inputs=()):
-    """Return why ``final`` may never be written: it is one of ``inputs`` or a folder holding one."""
+    """Return why ``final`` may never be written: it is an input or a folder holding one."""
     for source in inputs:
         if same_file(final, source):
             return (f'{final} is the input {source}: an input is never overwritten (not even '
@@ -277,7 +277,7 @@ class Outputs:
         self._conditions = []
 
     def require(self, condition):
-        """Call ``condition()`` at the commit, before any rename: what it raises aborts the commit."""
+        """Call ``condition()`` at the commit, before any rename: what it raises aborts it."""
         self._conditions.append(condition)
 
     def check(self, final, new=False, update=False):
@@ -422,7 +422,7 @@ class Outputs:
 
 
 def _put_back(final, aside):
-    """Undo the rename of an output: what was at ``final`` (kept at ``aside``, or nothing) returns."""
+    """Undo the rename of an output: what was at ``final`` (kept at ``aside``) returns."""
     try:
         if aside is None:
             _remove(final)
