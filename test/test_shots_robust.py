@@ -16,7 +16,7 @@ import pathlib
 from inclino_ros.calibration.level_capture import LevelLimits, solve_level_capture
 from inclino_ros.calibration.magnetometer import calibrate_from_shots
 from inclino_ros.calibration.model import CalibrationModel, load_model
-from inclino_ros.cli.fit_magnetometer import survey_of
+from inclino_ros.core import magnetics
 from inclino_ros.core.shots import fit_shots, ShotFitRefused, ShotLimits
 from inclino_ros.sim import sensor_model
 import numpy as np
@@ -61,7 +61,8 @@ def test_every_real_instrument_is_calibrated(tmp_path, name):
     used[{'BB': 21, 'FG': 13}.get(name, [])] = False
     for the_model, low, high in ((CalibrationModel(3), 3.0, 90.0),
                                  (model, 0.0, SAP6_MAX_ROLL_RMS_DEG)):
-        azimuth = survey_of(the_model, accel, field, None, 9.80665)['azimuth_deg']
+        azimuth = magnetics.survey_of(the_model.apply(accel), the_model.apply_magnetic(
+            field, before='magnetic'))['azimuth_deg']
         deviation = np.concatenate([circular_deviation_deg(azimuth[(group == k) & used])
                                     for k in (0, 1)])
         assert low < np.sqrt(np.mean(deviation ** 2)) < high
