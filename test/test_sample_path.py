@@ -70,3 +70,63 @@ def test_a_big_endian_sender_is_decoded_through_rclpy():
     np.testing.assert_array_equal(series.linear_acceleration_mps2, [[1.0, 2.0, 9.5]] * 2)
     assert series.stamps_ns.tolist() == [1_500_000_000] * 2
     assert series.frame_ids.tolist() == ['tool'] * 2
+
+
+FRAME_IDS = ['', 'a', 'tool', 'imu_link', 'inclinometer', 'ünïcode_frame', 'x' * 29]
+#: Stamps before 1970, at 0, around the int32 seconds limit and far beyond it (numpy wraps).
+STAMPS_NS = [-1_500_000_001, 0, 2_147_483_647_999_999_999, 2_147_483_648_000_000_001,
+             1_700_000_123_456_789_012, 9_000_000_000_000_000_000]
+
+
+def series_of(kind, count, rng):
+    """Return a series of ``count`` messages of every frame_id and odd values (NaN, inf)."""
+    values = rng.normal(0.0, 1e3, (count, {bag.ImuSeries: 37, bag.Vector3Series: 3,
+                                          bag.TemperatureSeries: 2,
+                                          bag.MagneticFieldSeries: 12}[kind]))
+    values.flat[::7] = np.nan
+    values.flat[3::11] = -np.inf
+    stamps = np.array([STAMPS_NS[i % len(STAMPS_NS)] + i for i in range(count)], dtype=np.int64)
+    frames = np.array([FRAME_IDS[i % len(FRAME_IDS)] for i in range(count)], dtype=object)
+    return kind.from_values(stamps, frames, values)
+
+
+@pytest.mark.parametrize('kind, msgtype', [(bag.ImuSeries, bag.IMU),
+                                           (bag.Vector3Series, bag.VECTOR3_STAMPED),
+                                           (bag.TemperatureSeries, bag.TEMPERATURE),
+                                           (bag.MagneticFieldSeries, bag.MAGNETIC_FIELD)])
+def test_small_batches_are_coded_as_large_ones(kind, msgtype):
+    """
+    Batches of 1..SMALL_BATCH messages (``struct``) give the bytes and arrays of numpy's codec.
+
+    Numpy's path is a batch larger than SMALL_BATCH whose first messages are the same.
+    """
+    rng = np.random.default_rng(3)
+    for count in range(1, bag.SMALL_BATCH + 1):
+        large = series_of(kind, count + bag.SMALL_BATCH, rng)
+        small = bag.sliced(large, 0, count)
+        encoded = bag.encode(large)
+        assert bag.encode(small) == encoded[:count]
+        # Stamps beyond the int32 seconds come back wrapped, by both paths alike.
+        decoded, expected = bag.decode(encoded[:count], msgtype), bag.decode(encoded, msgtype)
+        np.testing.assert_array_equal(decoded.stamps_ns, expected.stamps_ns[:count])
+        assert decoded.frame_ids.tolist() == expected.frame_ids.tolist()[:count]
+        assert decoded.values().tobytes() == np.asarray(expected.values())[:count].tobytes()
+        assert decoded.values().tobytes() == np.asarray(small.values()).tobytes()
+    values = np.array([0.0, -1.5, math.nan, math.inf, 1e-300, 30.000123, -0.0, 7.0, 1.0])
+    assert bag.encode_float64(values[:bag.SMALL_BATCH]) == bag.encode_float64(values)[:-1]
+
+
+def test_small_batches_refuse_what_large_ones_refuse():
+    """A damaged message alone (``struct``) or among SMALL_BATCH good ones (numpy): one error."""
+    good = bag.encode(bag.raw_imu([1_500_000_000], 'tool', [[1.0, 2.0, 9.5]], 0.01))[0]
+    odd_length = bytearray(good)
+    odd_length[12] = 20   # the frame_id said 20 bytes long: the floats would start elsewhere
+    not_utf8 = bytearray(good)
+    not_utf8[16] = 0xFF
+    for damaged in (good[:40], b'\x00\x00' + good[2:], bytes(odd_length), bytes(not_utf8)):
+        errors = []
+        for batch in ([damaged], [damaged] + [good] * bag.SMALL_BATCH):
+            with pytest.raises(bag.BagError) as raised:
+                bag.decode(batch, bag.IMU)
+            errors.append(str(raised.value))
+        assert errors[0] == errors[1]
