@@ -8,9 +8,10 @@ numpy structured arrays instead of message by message: byte-for-byte what
 rosbags' ``serialize_cdr`` gives (the tests check it), at a fraction of the
 cost; a batch of a few messages (at most SMALL_BATCH: the node's usual batch
 at low rates) goes through ``struct`` instead, whose cost has no fixed part
-(the same bytes and the same errors, tested).  Reading goes chunk by chunk (at most CHUNK_SIZE messages and
-CHUNK_BYTES bytes), so a bag of any size, or of huge frame_ids, streams in
-bounded memory; frame_ids are kept as one Python string per distinct name.
+(the same bytes and the same errors, tested).  Reading goes chunk by chunk
+(at most CHUNK_SIZE messages and CHUNK_BYTES bytes), so a bag of any size,
+or of huge frame_ids, streams in bounded memory; frame_ids are kept as one
+Python string per distinct name.
 
 A damaged bag is an error, never a silent gap: every failure of the
 reader (rosbags, mcap, sqlite3, a truncated or overwritten record) is a
