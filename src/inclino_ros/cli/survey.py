@@ -2,13 +2,18 @@
 ``inclino survey``: inclination, toolface and azimuth of each shot of a CSV file.
 
 Input: a CSV with ``ax, ay, az`` (m/s^2, REP 145 specific force, tool frame)
-and ``bx, by, bz`` (nT, same frame), optionally ``temperature_c``; any other
-columns are carried through.  Every row goes through ``pipeline.run`` with
+and ``bx, by, bz`` (nT, same frame), optionally ``temperature_c`` and
+``samples``: the count of readings a row is the mean of (a station), whose
+noise is then the per-sample noise / sqrt(samples) (default 1: each row one
+reading); any other columns are carried through.  Every row goes through ``pipeline.run`` with
 the calibration file, as in the node and ``inclino process``.
 
 Output: the input columns (one whose name the output uses is kept as
 ``input_<name>``) plus ``inclination_deg``, ``toolface_deg``, ``azimuth_deg``,
-``g_total_mps2``, ``b_total_nT``, ``dip_deg`` and ``status`` (``ok`` or why
+``g_total_mps2``, ``b_total_nT``, ``dip_deg``, the 1 sigma of each
+(``inclination_std_deg``, ``toolface_std_deg``, ``azimuth_std_deg``,
+``g_total_std_mps2``, ``b_total_std_nT``, ``dip_std_deg``: the sensor noise
+and the calibration's tilt, as ``pipeline.run`` propagates them) and ``status`` (``ok`` or why
 the row gave no angles: ``non_finite``, ``saturated``, ``zero``; or
 ``temperature_outside_fit``: a temperature outside the calibration's fitted
 range).  The
@@ -40,8 +45,8 @@ from inclino_ros.cli.options import add_force_argument, node_parameter
 from inclino_ros.cli.process import add_limit_arguments
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core.magnetics import QcLimits, true_azimuth_deg
-from inclino_ros.core.temperature import in_range
 from inclino_ros.core.screening import ACCEPTED, REASONS
+from inclino_ros.core.temperature import in_range
 from inclino_ros.io import tables
 from inclino_ros.io.files import Outputs
 from inclino_ros.pipeline import MagneticSettings, run as run_pipeline, Settings
@@ -49,7 +54,10 @@ import numpy as np
 
 INPUT_COLUMNS = ('ax', 'ay', 'az', 'bx', 'by', 'bz')
 ANGLE_COLUMNS = ('inclination_deg', 'toolface_deg', 'azimuth_deg', 'g_total_mps2',
-                 'b_total_nT', 'dip_deg')
+                 'b_total_nT', 'dip_deg', 'inclination_std_deg', 'toolface_std_deg',
+                 'azimuth_std_deg', 'g_total_std_mps2', 'b_total_std_nT', 'dip_std_deg')
+#: The column of a row's count of averaged readings.
+SAMPLES_COLUMN = 'samples'
 #: Status of a row whose temperature lies outside the fitted range of a temperature stage.
 OUTSIDE_FIT = 'temperature_outside_fit'
 QC_COLUMNS = ('b_total_delta_nT', 'dip_delta_deg', 'g_total_delta_mps2', 'qc_b_total',
@@ -102,6 +110,18 @@ def _numbers(rows, header, name):
         except ValueError:
             return math.nan
     return np.array([number(row[index]) if index < len(row) else math.nan for row in rows])
+
+
+def _samples(path, rows, header):
+    """Return the per-row count of averaged readings (1 without the column); CommandError."""
+    if SAMPLES_COLUMN not in header:
+        return 1
+    counts = _numbers(rows, header, SAMPLES_COLUMN)
+    bad = np.flatnonzero(~((counts >= 1) & (np.mod(counts, 1.0) == 0.0)))
+    if bad.size:
+        raise CommandError(f'{path}: column {SAMPLES_COLUMN} must be a whole count >= 1 '
+                           f'(row {bad[0] + 1} has {rows[bad[0]][header.index(SAMPLES_COLUMN)]!r})')
+    return counts
 
 
 def _model(path):
@@ -167,6 +187,7 @@ def survey(args, outputs):
                            f'{", ".join(header)}')
     raw, field = (np.column_stack([_numbers(rows, header, n) for n in names])
                   for names in (INPUT_COLUMNS[:3], INPUT_COLUMNS[3:]))
+    averaged = _samples(args.input, rows, header)
     try:
         check_acceleration_unit(raw, args.gravity_mps2, 'ax, ay, az')
         check_field_unit(field, 'bx, by, bz')
@@ -197,7 +218,7 @@ def survey(args, outputs):
                                 declination_deg=declination_deg or 0.0, limits=QcLimits(),
                                 noise_std_nT=args.mag_noise_nT,
                                 azimuth_max_std_deg=args.azimuth_max_std_deg)
-    result = run_pipeline(raw, model, settings, temperature_c, field, magnetic)
+    result = run_pipeline(raw, model, settings, temperature_c, field, magnetic, averaged)
     columns = output_columns(result, declination_deg, total_nT is not None)
     outside = _outside_fit(model, temperature_c)
     write(outputs.path(args.output), header, rows, result.codes, columns, outside)
@@ -210,7 +231,12 @@ def output_columns(result, declination_deg, with_qc):
     azimuth = result.magnetic
     values = {'inclination_deg': result.inclination_deg, 'toolface_deg': result.toolface_deg,
               'azimuth_deg': azimuth.defined_azimuth_deg, 'g_total_mps2': result.g_total_mps2,
-              'b_total_nT': azimuth.b_total_nT, 'dip_deg': azimuth.dip_deg}
+              'b_total_nT': azimuth.b_total_nT, 'dip_deg': azimuth.dip_deg,
+              'inclination_std_deg': result.inclination_std_deg,
+              'toolface_std_deg': result.toolface_std_deg,
+              'azimuth_std_deg': azimuth.azimuth_std_deg,
+              'g_total_std_mps2': azimuth.g_total_std_mps2,
+              'b_total_std_nT': azimuth.b_total_std_nT, 'dip_std_deg': azimuth.dip_std_deg}
     if declination_deg is not None:
         values['true_azimuth_deg'] = true_azimuth_deg(azimuth.defined_azimuth_deg,
                                                       declination_deg)
