@@ -25,7 +25,7 @@ from inclino_ros.core.msa import (
     MsaRefused, short_collar, solve_msa_axial, solve_msa_classic, solve_msa_improved)
 from inclino_ros.core.stand import fit_sphere, fit_stand, StandFitRefused
 from inclino_ros.core.temperature import fit_temperature, TemperatureFitRefused
-from inclino_ros.io.tables import read_csv, TableError
+from inclino_ros.io.tables import read_csv, read_rows, TableError
 import numpy as np
 import pytest
 from test_model_stages import MODEL
@@ -280,3 +280,102 @@ def test_save_model_refuses_and_keeps_the_file(tmp_path):
     else:
         raise AssertionError('an absurd bias was written')
     assert path.read_bytes() == before
+
+
+# --- tables, stamps, options (issue 21) -------------------------------------------------
+
+CELL = st.one_of(ANY.map(repr), st.text(alphabet='0123456789.-e ', max_size=6))
+
+
+@FUZZ
+@given(rows=st.lists(st.lists(CELL, min_size=0, max_size=5), min_size=1, max_size=8),
+       blank=st.booleans())
+def test_csv_cell_counts_and_blank_lines(tmp_path, rows, blank):
+    """Rows of 0-5 cells under a 3-column header: read only when every row has 3, else named."""
+    lines = ['ax,ay,az'] + [','.join(row) for row in rows] + ([''] if blank else [])
+    if blank:
+        lines.insert(2, '')
+    path = tmp_path / 'in.csv'
+    path.write_text('\n'.join(lines) + '\n')
+    whole = all(len(row) == 3 for row in rows) and not blank
+    try:   # survey's reader: the rows as text (columns carried through)
+        header, read = read_rows(path)
+    except TableError as err:
+        assert not whole and 'line' in str(err), err
+    else:
+        assert whole, rows   # a shifted or blank row is never read
+        assert header == ['ax', 'ay', 'az'] and read == rows
+    try:
+        table = read_csv(path, ('ax', 'ay', 'az'))
+    except TableError as err:
+        assert 'line' in str(err), err   # the line is named, whatever was wrong with it
+        return
+    assert whole, rows
+    assert table['ax'].size == len(rows)
+
+
+@FUZZ
+@given(scale=st.sampled_from([1.0 / G, 1000.0 / G, 1.0, 10.0, 1e-3, 1e3]),
+       seed=st.integers(0, 2 ** 32 - 1))
+def test_acceleration_units(scale, seed):
+    """Readings of a still tool in any unit: m/s^2 passes, anything else is Implausible."""
+    rng = np.random.default_rng(seed)
+    directions = rng.normal(size=(30, 3))
+    readings = G * directions / np.linalg.norm(directions, axis=1)[:, None] * scale
+    try:
+        plausibility.check_acceleration_unit(readings, G)
+    except plausibility.Implausible as err:
+        assert scale != 1.0, err
+        if scale in (1.0 / G, 1000.0 / G):
+            assert 'is it in' in err.reason
+        return
+    assert scale == 1.0
+
+
+@FUZZ
+@given(stamps=st.lists(st.integers(-2 ** 62, 2 ** 62), min_size=1, max_size=60),
+       rate_hz=st.sampled_from([0.01, 1.0, 30.0, 1000.0, 10000.0]),
+       sizes=st.lists(st.integers(1, 20), min_size=1, max_size=4))
+def test_averaging_any_stamps(stamps, rate_hz, sizes):
+    """Any stamps (back, forth, huge): every sample lands in one closed window or the open one."""
+    from inclino_ros.core.averaging import Averager
+    averager = Averager(rate_hz=rate_hz)
+    stamps = np.array(stamps, dtype=np.int64)
+    closed, start, k = 0, 0, 0
+    while start < stamps.size:
+        stop = min(start + sizes[k % len(sizes)], stamps.size)
+        n = stop - start
+        windows = averager.push(stamps[start:stop], ['f'] * n, np.ones((n, 3)),
+                                np.full(n, np.nan), np.full((n, 3), np.nan))
+        if windows is not None:
+            closed += int(windows.samples.sum())
+            assert np.all(windows.samples >= 1)
+        start, k = stop, k + 1
+    assert closed + averager.pending == stamps.size
+
+
+@FUZZ
+@given(argv=st.sampled_from([
+    ['play', 'bag', '--rate'], ['monitor', '--period-s'], ['call', 'calibrate_level', '--wait-s'],
+    ['process', 'in', 'out', '--calibration', 'c.json', '--output-rate-hz'],
+    ['compare', 'r', 't', '--max-error-deg'], ['compare', 'r', 't', '--min-inclination-deg']]),
+    value=st.one_of(ANY, st.integers(-10 ** 30, 10 ** 30)).map(repr))
+def test_option_extremes(tmp_path, monkeypatch, argv, value):
+    """Any number for a rate, period, wait or tolerance: a usage error or a sane value."""
+    from inclino_ros.cli.main import build_parser
+    monkeypatch.chdir(tmp_path)
+    try:
+        args = build_parser().parse_args(argv + [f'{value}'] if not value.startswith('-')
+                                         else argv[:-1] + [f'{argv[-1]}={value}'])
+    except SystemExit as done:
+        assert done.code == 2
+        return
+    chosen = [v for v in vars(args).values() if isinstance(v, float)]
+    assert all(math.isfinite(v) for v in chosen)
+    for name, low, high in (('rate', 1e-3, 1e6), ('period_s', 0.01, 3600.0),
+                            ('wait_s', 0.0, 86400.0), ('max_error_deg', 0.0, 180.0),
+                            ('min_inclination_deg', 0.0, 180.0)):
+        if getattr(args, name, None) is not None:
+            assert low <= getattr(args, name) <= high
+    if getattr(args, 'output_rate_hz', 0.0):
+        assert args.output_rate_hz >= 0.01

@@ -81,7 +81,7 @@ def test_a_big_endian_sender_is_decoded_through_rclpy():
 
 
 def test_a_stamp_with_nanosec_beyond_a_second_is_no_time():
-    """nanosec >= 1e9 read as 4 s later: the message is dropped, named; the others kept."""
+    """A nanosec >= 1e9 read as 4 s later: the message is dropped, named; the others kept."""
     good = [Imu(), Imu()]
     for k, msg in enumerate(good):
         msg.header.stamp.sec, msg.header.stamp.nanosec = 100 + k, 5

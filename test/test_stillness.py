@@ -201,3 +201,17 @@ def test_tail_probabilities_follow_the_f_law():
                for readings, times_s in still_survey_captures(3000, seed=8)]
     for p_values in ([r.drift_p for r in results], [r.scatter_p for r in results]):
         assert 3 <= np.count_nonzero(np.array(p_values) < 0.01) <= 57
+
+
+def test_two_attitudes_back_to_back_are_two_shots():
+    """A bag turned between two still windows was one shot (the mean of both attitudes)."""
+    from inclino_ros.core.stillness import still_segments
+    rng = np.random.default_rng(21)
+    stamps = np.arange(600) * 10_000_000                       # 6 s at 100 Hz
+    turned = np.arange(600) >= 300                             # at 3 s, a window boundary
+    accel = np.where(turned[:, None], [0.0, 9.80665, 0.0], [0.0, 0.0, 9.80665])
+    field = np.where(turned[:, None], [20000.0, 0.0, 40000.0], [20000.0, 40000.0, 0.0])
+    accel = accel + rng.normal(0.0, 0.01, accel.shape)
+    field = field + rng.normal(0.0, 10.0, field.shape)
+    segments = still_segments(stamps, accel, field, 0.5, 0.5, 1.0)
+    assert [(int(a), int(b)) for a, b in segments] == [(0, 300), (300, 600)]

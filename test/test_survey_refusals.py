@@ -116,3 +116,15 @@ def test_temperature_outside_the_fitted_range_is_flagged_on_every_row(tmp_path):
     assert code == 0, err
     assert [r['status'] for r in out] == ['ok', 'temperature_outside_fit'] * (len(rows) // 2)
     assert f'{len(rows) // 2} row(s) with a temperature outside' in err
+
+
+def test_a_shot_table_beyond_what_a_fit_takes_is_refused(tmp_path):
+    """fit-magnetometer on 1e6 shots took 4 GB (3e6: MemoryError): beyond 20 000, refused."""
+    from inclino_ros.io.tables import MAX_SHOTS
+    accel, field = shots(50)
+    rows = np.tile(np.column_stack([accel, field]), (MAX_SHOTS // 50 + 1, 1))
+    write_rows(tmp_path / 'shots.csv', HEADER[1:], rows)
+    code, _, err = quiet(['fit-magnetometer', tmp_path / 'shots.csv', '--calibration',
+                          tmp_path / 'cal.json'])
+    assert code in (1, 2) and f'more than {MAX_SHOTS} rows' in err
+    assert not (tmp_path / 'cal.json').exists()

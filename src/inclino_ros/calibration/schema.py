@@ -67,9 +67,9 @@ def model_from_dict(doc):
         raise ValueError(f'sensor_id {sensor_id!r} is not a string')
     sections = {name: upgraded(doc[name], name, version)
                 for name in stages if doc.get(name) is not None}
+    stage_values = {name: stage_from_dict(name, section) for name, section in sections.items()}
     model = CalibrationModel(accelerometer_axes=axes, sensor_id=sensor_id,
-                             axes_maps=_axes_maps(doc.get('axes_maps')), **{
-        name: stage_from_dict(name, section) for name, section in sections.items()})
+                             axes_maps=_axes_maps(doc.get('axes_maps')), **stage_values)
     if axes == 2 and (model.stand or model.temperature):
         raise ValueError('stand and temperature stages need a three-axis accelerometer')
     return model

@@ -16,7 +16,8 @@ import json
 import sys
 
 from inclino_ros.cli.helptext import add_command
-from inclino_ros.io.bag import BagError, concatenate, read
+from inclino_ros.cli.options import between, inclination_deg
+from inclino_ros.io.bag import BagError, concatenate, read, topic_info, VECTOR3_STAMPED
 import numpy as np
 
 RESULT_TOPIC = '/survey'
@@ -43,10 +44,11 @@ def register(subparsers):
                         help='Vector3Stamped topic of RESULT (default: %(default)s)')
     parser.add_argument('--truth-topic', default=TRUTH_TOPIC,
                         help='Vector3Stamped topic of TRUTH (default: %(default)s)')
-    parser.add_argument('--min-inclination-deg', type=float, default=5.0, metavar='DEG',
+    parser.add_argument('--min-inclination-deg', type=inclination_deg, default=5.0,
+                        metavar='DEG',
                         help='compare toolface and azimuth where the tool is this far off '
                              'vertical (default: %(default)s)')
-    parser.add_argument('--max-error-deg', type=float, metavar='DEG',
+    parser.add_argument('--max-error-deg', type=between(0.0, 180.0), metavar='DEG',
                         help='exit 1 when a station mean inclination, or azimuth, is off by '
                              'more (default: no limit)')
     parser.set_defaults(func=run)
@@ -214,6 +216,12 @@ def corrected_vectors(path, stamps_ns):
 def run(args):
     """Compare RESULT with TRUTH; return the exit code."""
     try:
+        for path, topic, option in ((args.truth, args.truth_topic, '--truth-topic'),
+                                    (args.result, args.topic, '--topic')):
+            msgtype = topic_info(path, topic)[0]
+            if msgtype != VECTOR3_STAMPED:
+                raise BagError(f'{topic} in {path} holds {msgtype}, not {VECTOR3_STAMPED} '
+                               f'({option} names the angles: /survey)')
         truth = concatenate(read(args.truth, args.truth_topic))
         result = concatenate(read(args.result, args.topic))
     except (BagError, IndexError) as err:
@@ -221,6 +229,11 @@ def run(args):
         return 2
     _, at_truth, at_result = np.intersect1d(truth.stamps_ns, result.stamps_ns,
                                             return_indices=True)
+    if at_truth.size == 0:
+        print(f'inclino compare: error: no stamp of {args.topic} in {args.result} is one of '
+              f'{args.truth_topic} in {args.truth}: nothing compared (a RESULT of another '
+              'TRUTH?)', file=sys.stderr)
+        return 2
     aligned = np.full(truth.vector.shape, np.nan)   # a sample without a result: NaN
     aligned[at_truth] = result.vector[at_result]
     rows = station_rows(truth.vector, aligned, args.min_inclination_deg,
@@ -233,6 +246,10 @@ def run(args):
           f'{number(bad["toolface"], 0, 3)} deg, azimuth {number(bad["azimuth"], 0, 3)} deg '
           f'(toolface and azimuth {args.min_inclination_deg:g} deg or more off vertical)')
     limit = args.max_error_deg
+    if limit is not None and not np.isfinite(bad['inclination']):
+        print('inclino compare: error: no station mean was compared, so none is within '
+              f'--max-error-deg {limit:g}', file=sys.stderr)
+        return 2
     if limit is not None and not (bad['inclination'] <= limit
                                   and not bad['azimuth'] > limit):
         print(f'inclino compare: a station mean is off by more than {limit:g} deg',

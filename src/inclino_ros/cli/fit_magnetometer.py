@@ -138,6 +138,9 @@ def read_bag_shots(args, lines):
                                         args.max_still_deg, args.min_still_s)
     lines.append(f'{len(segments)} still segment(s) found in {args.input} '
                  f'({stamps.size} paired samples)')
+    if len(segments) > tables.MAX_SHOTS:
+        raise Refused(f'{len(segments)} still segments are more shots than a fit takes '
+                      f'({tables.MAX_SHOTS}): take a longer --min-still-s')
     shots_a = np.array([accel[a:b].mean(axis=0) for a, b in segments]).reshape(-1, 3)
     shots_b = np.array([field[a:b].mean(axis=0) for a, b in segments]).reshape(-1, 3)
     return shots_a, shots_b, None, None

@@ -97,7 +97,8 @@ def register(subparsers):
         'error). The report, fit_stand.png and fit_stand.txt, goes beside the file or to '
         '--report-dir.',
         'Refused (exit 1, the file untouched): too few or repeated positions, the tool moved '
-        'at a position (spread above --max-std-deg), or the fit does not reproduce its '
+        'at a position (a mean drifting beyond --max-drift-deg-per-s, or less precise than '
+        '--max-sem-deg), or the fit does not reproduce its '
         'positions within --max-rms-deg. Exit 2: unusable input.')
     add_common_arguments(parser)
     parser.add_argument('--method', choices=('stand', 'sphere'), default='stand',

@@ -78,10 +78,10 @@ def is_bag(path):
     return os.path.isdir(path)
 
 
-def read_csv(path, required, optional=()):
+def read_csv(path, required, optional=(), max_rows=tables.MAX_ROWS):
     """Return the columns of a CSV file (``tables.read_csv``); CommandError if unusable."""
     try:
-        return tables.read_csv(path, required, optional)
+        return tables.read_csv(path, required, optional, max_rows=max_rows)
     except tables.TableError as err:
         raise CommandError(str(err)) from None
 

@@ -8,7 +8,9 @@ background job) is turned into the same, so each command ends cleanly and
 says what it did, never with a traceback.
 """
 
+import argparse
 import os
+import re
 import signal
 import time
 
@@ -33,7 +35,7 @@ SERVICES = {
 
 def add_node_arguments(parser, wait=True):
     """Add ``--node`` (and ``--wait-s``)."""
-    parser.add_argument('--node', default=DEFAULT_NODE,
+    parser.add_argument('--node', default=DEFAULT_NODE, type=checked_node_name,
                         help='full name of the inclinometer node (default: %(default)s)')
     if wait:
         parser.add_argument('--wait-s', type=wait_s, default=DEFAULT_WAIT_S, metavar='S',
@@ -41,9 +43,24 @@ def add_node_arguments(parser, wait=True):
                                  f'{MAX_WAIT_S:g} (default: %(default)s)')
 
 
+#: A full node name (ROS 2 naming rules: tokens of letters, digits and underscores, not
+#: starting with a digit, separated by single slashes).
+_NODE_NAME = re.compile(r'^(/[A-Za-z_][A-Za-z0-9_]*)+$')
+
+
 def node_name(name):
     """Return a node name as a full name: ``inclinometer`` -> ``/inclinometer``."""
     return '/' + name.strip('/')
+
+
+def checked_node_name(text):
+    """Return ``--node`` as a full node name (argparse type); an error names the rule broken."""
+    name = node_name(text)
+    if not _NODE_NAME.match(name):
+        raise argparse.ArgumentTypeError(
+            f'{text!r} is no ROS node name: letters, digits and underscores, not starting with '
+            'a digit, namespaces separated by /')
+    return name
 
 
 def namespace_of(name):

@@ -11,11 +11,14 @@ output error, an OSError such as a full or read-only disk) is one line
 ``inclino CMD: error: ...`` and exit code 2; anything unexpected is one
 line and exit code 1 (``--debug`` shows its traceback); Ctrl-C stops the
 command with exit code 130, what it did so far said, and no output left
-half-written (``io.files.Outputs``).
+half-written (``io.files.Outputs``); a reader that closes the pipe (``| head``)
+ends it quietly with 141, as SIGPIPE ends other tools.  A file name that is
+not UTF-8 is printed as its bytes are (as ``ls`` does).
 """
 
 import argparse
 import importlib
+import os
 import sys
 
 from inclino_ros.cli.errors import CommandError
@@ -31,6 +34,8 @@ COMMANDS = ('simulate', 'process', 'compare', 'play', 'calibrate', 'call', 'para
 USAGE_ERRORS = (CommandError, BagError, OutputError, TableError, OSError)
 #: Exit code of a command stopped by Ctrl-C (128 + SIGINT, as a shell reports it).
 INTERRUPTED = 130
+#: Exit code of a command whose reader closed the pipe (128 + SIGPIPE, as for any tool).
+BROKEN_PIPE = 141
 
 
 def _top_parser():
@@ -80,6 +85,9 @@ def version():
 def main(argv=None):
     """Run one subcommand; return its exit code (2 unusable input, 1 unexpected, 130 Ctrl-C)."""
     argv = attach_map_values(sys.argv[1:] if argv is None else list(argv))
+    for stream in (sys.stdout, sys.stderr):   # a file name that is not UTF-8 prints as is
+        if hasattr(stream, 'reconfigure'):
+            stream.reconfigure(errors='surrogateescape')
     try:
         args = build_command_parser(argv).parse_args(argv)
     except SystemExit as done:  # --help, or a usage error argparse has printed
@@ -87,6 +95,12 @@ def main(argv=None):
     command = f'inclino {args.command}'
     try:
         return args.func(args)
+    except BrokenPipeError:   # the reader left (inclino param list | head): no error
+        try:   # nor one when Python flushes stdout at exit
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        except (OSError, ValueError):   # stdout is no file (a test's buffer)
+            pass
+        return BROKEN_PIPE
     except KeyboardInterrupt as err:
         done = f' {err}' if str(err) else ''
         print(f'{command}: interrupted (Ctrl-C){done}; outputs not completed were removed, '

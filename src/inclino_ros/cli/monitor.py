@@ -129,7 +129,9 @@ def progress_text(doc):
                 + ('' if spread is None else f', spread {spread:.4f} deg'))
     if doc['state'] == 'collected':
         return f'{doc["service"]}: {doc["samples"]} samples collected, solving'
-    return f'last answer of {doc["service"]}: {doc["state"]}: {doc.get("message", "")}'
+    message = doc.get('message', '')
+    state = '' if message.startswith(f'{doc["state"]}:') else f'{doc["state"]}: '
+    return f'last answer of {doc["service"]}: {state}{message}'
 
 
 def run(args):

@@ -82,6 +82,7 @@ from inclino_ros.core.msa import (
     azimuth_difference_deg, improved_cross_axial, MAX_INTERFERENCE_NT, misfit_nT2, MsaRefused,
     short_collar, solve_msa_axial, solve_msa_classic, solve_msa_improved, WMM_REFERENCE_STD)
 from inclino_ros.core.uncertainty import toolface_std_rad
+from inclino_ros.io import tables
 from inclino_ros.io.files import Outputs
 import numpy as np
 
@@ -193,7 +194,7 @@ def load_stations(args):
         raise CommandError('short-collar gives one correction per station: it cannot be '
                            'stored in --calibration')
     table = read_csv(args.stations, GRAVITY_COLUMNS + FIELD_COLUMNS,
-                     optional=('md', TRUTH_COLUMN))
+                     optional=('md', TRUTH_COLUMN), max_rows=tables.MAX_SHOTS)
     table['G'] = np.column_stack([table[name] for name in GRAVITY_COLUMNS])
     table['B'] = np.column_stack([table[name] for name in FIELD_COLUMNS])
     return table

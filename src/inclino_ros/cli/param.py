@@ -8,11 +8,15 @@ the type the parameter has (``true``/``false``, an integer, a number, text),
 and the node checks it against its declared range and choices.
 """
 
+import re
 import sys
 
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.live import add_node_arguments, LiveSession, node_name
 
+#: A negative number in any of Python's float spellings (argparse's own misses -1e-3, -inf).
+NEGATIVE_NUMBER = re.compile(r'^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|infinity|nan)$',
+                             re.IGNORECASE)
 #: Seconds to wait for an answer of the parameter services once they are up.
 ANSWER_TIMEOUT_S = 10.0
 
@@ -38,7 +42,10 @@ def register(subparsers):
                                                         'node; it checks range and choices.')
     change.add_argument('name', metavar='NAME', help='parameter name, e.g. stand.toolface_deg')
     change.add_argument('value', metavar='VALUE',
-                        help='new value, read as the type of the parameter')
+                        help='new value, read as the type of the parameter (a negative number '
+                             'such as -1e-3 is a value, not an option)')
+    # argparse takes only -1 and -1.5 for negative numbers: -1e-3 would be an unknown option.
+    change._negative_number_matcher = NEGATIVE_NUMBER
     for sub in (listing, get, change):
         add_node_arguments(sub)
         sub.set_defaults(func=run)
@@ -144,9 +151,13 @@ def parse_value(text, like):
     for kind, name in ((int, 'an integer'), (float, 'a number')):
         if isinstance(like, kind):
             try:
-                return kind(text)
+                value = kind(text)
             except ValueError:
                 raise ValueError(f'{text!r} is not {name}') from None
+            if kind is int and not -2 ** 63 <= value < 2 ** 63:
+                raise ValueError(f'{text} is beyond a 64-bit integer (what a ROS integer '
+                                 'parameter holds)')
+            return value
     if isinstance(like, str):
         return text
     raise ValueError(f'cannot set a {type(like).__name__} parameter from the command line')

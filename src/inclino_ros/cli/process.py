@@ -245,7 +245,7 @@ def register(subparsers):
         'is trusted: the corrected field agrees with the reference field (total, dip, and '
         'G-total) of --reference-total-nT and --reference-dip-deg, of --site, or of the '
         'multi-station analysis in the calibration file; with no reference there is none.',
-        'Exit 0 done, 1 no sample accepted, 2 unusable input.')
+        'Exit 0 done, 1 no sample accepted (nothing written), 2 unusable input.')
     parser.add_argument('input', metavar='IN', help='input bag (mcap or sqlite3)')
     parser.add_argument('output', metavar='OUT', help='output bag to create')
     parser.add_argument('--calibration', required=True, metavar='FILE',
@@ -320,15 +320,23 @@ def run(args):
     An unusable input or OUT raises (``main`` reports it, exit code 2); OUT
     is written under a temporary name and renamed only when complete.
     """
-    with Outputs(inputs=[args.input, args.calibration], force=args.force) as outputs:
-        output = outputs.path(args.output)
-        model, settings, count, temperature = _prepare(args)
-        magnetometer = _magnetometer(args, model)
-        averager = (Averager(args.average_samples, args.output_rate_hz)
-                    if args.average_samples > 1 or args.output_rate_hz > 0 else None)
-        with BagWriter(output, args.storage) as out:
-            summary = process(args.input, args.topic, out, model, settings,
-                              args.chunk_size, count, temperature, magnetometer, averager)
+    try:
+        with Outputs(inputs=[args.input, args.calibration], force=args.force) as outputs:
+            output = outputs.path(args.output)
+            model, settings, count, temperature = _prepare(args)
+            magnetometer = _magnetometer(args, model)
+            averager = (Averager(args.average_samples, args.output_rate_hz)
+                        if args.average_samples > 1 or args.output_rate_hz > 0 else None)
+            with BagWriter(output, args.storage) as out:
+                summary = process(args.input, args.topic, out, model, settings,
+                                  args.chunk_size, count, temperature, magnetometer, averager)
+            if summary.accepted == 0:
+                raise _NothingAccepted()   # an empty OUT is not left behind
+    except _NothingAccepted:
+        print('\n'.join(summary.lines(magnetometer)))
+        print(f'inclino process: no sample of {args.topic} was accepted: {args.output} not '
+              'written', file=sys.stderr)
+        return 1
     print(f'wrote {args.output} ({args.storage}): {summary.written} messages on each of '
           f'{SURVEY_TOPIC} and {IMU_TOPIC}')
     print('\n'.join(summary.lines(magnetometer)))
@@ -336,10 +344,11 @@ def run(args):
     if loud is not None:
         print(f'inclino process: ERROR: {loud}', file=sys.stderr)
         return 1
-    if summary.accepted == 0:
-        print(f'inclino process: no sample of {args.topic} was accepted', file=sys.stderr)
-        return 1
     return 0
+
+
+class _NothingAccepted(Exception):
+    """No sample was accepted: the output is discarded (``Outputs`` removes it)."""
 
 
 def _prepare(args):

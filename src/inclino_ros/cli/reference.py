@@ -44,11 +44,16 @@ def site_reference(site):
 
 
 def _date(text):
-    """Return a ``YYYY-MM-DD`` text as a date, any other as a decimal year."""
+    """Return ``YYYY-MM-DD`` as a date, a number as a decimal year; ValueError if neither."""
+    if '-' in text.strip().lstrip('-+'):
+        try:
+            return datetime.date.fromisoformat(text)
+        except ValueError as err:
+            raise ValueError(f'the date {text!r} is no day of the calendar ({err})') from None
     try:
-        return datetime.date.fromisoformat(text)
-    except ValueError:
         return float(text)
+    except ValueError:
+        raise ValueError(f'the date {text!r} is neither YYYY-MM-DD nor a decimal year') from None
 
 
 def resolve_reference(args, fallback=(None, None)):

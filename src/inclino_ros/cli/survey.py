@@ -119,8 +119,9 @@ def _samples(path, rows, header):
     counts = _numbers(rows, header, SAMPLES_COLUMN)
     bad = np.flatnonzero(~((counts >= 1) & (np.mod(counts, 1.0) == 0.0)))
     if bad.size:
+        cell = rows[bad[0]][header.index(SAMPLES_COLUMN)]
         raise CommandError(f'{path}: column {SAMPLES_COLUMN} must be a whole count >= 1 '
-                           f'(row {bad[0] + 1} has {rows[bad[0]][header.index(SAMPLES_COLUMN)]!r})')
+                           f'(row {bad[0] + 1} has {cell!r})')
     return counts
 
 
@@ -274,7 +275,7 @@ def write(path, header, rows, codes, columns, outside=None):
         status = [OUTSIDE_FIT if far and text == 'ok' else text
                   for text, far in zip(status, outside)]
         print(f'inclino survey: {int(outside.sum())} row(s) with a temperature outside the '
-              f'calibration\'s fitted range: status {OUTSIDE_FIT}', file=sys.stderr)
+              f"calibration's fitted range: status {OUTSIDE_FIT}", file=sys.stderr)
     full = {}
     for name, (accepted, values) in columns.items():
         column = np.full(len(rows), math.nan, dtype=object)

@@ -45,8 +45,8 @@ def axes_map_matrix(spec, allow_left_handed=False):
             raise ValueError(f'axes map {spec!r}: rpy takes three angles in degrees, '
                              'e.g. rpy:0,90,0') from None
         if not all(abs(angle) <= math.tau for angle in (roll, pitch, yaw)):
-            raise ValueError(f'axes map {spec!r}: each angle must be finite, within -360 .. 360 deg '
-                             '(beyond, its sine is rounding noise)')
+            raise ValueError(f'axes map {spec!r}: each angle must be finite, within -360 .. 360 '
+                             'deg (beyond, its sine is rounding noise)')
         matrix = _rotation_z(yaw) @ _rotation_y(pitch) @ _rotation_x(roll)
         matrix[np.abs(matrix) < 1e-12] = 0.0  # quarter turns exact: cos(90 deg) is 6e-17
         return matrix

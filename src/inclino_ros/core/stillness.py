@@ -238,26 +238,36 @@ def still_segments(stamps_ns, accel, field, window_s, max_deg, min_s):
 
     Windows of ``window_s`` whose accelerometer and magnetometer directions
     both spread less than ``max_deg`` (RMS angle about their mean) are still;
-    consecutive still windows join, and a joined run of at least ``min_s`` is
-    a segment.
+    consecutive still windows join when their mean directions also agree within
+    ``max_deg`` (a tool turned between two windows is two shots, not one mean
+    of two attitudes), and a joined run of at least ``min_s`` is a segment.
     """
     seconds = (stamps_ns - stamps_ns[0]) / 1e9
     window = np.floor(seconds / window_s).astype(int)
     edges = np.flatnonzero(np.diff(window)) + 1
     starts, ends = np.append(0, edges), np.append(edges, len(window))
-    still = []
+    still, means = [], []
     for start, end in zip(starts, ends):
-        spreads = [np.degrees(np.sqrt(np.mean(angle_between(v[start:end],
-                                                            v[start:end].mean(axis=0)) ** 2)))
-                   for v in (accel, field)]
+        means.append([v[start:end].mean(axis=0) for v in (accel, field)])
+        spreads = [np.degrees(np.sqrt(np.mean(angle_between(v[start:end], mean) ** 2)))
+                   for v, mean in zip((accel, field), means[-1])]
         still.append(end - start >= 2 and max(spreads) < max_deg)
     segments, run_start = [], None
+
+    def close(k):
+        first, last = starts[run_start], ends[k - 1]
+        if seconds[last - 1] - seconds[first] >= min_s - window_s:
+            segments.append((first, last))
+
     for k, is_still in enumerate(still + [False]):
-        if is_still and run_start is None:
+        if is_still and run_start is not None and max(
+                np.degrees(angle_between(a, b)) for a, b in zip(means[k], means[k - 1])) \
+                >= max_deg:
+            close(k)   # still on both sides, but another attitude: another shot
+            run_start = k
+        elif is_still and run_start is None:
             run_start = k
         elif not is_still and run_start is not None:
-            first, last = starts[run_start], ends[k - 1]
-            if seconds[last - 1] - seconds[first] >= min_s - window_s:
-                segments.append((first, last))
+            close(k)
             run_start = None
     return segments

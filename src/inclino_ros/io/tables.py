@@ -16,6 +16,9 @@ import numpy as np
 
 #: Most data rows of a table (an 80-minute stand at 1 kHz).
 MAX_ROWS = 5_000_000
+#: Most shots of a shot table (a fit holds ~4 kB per shot: 1e6 shots took 4 GB).  A
+#: hand-held calibration takes 100-200 shots, a well's survey a few thousand stations.
+MAX_SHOTS = 20_000
 #: Most columns of a table.
 MAX_COLUMNS = 1000
 #: Longest line of a table [characters].
@@ -158,10 +161,10 @@ def read_shots(path, accel_columns=('ax', 'ay', 'az'), field_columns=('bx', 'by'
     One row per shot; rows with the same non-empty ``group_column`` value
     are one roll group (labels 0, 1, ... in order of appearance, -1 for none);
     ``temperature_c`` optional.  TableError for a row with a non-finite value
-    (named) or a table ``read_csv`` refuses.
+    (named), more than MAX_SHOTS rows, or a table ``read_csv`` refuses.
     """
     table = read_csv(path, tuple(accel_columns) + tuple(field_columns),
-                     optional=('temperature_c',), text=(group_column,))
+                     optional=('temperature_c',), text=(group_column,), max_rows=MAX_SHOTS)
     accel = np.column_stack([table[name] for name in accel_columns])
     field = np.column_stack([table[name] for name in field_columns])
     bad = np.flatnonzero(~(np.isfinite(accel).all(axis=1) & np.isfinite(field).all(axis=1)))
