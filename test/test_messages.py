@@ -33,7 +33,7 @@ def test_a_huge_integer_parameter_value_is_named():
 
 @pytest.mark.parametrize('value', ['-1e-3', '-2.5E+4', '-inf', '-.5', '-7'])
 def test_a_negative_parameter_value_is_a_value_not_an_option(value):
-    """The command param set X -1e-3 was 'unrecognized arguments' (argparse took it for an option)."""
+    """The command param set X -1e-3 was 'unrecognized arguments' (taken for an option)."""
     args = build_parser().parse_args(['param', 'set', 'stand.toolface_deg', value])
     assert args.value == value
 
