@@ -81,6 +81,7 @@ from inclino_ros.core.msa import (
     azimuth_difference_deg, MAX_INTERFERENCE_NT, misfit_nT2, MsaRefused, WMM_REFERENCE_STD)
 from inclino_ros.core.uncertainty import toolface_std_rad
 from inclino_ros.io.files import Outputs
+from inclino_ros.io.tables import write_csv
 import numpy as np
 
 GRAVITY_COLUMNS = ('gx', 'gy', 'gz')
@@ -301,7 +302,7 @@ def write_outputs(args, table, output, lines, outputs):
         columns[TRUTH_COLUMN] = table[TRUTH_COLUMN]
         columns['azimuth_error_deg'] = azimuth_difference_deg(
             result.azimuth_deg, table[TRUTH_COLUMN])
-    write_table(outputs.path(args.output), columns)
+    write_csv(outputs.path(args.output), columns)
     json_path = f'{args.output}.msa.json'
     with open(outputs.path(json_path), 'x') as stream:
         json.dump(summary(args, result, source), stream, indent=2)
@@ -324,17 +325,6 @@ def station_toolface_deg(G, max_std_deg):
     std_deg = np.degrees(toolface_std_rad(f, noise ** 2 * np.broadcast_to(np.eye(3), (len(f), 3,
                                                                                       3))))
     return np.where(std_deg <= max_std_deg, magnetics.gravity_toolface_deg(G), np.nan)
-
-
-def write_table(path, columns):
-    """Write ``{name: values}`` as CSV; booleans as 0/1, floats in full precision."""
-    rows = np.column_stack([np.asarray(values, dtype=float) for values in columns.values()])
-    flags = [np.asarray(values).dtype == bool for values in columns.values()]
-    with open(path, 'x') as stream:
-        stream.write(','.join(columns) + '\n')
-        for row in rows:
-            stream.write(','.join(str(int(v)) if flag else repr(float(v))
-                                  for v, flag in zip(row, flags)) + '\n')
 
 
 def summary(args, result, source):

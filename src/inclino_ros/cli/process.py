@@ -404,10 +404,8 @@ def _magnetometer(args, model):
     if args.mag_topic is None:
         return None
     stage = model.magnetic
-    fallback = ((stage.msa_reference_total_nT, stage.msa_reference_dip_deg)
-                if stage is not None and stage.msa_method is not None else (None, None))
     try:
-        total_nT, dip_deg, declination_deg, source = resolve_reference(args, fallback)
+        total_nT, dip_deg, declination_deg, source = resolve_reference(args, model)
     except ValueError as err:
         raise CommandError(str(err)) from None
     if total_nT is None or dip_deg is None:

@@ -23,7 +23,6 @@ Exit codes: 0 written, 2 an input that cannot be used (missing column, a
 field not in nT, no calibration file).
 """
 
-import csv
 import math
 import sys
 
@@ -128,11 +127,8 @@ def survey(args, outputs):
     if model.accelerometer_axes != 3:
         raise CommandError(f'{args.calibration} is for a two-axis accelerometer: a survey '
                            'needs three axes')
-    stage = model.magnetic
-    fallback = ((stage.msa_reference_total_nT, stage.msa_reference_dip_deg)
-                if stage is not None and stage.msa_method is not None else (None, None))
     try:
-        total_nT, dip_deg, declination_deg, _ = resolve_reference(args, fallback)
+        total_nT, dip_deg, declination_deg, _ = resolve_reference(args, model)
         settings = Settings(gravity_mps2=args.gravity_mps2,
                             accelerometer_range_mps2=NODE_DEFAULTS['accelerometer_range_mps2'],
                             toolface_convention=args.toolface_convention,
@@ -172,13 +168,6 @@ def output_columns(result, declination_deg, with_qc):
     return {name: (accepted, value) for name, value in values.items()}
 
 
-def _cell(value):
-    """Return a CSV cell: 1/0 for flags, repr for numbers, ``nan`` for NaN."""
-    if isinstance(value, (bool, np.bool_)):
-        return '1' if value else '0'
-    return repr(float(value))
-
-
 def write(path, header, rows, codes, columns):
     """Write the input rows with the output columns (and the status) to ``path``."""
     names = list(columns) + ['status']
@@ -194,11 +183,8 @@ def write(path, header, rows, codes, columns):
         column[accepted] = list(values)
         full[name] = column
     try:
-        with open(path, 'x', newline='') as stream:
-            writer = csv.writer(stream)
-            writer.writerow(renamed + names)
-            for i, row in enumerate(rows):
-                writer.writerow(list(row) + [_cell(full[name][i]) for name in columns]
-                                + [status[i]])
+        tables.write_csv(path, [(name, [row[k] for row in rows])
+                                for k, name in enumerate(renamed)]
+                         + [(name, full[name]) for name in columns] + [('status', status)])
     except OSError as err:
         raise CommandError(f'cannot write {path}: {err}') from None
