@@ -134,7 +134,7 @@ def fit(args, lines, outputs):
     lines += summary_lines(result, readings)
     png, txt = report_paths(args, REPORT_NAME)
     plot_rotation(outputs.path(png), readings, corrected, result)
-    save(args.calibration, solution.model)
+    save(args, solution.model, outputs)
     stood_for_c = solution.model.magnetic.rotation_temperature_c
     lines += [f'wrote the magnetic stage (hard and soft iron) to {args.calibration}'
               + ('' if existing.magnetic is None or existing.magnetic.msa_method is None else

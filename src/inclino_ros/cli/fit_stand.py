@@ -168,7 +168,7 @@ def fit(args, lines, outputs):
     if refusal:
         raise Refused(refusal)
     dropped = existing.installation is not None
-    save(args.calibration, with_stand(existing, stage, field))
+    save(args, with_stand(existing, stage, field), outputs)
     lines.append(f'wrote {args.calibration}: stand stage ({args.method}, {stage.positions} '
                  f'{"positions" if args.method == "stand" else "readings"})'
                  + (', temperature stage kept' if existing.temperature else ''))

@@ -149,7 +149,7 @@ def fit(args, lines, outputs):
                  'compensated')
     plot(outputs.path(png), temperature_c, result, before, after, what)
     lines.append(f'report: {png}')
-    save(args.calibration, model)
+    save(args, model, outputs)
     kept = [name for name in later if getattr(model, name) is not None]
     lines.append(f'wrote {args.calibration}: {section} stage (order {args.order}, '
                  f'{result.attitudes} attitude(s), compensating to '

@@ -65,13 +65,14 @@ from dataclasses import asdict
 import json
 import sys
 
-from inclino_ros.calibration.model import STANDARD_GRAVITY_MPS2
+from inclino_ros.calibration.model import CalibrationChanged, STANDARD_GRAVITY_MPS2
 from inclino_ros.calibration.plausibility import check_field_readings, Implausible
 from inclino_ros.calibration.stations import (
     raw_survey_inputs, solve_interference, with_interference)
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
-    add_sensor_argument, finish_figure, load_existing, new_figure, read_csv, Refused, save)
+    add_sensor_argument, begin_update, finish_figure, load_existing, new_figure, read_csv,
+    Refused, save)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.options import add_force_argument, between, non_negative, report_path
 from inclino_ros.cli.process import add_limit_arguments
@@ -153,6 +154,8 @@ def run(args):
     for path in (args.output, f'{args.output}.msa.json', args.report):
         if path is not None:
             outputs.check(path)
+    if args.calibration is not None:
+        begin_update(args, 'msa')
     try:
         with outputs:
             table = load_stations(args)
@@ -161,8 +164,8 @@ def run(args):
             output = correct(args, table, lines)
             write_outputs(args, table, output, lines, outputs)
             if model is not None:
-                store(args, model, output[0], lines)
-    except (MsaRefused, Refused, Implausible) as err:
+                store(args, model, output[0], lines, outputs)
+    except (MsaRefused, Refused, Implausible, CalibrationChanged) as err:
         print('\n'.join(lines + [f'inclino msa: refused: {err}; nothing written']),
               file=sys.stderr)
         return 1
@@ -220,10 +223,10 @@ def calibrated_field(args, table, lines):
     return model
 
 
-def store(args, model, result, lines):
+def store(args, model, result, lines, outputs):
     """Write the solved eps into the magnetic stage of ``args.calibration`` (tool frame)."""
     model = with_interference(model, result, (args.reference_total_nT, args.reference_dip_deg))
-    save(args.calibration, model)
+    save(args, model, outputs)
     lines.append('wrote the interference (tool x, y, z: '
                  + ', '.join(f'{v:.1f}' for v in model.magnetic.interference_nT)
                  + f' nT) to {args.calibration}')

@@ -10,6 +10,8 @@ garbage included, is a TableError with the reason and the line.
 
 import csv
 
+from inclino_ros.io.files import open_regular
+
 import numpy as np
 
 #: Most data rows of a table (an 80-minute stand at 1 kHz).
@@ -41,7 +43,7 @@ def _lines(stream, path):
 def _open_reader(path, read):
     """Return ``read(csv reader)`` of the CSV file ``path``; TableError if it is no table."""
     try:
-        stream = open(path, newline='', encoding='utf-8-sig')
+        stream = open_regular(path, 'r', newline='', encoding='utf-8-sig')
     except OSError as err:
         raise TableError(f'cannot read {path}: {err}') from None
     try:

@@ -31,6 +31,10 @@ import numpy as np
 from rclpy.callback_groups import ReentrantCallbackGroup
 
 
+#: The services that change the calibration (refused in field mode: ``capture.change_refusal``).
+CHANGING = ('capture_rotation', 'solve_msa')
+
+
 class MagneticServices:
     """~/capture_rotation, ~/take_survey, ~/solve_msa, ~/clear_surveys."""
 
@@ -44,7 +48,7 @@ class MagneticServices:
                                ('take_survey', self.take_survey),
                                ('solve_msa', self.solve_msa),
                                ('clear_surveys', self.clear_surveys)):
-            collector.create_service(name, callback, group)
+            collector.create_service(name, callback, group, changes=name in CHANGING)
 
     def _stage(self):
         return self.node.model.magnetic or NO_MAGNETIC_CORRECTION

@@ -21,6 +21,10 @@ import numpy as np
 from rclpy.callback_groups import ReentrantCallbackGroup
 
 
+#: The services that change the calibration (refused in field mode: ``capture.change_refusal``).
+CHANGING = ('calibrate_level', 'solve_stand_calibration')
+
+
 class CalibrationServices:
     """~/calibrate_level, ~/capture_position, ~/solve_stand_calibration, ~/clear_positions."""
 
@@ -36,7 +40,7 @@ class CalibrationServices:
                                ('capture_position', self.capture_position),
                                ('solve_stand_calibration', self.solve_stand_calibration),
                                ('clear_positions', self.clear_positions)):
-            collector.create_service(name, callback, group)
+            collector.create_service(name, callback, group, changes=name in CHANGING)
 
     def still_limits(self, prefix):
         """Return the StillLimits of the captures of ``prefix`` (its max_sem_deg)."""
