@@ -1,8 +1,9 @@
 """
 The layers of ``inclino_ros`` and the one direction its imports run.
 
-cli, node -> pipeline -> calibration -> core; io beside (it may use core; the
-calibration files are written and read through it);
+cli, node -> stream -> pipeline -> calibration -> core; io beside (it may use core; the
+calibration files are written and read through it); stream (a batch corrected into
+outputs, a recorded bag replayed) is shared by the node and ``inclino process``;
 sim (the virtual bench) is used by cli, tests and benchmarks only.  Every
 module's ``inclino_ros`` imports, module-level or inside functions, are read
 with ``ast`` from the source tree.
@@ -22,8 +23,9 @@ ALLOWED = {
     'io': {'core'},
     'sim': {'core', 'io'},
     'pipeline': {'core', 'calibration'},
-    'node': {'core', 'calibration', 'io', 'pipeline'},
-    'cli': {'core', 'calibration', 'io', 'pipeline', 'node', 'sim'},
+    'stream': {'core', 'calibration', 'io', 'pipeline'},
+    'node': {'core', 'calibration', 'io', 'pipeline', 'stream'},
+    'cli': {'core', 'calibration', 'io', 'pipeline', 'stream', 'node', 'sim'},
 }
 
 
