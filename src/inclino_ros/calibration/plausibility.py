@@ -51,6 +51,7 @@ The bounds, and why:
 
 from inclino_ros.core.cross_axial import RotationLimits
 from inclino_ros.core.msa import MAX_INTERFERENCE_NT
+from inclino_ros.core.refusal import Refused
 from inclino_ros.core.stand import MAX_CONDITION_NUMBER
 import numpy as np
 
@@ -90,12 +91,8 @@ _FIELD_UNITS = (('tesla', 1e9), ('gauss', 1e5), ('microtesla', 1e3), ('milligaus
 _ACCELERATION_UNITS = (('g', STANDARD_GRAVITY_MPS2), ('mg', STANDARD_GRAVITY_MPS2 / 1000.0))
 
 
-class Implausible(ValueError):
+class Implausible(Refused, ValueError):
     """A stage or readings no real sensor gives; ``reason`` says why."""
-
-    def __init__(self, reason):
-        super().__init__(reason)
-        self.reason = reason
 
 
 def magnitude(vectors):

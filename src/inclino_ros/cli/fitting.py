@@ -26,6 +26,7 @@ from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.mounting import add_axes_map_arguments, axes_matrix
 from inclino_ros.cli.options import node_parameter
 from inclino_ros.core.mounting import to_tool_axes
+from inclino_ros.core.refusal import Refused
 from inclino_ros.io import tables
 from inclino_ros.io.bag import BagError, concatenate, read, topic_info
 from inclino_ros.io.files import Outputs
@@ -36,10 +37,6 @@ TEMPERATURE_TOPIC = '/imu/temperature'
 AXIS_COLUMNS = ('ax', 'ay', 'az')
 #: The node's parameter defaults: the commands' options default to the same values.
 NODE_DEFAULTS = {parameter.name: parameter.default for parameter in PARAMETERS}
-
-
-class Refused(Exception):
-    """A fit that must not be written: exit code 1, the calibration file untouched."""
 
 
 def add_file_arguments(parser, csv_help='CSV file with a header row'):

@@ -76,6 +76,7 @@ import math
 
 from inclino_ros.core import magnetics
 from inclino_ros.core.attitude import as_vectors
+from inclino_ros.core.refusal import Refused
 from inclino_ros.core.uncertainty import azimuth_gradients
 import numpy as np
 
@@ -98,12 +99,8 @@ MAX_ITERATIONS = 50
 WMM_REFERENCE_STD = (138.0, 0.20)
 
 
-class MsaRefused(Exception):
+class MsaRefused(Refused):
     """Stations that cannot give a trustworthy correction; ``reason`` says why."""
-
-    def __init__(self, reason):
-        super().__init__(reason)
-        self.reason = reason
 
 
 @dataclass(frozen=True)

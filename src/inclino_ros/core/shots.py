@@ -41,6 +41,7 @@ import math
 from inclino_ros.core.attitude import angle_between, as_vectors
 from inclino_ros.core.installation import (
     installation_angles, installation_matrix, level_axis_angles)
+from inclino_ros.core.refusal import Refused
 from inclino_ros.core.stand import fit_sphere, rotation_part, StandFitRefused
 import numpy as np
 from scipy.optimize import least_squares
@@ -50,12 +51,8 @@ from scipy.spatial.transform import Rotation
 _UPPER = np.triu_indices(3)
 
 
-class ShotFitRefused(Exception):
+class ShotFitRefused(Refused):
     """Shots that cannot give a trustworthy reference-free calibration, with the reason."""
-
-    def __init__(self, reason):
-        super().__init__(reason)
-        self.reason = reason
 
 
 @dataclass(frozen=True)
