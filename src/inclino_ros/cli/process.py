@@ -53,11 +53,11 @@ fewer messages than the bag says) is an error and leaves no OUT.
 from functools import partial
 import sys
 
-from inclino_ros.calibration.model import CalibrationFileError, check_sensor, load_model
 from inclino_ros.calibration.plausibility import (
     check_for_sensor, Implausible, temperature_ok)
 from inclino_ros.cli.errors import CommandError
-from inclino_ros.cli.fitting import add_sensor_argument, NODE_DEFAULTS, node_option
+from inclino_ros.cli.fitting import (
+    add_sensor_argument, load_calibration, NODE_DEFAULTS, node_option)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.mounting import add_axes_map_arguments, settings_maps
 from inclino_ros.cli.options import add_force_argument, between, node_parameter
@@ -194,13 +194,7 @@ def run(args):
 
 def _prepare(args):
     """Return (model, settings, message count, TemperatureSeries or None) or raise CommandError."""
-    try:
-        model = load_model(args.calibration)
-        check_sensor(model, args.sensor_id, args.calibration)
-    except FileNotFoundError:
-        raise CommandError(f'no calibration file {args.calibration}') from None
-    except (CalibrationFileError, OSError) as err:
-        raise CommandError(str(err)) from None
+    model = load_calibration(args.calibration, args.sensor_id)
     if not model.calibrated:
         print(f'inclino process: warning: {args.calibration} holds no accelerometer '
               'correction (no level-bench, stand or temperature stage): the inclination and '

@@ -26,9 +26,8 @@ field not in nT, no calibration file).
 import math
 import sys
 
-from inclino_ros.calibration.model import CalibrationFileError, load_model
 from inclino_ros.cli.errors import CommandError
-from inclino_ros.cli.fitting import NODE_DEFAULTS, node_option
+from inclino_ros.cli.fitting import load_calibration, NODE_DEFAULTS, node_option
 from inclino_ros.cli.options import add_force_argument, node_parameter
 from inclino_ros.cli.process import add_limit_arguments
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
@@ -94,16 +93,6 @@ def _numbers(rows, header, name):
     return np.array([number(row[index]) if index < len(row) else math.nan for row in rows])
 
 
-def _model(path):
-    """Return the calibration model of ``path``; CommandError if there is none or it is bad."""
-    try:
-        return load_model(path)
-    except FileNotFoundError:
-        raise CommandError(f'no calibration file {path}') from None
-    except (CalibrationFileError, OSError) as err:
-        raise CommandError(str(err)) from None
-
-
 def survey(args, outputs):
     """Compute and write the survey; return (rows, rows with an azimuth)."""
     try:
@@ -123,7 +112,7 @@ def survey(args, outputs):
         problem = field_unit_problem(np.nanmedian(magnitude))
         if problem:
             raise CommandError(f'bx, by, bz must be in nT: {problem}')
-    model = _model(args.calibration)
+    model = load_calibration(args.calibration, any_sensor=True)
     if model.accelerometer_axes != 3:
         raise CommandError(f'{args.calibration} is for a two-axis accelerometer: a survey '
                            'needs three axes')

@@ -39,6 +39,7 @@ from dataclasses import dataclass
 import math
 
 from inclino_ros.core.attitude import angle_between, as_vectors
+from inclino_ros.core.constants import STANDARD_GRAVITY_MPS2
 from inclino_ros.core.installation import (
     installation_angles, installation_matrix, level_axis_angles)
 from inclino_ros.core.refusal import Refused
@@ -303,8 +304,8 @@ class _Model:
         return np.concatenate([value / weights[name] for name, value in families.items()])
 
 
-def fit_shots(accel_mps2, field_nT, roll_group=None, g=9.80665, reference_total_nT=None,
-              fit_accel=True, limits=ShotLimits()):
+def fit_shots(accel_mps2, field_nT, roll_group=None, g=STANDARD_GRAVITY_MPS2,
+              reference_total_nT=None, fit_accel=True, limits=ShotLimits()):
     """
     Return the ShotFit of still shots of both triads, or raise ShotFitRefused.
 

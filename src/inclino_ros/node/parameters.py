@@ -9,9 +9,10 @@ from dataclasses import dataclass
 import math
 
 from inclino_ros.calibration.plausibility import EARTH_FIELD_NT
+from inclino_ros.core.constants import STANDARD_GRAVITY_MPS2
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 
-GRAVITY_MPS2 = 9.80665
+GRAVITY_MPS2 = STANDARD_GRAVITY_MPS2
 #: Longest frame_id [characters] the node stamps on its outputs.
 MAX_FRAME_ID = 256
 
