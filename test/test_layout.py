@@ -80,3 +80,20 @@ def test_checker_sees_a_wrong_arrow(tmp_path):
     bad.write_text('def f():\n    from inclino_ros.sim.bench import simulate\n'
                    'from inclino_ros import pipeline\n')
     assert package_imports(bad) == {'inclino_ros.sim.bench', 'inclino_ros.pipeline'}
+
+
+def test_commands_import_no_ros():
+    """Every command module imports without ROS: offline commands never load rclpy or msgs."""
+    import subprocess
+    import sys
+
+    modules = sorted(f'inclino_ros.cli.{path.stem}' for path in (PACKAGE / 'cli').glob('*.py'))
+    ros = ('rclpy', 'rcl_interfaces', 'sensor_msgs', 'std_msgs', 'std_srvs', 'geometry_msgs',
+           'diagnostic_msgs')
+    script = ('import importlib, sys\n'
+              f'for name in {modules!r}:\n'
+              '    importlib.import_module(name)\n'
+              f'print(sorted({{m.split(".")[0] for m in sys.modules}} & set({ros!r})))\n')
+    loaded = subprocess.run([sys.executable, '-c', script], capture_output=True, text=True,
+                            check=True, timeout=120).stdout.strip()
+    assert loaded == '[]', f'importing the commands loads {loaded}'

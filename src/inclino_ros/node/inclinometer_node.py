@@ -41,7 +41,8 @@ from inclino_ros.node.stats import InputStats, MagneticInput, TemperatureInput
 from inclino_ros.pipeline import MagneticSettings, Settings
 from inclino_ros.stream import correct_batch
 import numpy as np
-from rcl_interfaces.msg import SetParametersResult
+from rcl_interfaces.msg import (
+    FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult)
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.exceptions import NameValidationException, ParameterException
 from rclpy.node import Node
@@ -51,6 +52,23 @@ from sensor_msgs.msg import Imu, MagneticField, Temperature
 from std_msgs.msg import Float64, String
 
 
+def descriptor(parameter):
+    """Return the ROS descriptor of a ``parameters.Parameter``: description, range, read-only."""
+    result = ParameterDescriptor(
+        name=parameter.name, description=parameter.description, read_only=parameter.read_only,
+        additional_constraints='' if parameter.choices is None else
+        f'one of: {", ".join(parameter.choices)}')
+    if isinstance(parameter.default, bool) or parameter.low is None:
+        return result
+    if isinstance(parameter.default, int):
+        result.integer_range = [IntegerRange(
+            from_value=int(parameter.low), to_value=int(parameter.high), step=1)]
+    else:
+        result.floating_point_range = [FloatingPointRange(
+            from_value=float(parameter.low), to_value=float(parameter.high), step=0.0)]
+    return result
+
+
 class InclinometerNode(Node):
     """Corrects an inclinometer's accelerometer stream with the stored calibration."""
 
@@ -58,7 +76,7 @@ class InclinometerNode(Node):
         """Declare parameters, load the calibration and create the interfaces."""
         super().__init__('inclinometer', **kwargs)
         for parameter in PARAMETERS:
-            self.declare_parameter(parameter.name, parameter.default, parameter.descriptor())
+            self.declare_parameter(parameter.name, parameter.default, descriptor(parameter))
             reason = refusal(parameter.name, self.param(parameter.name))
             if reason:
                 raise ValueError(reason)
