@@ -702,7 +702,7 @@ def test_seed001_fits_of_a_mounted_board(runs, tmp_path):
 
 def test_stand_is_one_rule_for_the_node_and_the_command(tmp_path):
     """
-    The same positions give the same stand stage through ~/solve_stand_calibration's path and fit-stand.
+    The same positions give one stand stage through the node's solve path and fit-stand.
 
     The node averages each capture into a Position (``stand_capture``), the
     command groups a recorded run's samples by attitude; both solve with
