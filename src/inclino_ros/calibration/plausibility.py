@@ -55,8 +55,10 @@ The bounds, and why:
 
 from datetime import datetime, timezone
 
+from inclino_ros.core.constants import STANDARD_GRAVITY_MPS2
 from inclino_ros.core.cross_axial import RotationLimits
 from inclino_ros.core.msa import MAX_INTERFERENCE_NT
+from inclino_ros.core.refusal import Refused
 from inclino_ros.core.stand import MAX_CONDITION_NUMBER, rotation_part
 import numpy as np
 
@@ -68,8 +70,6 @@ import numpy as np
 # misalignment <= 0.32 deg, bias <= 0.35 m/s^2) lie inside with room to spare
 # (test_plausibility.test_real_mpu9150_units_are_plausible).
 
-#: Standard gravity [m/s^2]: the g of the bounds (local gravity differs by < 0.3 %).
-STANDARD_GRAVITY_MPS2 = 9.80665
 #: A still tool's |A| (and a level capture's G-total) lies within this fraction of g:
 #: scale (ADXL345 sensitivity 230 .. 282 LSB/g, +-10 %) plus bias (0.25 g, below) is
 #: 0.35 g at worst, with a margin for local gravity and noise.
@@ -129,12 +129,8 @@ _FIELD_UNITS = (('tesla', 1e9), ('gauss', 1e5), ('microtesla (uT)', 1e3),
 _ACCELERATION_UNITS = (('g', STANDARD_GRAVITY_MPS2), ('mg', STANDARD_GRAVITY_MPS2 / 1000.0))
 
 
-class Implausible(ValueError):
+class Implausible(Refused, ValueError):
     """A stage or readings no real sensor gives; ``reason`` says why."""
-
-    def __init__(self, reason):
-        super().__init__(reason)
-        self.reason = reason
 
 
 def magnitude(vectors):

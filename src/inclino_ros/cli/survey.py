@@ -32,15 +32,13 @@ nT, a temperature missing, not a number or not one a sensor reads, no
 calibration file).
 """
 
-import csv
 import math
 import sys
 
-from inclino_ros.calibration.model import CalibrationFileError, load_model
 from inclino_ros.calibration.plausibility import (
     check_acceleration_unit, check_field_unit, check_temperatures, Implausible)
 from inclino_ros.cli.errors import CommandError
-from inclino_ros.cli.fitting import NODE_DEFAULTS, node_option
+from inclino_ros.cli.fitting import load_calibration, NODE_DEFAULTS, node_option
 from inclino_ros.cli.options import add_force_argument, node_parameter
 from inclino_ros.cli.process import add_limit_arguments
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
@@ -125,16 +123,6 @@ def _samples(path, rows, header):
     return counts
 
 
-def _model(path):
-    """Return the calibration model of ``path``; CommandError if there is none or it is bad."""
-    try:
-        return load_model(path)
-    except FileNotFoundError:
-        raise CommandError(f'no calibration file {path}') from None
-    except (CalibrationFileError, OSError) as err:
-        raise CommandError(str(err)) from None
-
-
 def _temperatures(args, header, rows, model):
     """
     Return the temperature_c column [deg C] (None without one); CommandError if unusable.
@@ -194,16 +182,13 @@ def survey(args, outputs):
         check_field_unit(field, 'bx, by, bz')
     except Implausible as err:
         raise CommandError(err.reason) from None
-    model = _model(args.calibration)
+    model = load_calibration(args.calibration, any_sensor=True)
     if model.accelerometer_axes != 3:
         raise CommandError(f'{args.calibration} is for a two-axis accelerometer: a survey '
                            'needs three axes')
     temperature_c = _temperatures(args, header, rows, model)
-    stage = model.magnetic
-    fallback = ((stage.msa_reference_total_nT, stage.msa_reference_dip_deg)
-                if stage is not None and stage.msa_method is not None else (None, None))
     try:
-        total_nT, dip_deg, declination_deg, _ = resolve_reference(args, fallback)
+        total_nT, dip_deg, declination_deg, _ = resolve_reference(args, model)
         settings = Settings(gravity_mps2=args.gravity_mps2,
                             accelerometer_range_mps2=NODE_DEFAULTS['accelerometer_range_mps2'],
                             toolface_convention=args.toolface_convention,
@@ -249,13 +234,6 @@ def output_columns(result, declination_deg, with_qc):
     return {name: (accepted, value) for name, value in values.items()}
 
 
-def _cell(value):
-    """Return a CSV cell: 1/0 for flags, repr for numbers, ``nan`` for NaN."""
-    if isinstance(value, (bool, np.bool_)):
-        return '1' if value else '0'
-    return repr(float(value))
-
-
 def write(path, header, rows, codes, columns, outside=None):
     """
     Write the input rows with the output columns (and the status) to ``path``.
@@ -282,11 +260,8 @@ def write(path, header, rows, codes, columns, outside=None):
         column[accepted] = list(values)
         full[name] = column
     try:
-        with open(path, 'x', newline='') as stream:
-            writer = csv.writer(stream)
-            writer.writerow(renamed + names)
-            for i, row in enumerate(rows):
-                writer.writerow(list(row) + [_cell(full[name][i]) for name in columns]
-                                + [status[i]])
+        tables.write_csv(path, [(name, [row[k] for row in rows])
+                                for k, name in enumerate(renamed)]
+                         + [(name, full[name]) for name in columns] + [('status', status)])
     except OSError as err:
         raise CommandError(f'cannot write {path}: {err}') from None
