@@ -150,7 +150,7 @@ class Survey:
     toolface_deg: np.ndarray     # (M,), NaN where its 1 sigma exceeds the limit
     orientation_wxyz: np.ndarray  # (M, 4)
     g_total_mps2: np.ndarray     # (M,)
-    covariance_mps2: np.ndarray  # (M, 3, 3) of corrected_mps2 (sensor noise), read-only
+    covariance_mps2: np.ndarray  # (M, 3, 3) of corrected_mps2 (sensor noise, temperature fit)
     tilt_var_rad2: float         # variance of the tilt from the calibration itself
     toolface_std_deg: np.ndarray     # (M,) 1 sigma (inf for a vertical tool)
     magnetic: AzimuthSurvey = None  # when magnetometer readings were given
@@ -308,6 +308,8 @@ def correct(tool_mps2, model, settings, temperature_c=None, field_nT=None,
     noise_mps2 = settings.noise_std_mps2 / np.sqrt(averaged)
     covariance = specific_force_covariance(sensor, np.reshape(noise_mps2, (-1, 1, 1)),
                                            settings.accelerometer_axes, model.linear_map)
+    if model.temperature is not None:
+        covariance = covariance + model.temperature_covariance(sensor, temperature_c)
     tilt_var = model.tilt_std_rad ** 2
     incl_deg = np.degrees(inclination(corrected))
     toolface_deg = np.degrees(TOOLFACE_CONVENTIONS[settings.toolface_convention](corrected))

@@ -163,13 +163,38 @@ class CalibrationModel:
 
         The stages' own uncertainties, independent, added in quadrature: the
         installation capture's standard error, the stand fit's inclination
-        residual, the temperature fit's residual as an angle against g.
+        residual; a temperature stage's fit residual as an angle against g
+        only from a file that lacks the fit's parameter covariance (which
+        ``temperature_covariance`` propagates instead, per temperature).
         """
         variance = sum(stage.tilt_std_rad ** 2 for stage in (self.installation, self.stand)
                        if stage is not None)
-        if self.temperature is not None:
+        if self.temperature is not None and self.temperature.parameter_covariance is None:
             variance += self.temperature.residual_angle_rad(STANDARD_GRAVITY_MPS2) ** 2
         return math.sqrt(variance)
+
+    @property
+    def uncertainty_notes(self):
+        """Return what the 1 sigma of this model's angles leaves out or over-states (strings)."""
+        return tuple(
+            f'{name}: the file holds no parameter covariance of the fit (schema < 4): its 1 '
+            'sigma takes the heating run\'s residual instead (over-stated many times); refit '
+            'the stage to record it'
+            for name in ('temperature', 'magnetometer_temperature')
+            if getattr(self, name) is not None and getattr(self, name).parameter_covariance is None)
+
+    def temperature_covariance(self, sensor_mps2, temperature_c=None):
+        """
+        Return the covariance (M, 3, 3) the temperature fit's own error gives corrected ``f``.
+
+        The stage's ``compensation_covariance`` of the sensor vectors at
+        ``temperature_c``, through ``linear_map``; zero without the stage.
+        """
+        sensor_mps2 = np.asarray(sensor_mps2, dtype=float)
+        if self.temperature is None:
+            return np.zeros(sensor_mps2.shape + (3,))
+        covariance = self.temperature.compensation_covariance(sensor_mps2, temperature_c)
+        return self.linear_map @ covariance @ self.linear_map.T
 
     def to_dict(self):
         """Return the JSON-ready document of this model (``schema.model_to_dict``)."""

@@ -3,20 +3,23 @@ The calibration file's versions and how an older one is read.
 
 Version 1 files hold the installation stage only, version 2 files no
 magnetometer, tool-axis or magnetometer temperature stage and lack the fields
-version 3 added to theirs (``VERSION_3_FIELDS``): ``upgraded`` gives an older
-section those fields, with the value that says "unknown" or "none".
+version 3 added to theirs (``VERSION_3_FIELDS``); version 3 files lack the
+temperature fits' parameter covariance (``VERSION_4_FIELDS``; without it
+the residual stands for the fit's error, as before).  ``upgraded`` gives an
+older section those fields, with the value that says "unknown" or "none".
 """
 
 from inclino_ros.calibration.corrections import STAGES
 
-SCHEMA_VERSION = 3
+SCHEMA_VERSION = 4
 #: Versions load_model reads.
-READABLE_VERSIONS = (1, 2, 3)
+READABLE_VERSIONS = (1, 2, 3, 4)
 #: Sections of each readable schema version.
 SECTIONS = {1: ('installation',),
             2: ('temperature', 'stand', 'installation', 'magnetic'),
             3: STAGES + ('magnetometer_temperature', 'magnetometer', 'magnetometer_alignment',
                          'magnetic')}
+SECTIONS[4] = SECTIONS[3]
 #: Fields version 3 added, with the value an older file's section gets.
 VERSION_3_FIELDS = {
     'installation': {'temperature_c': None},
@@ -25,9 +28,17 @@ VERSION_3_FIELDS = {
     'magnetic': {'interference_std_nT': None, 'rotation_temperature_c': None},
 }
 
+#: Fields version 4 added, with the value an older file's section gets.
+VERSION_4_FIELDS = {
+    'temperature': {'parameter_covariance': None},
+    'magnetometer_temperature': {'parameter_covariance': None},
+}
+
 
 def upgraded(section, name, version):
-    """Return a section of an older file with the fields version 3 added (``VERSION_3_FIELDS``)."""
-    if version >= 3 or not isinstance(section, dict):
+    """Return a section of an older file with the fields later versions added (``VERSION_*``)."""
+    if not isinstance(section, dict):
         return section
-    return {**VERSION_3_FIELDS.get(name, {}), **section}
+    added = {**(VERSION_3_FIELDS.get(name, {}) if version < 3 else {}),
+             **(VERSION_4_FIELDS.get(name, {}) if version < 4 else {})}
+    return {**added, **section}

@@ -171,6 +171,26 @@ def _rows(section, name, key):
     return _array(*coefficients.shape)(section, name, key)
 
 
+def _parameter_covariance(section, name, key):
+    """Read 3 symmetric positive semi-definite covariances of the drift coefficients, or None."""
+    if section[key] is None:
+        return None
+    order = np.asarray(section['coefficients'], dtype=object).shape[-1] - 1
+    size = order * (1 if section[f'bias_coefficients_{_unit_of(name)}'] is None else 2)
+    value = _finite(section, name, key, (3, size, size))
+    if not (np.allclose(value, value.transpose(0, 2, 1), rtol=1e-9,
+                        atol=1e-12 * np.abs(value).max(initial=0.0))
+            and np.all(np.linalg.eigvalsh(0.5 * (value + value.transpose(0, 2, 1)))
+                       >= -1e-9 * np.abs(value).max(initial=0.0))):
+        raise ValueError(f'{name}.{key} is not 3 symmetric positive semi-definite matrices')
+    return tuple(tuple(map(tuple, axis)) for axis in value.tolist())
+
+
+def _unit_of(name):
+    """Return the unit suffix of the temperature stage ``name``'s fields."""
+    return 'nT' if name == 'magnetometer_temperature' else 'mps2'
+
+
 def _temperature_range(values, name):
     """Raise ValueError unless the fitted range is not empty and holds the reference."""
     t_min, t_max, t_ref = (values[key] for key in ('t_min_c', 't_max_c',
@@ -193,7 +213,7 @@ def _temperature_fields(unit):
     return {'coefficients': _rows, f'bias_coefficients_{unit}': _optional(_rows),
             't_min_c': _number, 't_max_c': _number, 'reference_temperature_c': _number,
             f'rms_residual_{unit}': _array(3), 'samples': _count, 'attitudes': _count,
-            'fitted_at': _time}
+            'fitted_at': _time, 'parameter_covariance': _parameter_covariance}
 
 
 #: Each stage's section: its dataclass, a reader per field (which validates and

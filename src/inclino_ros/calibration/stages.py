@@ -14,7 +14,9 @@ from inclino_ros.core.cross_axial import apply_cross_axial
 from inclino_ros.core.installation import (
     inverse_installation_matrix, pseudo_inclination, to_tool_frame)
 from inclino_ros.core.stand import correct_stand, rotation_part
-from inclino_ros.core.temperature import compensate_temperature, TemperatureFit
+from inclino_ros.core.temperature import (
+    compensate_temperature, normalised_temperature, TemperatureFit)
+from inclino_ros.core.uncertainty import temperature_compensation_covariance
 import numpy as np
 
 
@@ -194,7 +196,9 @@ class _TemperatureStage:
             t_max_c=self.t_max_c, reference_temperature_c=self.reference_temperature_c,
             rms_residual=np.array(self._rms_residual),
             bias_coefficients=None if bias is None else np.array(bias),
-            attitudes=self.attitudes)
+            attitudes=self.attitudes,
+            parameter_covariance=(None if self.parameter_covariance is None
+                                  else np.array(self.parameter_covariance)))
 
     def clamp(self, temperature_c):
         """Return the temperatures clamped to the fitted range; NaN is the reference one."""
@@ -215,6 +219,27 @@ class _TemperatureStage:
         temperature_c = np.broadcast_to(self.clamp(temperature_c), f.shape[:1])
         return compensate_temperature(f, temperature_c, self.fit)
 
+    def compensation_covariance(self, readings, temperature_c=None):
+        """
+        Return the covariance (M, 3, 3) of the compensated ``readings`` from the fit's own error.
+
+        ``uncertainty.temperature_compensation_covariance`` at the clamped
+        temperature (None or NaN: the reference, zero); zero for a file
+        without the fit's covariance (its error is the residual's, in
+        ``residual_angle_rad``).
+        """
+        readings = np.asarray(readings, dtype=float)
+        if self.parameter_covariance is None:
+            return np.zeros(readings.shape + (3,))
+        if temperature_c is None:
+            temperature_c = self.reference_temperature_c
+        temperature_c = np.broadcast_to(self.clamp(temperature_c), readings.shape[:1])
+        u, u_reference = (normalised_temperature(t, self.t_min_c, self.t_max_c)
+                          for t in (temperature_c, self.reference_temperature_c))
+        return temperature_compensation_covariance(
+            readings, u, u_reference, self.parameter_covariance,
+            self._bias_coefficients is not None)
+
     def residual_angle_rad(self, magnitude):
         """Return the fit's RMS residual as an angle against a vector of ``magnitude``."""
         return float(np.sqrt(np.mean(np.square(self._rms_residual)))) / magnitude
@@ -233,6 +258,8 @@ class Temperature(_TemperatureStage):
     fitted_at: str
     bias_coefficients_mps2: tuple = None  # 3 rows of b0..bn, 0 at the reference; None: none
     attitudes: int = 1           # 1: scale only (seed 001); >= 2: bias and scale
+    # 3 per-axis covariances of the drift coefficients (core.temperature); None: not recorded
+    parameter_covariance: tuple = None
 
     @property
     def _bias_coefficients(self):
@@ -256,6 +283,7 @@ class MagnetometerTemperature(_TemperatureStage):
     fitted_at: str
     bias_coefficients_nT: tuple = None
     attitudes: int = 1
+    parameter_covariance: tuple = None  # as Temperature's
 
     @property
     def _bias_coefficients(self):

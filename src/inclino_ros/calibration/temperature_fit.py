@@ -89,7 +89,9 @@ def stage_of(triad, result, samples):
               't_min_c': float(result.t_min_c), 't_max_c': float(result.t_max_c),
               'reference_temperature_c': float(result.reference_temperature_c),
               'samples': int(samples), 'fitted_at': utc_now_iso(),
-              'attitudes': int(result.attitudes)}
+              'attitudes': int(result.attitudes),
+              'parameter_covariance': tuple(tuple(map(tuple, axis))
+                                            for axis in result.parameter_covariance.tolist())}
     rms = tuple(result.rms_residual.tolist())
     if triad == 'accelerometer':
         return Temperature(**common, rms_residual_mps2=rms, bias_coefficients_mps2=bias)

@@ -357,6 +357,8 @@ def _prepare(args):
                   ', and the azimuth uses the raw gravity direction (calibrate the level bench '
                   'first: inclino fit-level or inclino calibrate)'
                   if model.magnetic is not None else ''), file=sys.stderr)
+    for note in model.uncertainty_notes:
+        print(f'inclino process: warning: {args.calibration}: {note}', file=sys.stderr)
     axes = args.axes or model.accelerometer_axes
     if axes != model.accelerometer_axes:
         raise CommandError(f'{args.calibration} is for a {model.accelerometer_axes}-axis '
