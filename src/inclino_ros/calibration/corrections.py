@@ -176,12 +176,11 @@ class CalibrationModel:
     @property
     def uncertainty_notes(self):
         """Return what the 1 sigma of this model's angles leaves out or over-states (strings)."""
-        return tuple(
-            f'{name}: the file holds no parameter covariance of the fit (schema < 4): its 1 '
-            'sigma takes the heating run\'s residual instead (over-stated many times); refit '
-            'the stage to record it'
-            for name in ('temperature', 'magnetometer_temperature')
-            if getattr(self, name) is not None and getattr(self, name).parameter_covariance is None)
+        if self.temperature is None or self.temperature.parameter_covariance is not None:
+            return ()
+        return ('temperature: the file holds no parameter covariance of the fit (schema < 4): '
+                "the tilt 1 sigma takes the heating run's residual instead (over-stated many "
+                'times); fit the temperature stage again to record it',)
 
     def temperature_covariance(self, sensor_mps2, temperature_c=None):
         """
