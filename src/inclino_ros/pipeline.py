@@ -190,7 +190,8 @@ def resolve_azimuth(corrected_mps2, field_nT, model, settings, magnetic_settings
     001 Eq. 4.  Its 1 sigma (``uncertainty.azimuth_std_rad``) takes the
     accelerometer's covariance and calibration tilt, the magnetometer's noise
     (over ``field_averaged`` readings, default ``averaged``) and the MSA
-    interference's own 1 sigma (which holds the reference field's uncertainty).
+    interference's own 1 sigma (which holds the reference field's uncertainty) and the
+    magnetometer temperature fit's own (``CalibrationModel.temperature_covariance``).
     Defined (``defined_azimuth_deg``): a finite azimuth of a field above
     MIN_FIELD_NT whose sigma is within ``azimuth_max_std_deg`` (near vertical
     the azimuth is undefined).  Trusted:
@@ -208,6 +209,10 @@ def resolve_azimuth(corrected_mps2, field_nT, model, settings, magnetic_settings
     stage = model.magnetic
     if stage is not None and stage.interference_std_nT is not None:
         field_covariance = field_covariance + np.diag(np.square(stage.interference_std_nT))
+    if model.magnetometer_temperature is not None:   # its fit's own error, tool -> ISCWSA axes
+        to_iscwsa = np.diag([1.0, -1.0, -1.0])
+        field_covariance = field_covariance + to_iscwsa @ model.temperature_covariance(
+            field_nT, temperature_c, 'magnetometer') @ to_iscwsa
     std_deg = np.degrees(azimuth_std_rad(gravity, field, flip @ covariance_mps2 @ flip,
                                          field_covariance, tilt_var_rad2))
     precise = std_deg <= magnetic_settings.azimuth_max_std_deg   # NaN: False

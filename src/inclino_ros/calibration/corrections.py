@@ -180,18 +180,43 @@ class CalibrationModel:
                 "the tilt 1 sigma takes the heating run's residual instead (over-stated many "
                 'times); fit the temperature stage again to record it',)
 
-    def temperature_covariance(self, sensor_mps2, temperature_c=None):
+    @cached_property
+    def magnetometer_linear_map(self):
         """
-        Return the covariance (M, 3, 3) the temperature fit's own error gives corrected ``f``.
+        Return the 3x3 matrix the magnetometer's stages after its temperature stage apply.
 
-        The stage's ``compensation_covariance`` of the sensor vectors at
-        ``temperature_c``, through ``linear_map``; zero without the stage.
+        K_m^-1, ``magnetometer_rotation``, the mount's C^-1 and seed 002's W
+        on x, y (``apply_magnetic``; its offsets move no error), built once.
         """
-        sensor_mps2 = np.asarray(sensor_mps2, dtype=float)
-        if self.temperature is None:
-            return np.zeros(sensor_mps2.shape + (3,))
-        covariance = self.temperature.compensation_covariance(sensor_mps2, temperature_c)
-        return self.linear_map @ covariance @ self.linear_map.T
+        matrix = np.eye(3)
+        if self.magnetometer is not None:
+            matrix = np.linalg.inv(self.magnetometer.arrays[0]) @ matrix
+        if self.magnetometer_alignment is not None or self.stand is not None:
+            matrix = self.magnetometer_rotation @ matrix
+        for stage in (self.installation, self.tool_axis):
+            if stage is not None:
+                matrix = stage.inverse_matrix @ matrix
+        if self.magnetic is not None:
+            soft_iron = np.eye(3)
+            soft_iron[:2, :2] = self.magnetic.correction
+            matrix = soft_iron @ matrix
+        return matrix
+
+    def temperature_covariance(self, readings, temperature_c=None, triad='accelerometer'):
+        """
+        Return the covariance (M, 3, 3) a temperature fit's own error gives corrected readings.
+
+        ``readings`` (M, 3) of ``triad`` (``accelerometer``: sensor vectors
+        [m/s^2]; ``magnetometer``: raw fields in the tool axes [nT]); the
+        stage's ``compensation_covariance`` at ``temperature_c``, through
+        ``linear_map`` or ``magnetometer_linear_map``; zero without the stage.
+        """
+        readings = np.asarray(readings, dtype=float)
+        stage, matrix = ((self.temperature, self.linear_map) if triad == 'accelerometer' else
+                         (self.magnetometer_temperature, self.magnetometer_linear_map))
+        if stage is None:
+            return np.zeros(readings.shape + (3,))
+        return matrix @ stage.compensation_covariance(readings, temperature_c) @ matrix.T
 
     def to_dict(self):
         """Return the JSON-ready document of this model (``schema.model_to_dict``)."""
