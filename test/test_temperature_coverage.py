@@ -1,5 +1,5 @@
 """
-The temperature stages' 1 sigma covers their error (issue 19 items 3, 2), on the physical simulator.
+The temperature stages' 1 sigma covers their error (issue 19 items 3 and 2), on the simulator.
 
 Truth from ``sim.sensor_model`` (a MEMS accelerometer whose only error is its
 temperature drift, bias and scale, with its 2 mg noise): each draw heats a
