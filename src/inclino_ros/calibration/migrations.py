@@ -5,7 +5,8 @@ Version 1 files hold the installation stage only, version 2 files no
 magnetometer, tool-axis or magnetometer temperature stage and lack the fields
 version 3 added to theirs (``VERSION_3_FIELDS``); version 3 files lack the
 temperature fits' parameter covariance (``VERSION_4_FIELDS``; without it
-the residual stands for the fit's error, as before).  ``upgraded`` gives an
+the residual stands for the fit's error, as before) and the temperature the
+magnetometer, its alignment and the tool axis stood for (unknown).  ``upgraded`` gives an
 older section those fields, with the value that says "unknown" or "none".
 """
 
@@ -32,6 +33,9 @@ VERSION_3_FIELDS = {
 VERSION_4_FIELDS = {
     'temperature': {'parameter_covariance': None},
     'magnetometer_temperature': {'parameter_covariance': None},
+    'magnetometer': {'temperature_c': None},
+    'magnetometer_alignment': {'temperature_c': None},
+    'tool_axis': {'temperature_c': None},
 }
 
 

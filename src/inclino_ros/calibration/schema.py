@@ -226,7 +226,8 @@ STAGE_FIELDS = {
         plausibility.check_installation),
     'tool_axis': (ToolAxis, {
         'gamma_deg': _number, 'beta_deg': _number, 'axial_rms_deg': _number,
-        'roll_groups': _count, 'shots': _count, 'fitted_at': _time}, (),
+        'roll_groups': _count, 'shots': _count, 'fitted_at': _time,
+        'temperature_c': _temperature}, (),
         plausibility.check_tool_axis),
     'stand': (Stand, {
         'scale_matrix': _array(3, 3), 'bias_mps2': _array(3), 'condition_number': _number,
@@ -236,12 +237,14 @@ STAGE_FIELDS = {
     'magnetometer': (Magnetometer, {
         'scale_matrix': _array(3, 3), 'bias_nT': _array(3), 'condition_number': _number,
         'rms_residual_nT': _number, 'field_nT': _number,
-        'method': _choice('stand', 'ellipsoid'), 'positions': _count, 'fitted_at': _time}, (),
+        'method': _choice('stand', 'ellipsoid'), 'positions': _count, 'fitted_at': _time,
+        'temperature_c': _temperature}, (),
         plausibility.check_magnetometer),
     'magnetometer_alignment': (MagnetometerAlignment, {
         'rotation': _array(3, 3), 'method': _choice('dip', 'stand', 'given'),
         'dip_deg': _optional(_number), 'dip_rms_deg': _optional(_number), 'shots': _count,
-        'fitted_at': _time}, (), plausibility.check_magnetometer_alignment),
+        'fitted_at': _time, 'temperature_c': _temperature}, (),
+        plausibility.check_magnetometer_alignment),
     'temperature': (Temperature, _temperature_fields('mps2'), (_temperature_range,),
                     partial(plausibility.check_temperature, name='temperature')),
     'magnetometer_temperature': (

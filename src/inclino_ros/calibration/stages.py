@@ -76,6 +76,7 @@ class ToolAxis(_SeedZeroRotation):
     shots: int
     axial_rms_deg: float       # what the fit leaves of the within-group axial spread
     fitted_at: str
+    temperature_c: float = None  # what the fitted readings stood for; None: unknown
 
 
 @dataclass(frozen=True)
@@ -137,6 +138,7 @@ class Magnetometer:
     field_nT: float            # the total field the scale refers to
     positions: int             # stand positions or shots
     fitted_at: str
+    temperature_c: float = None  # what the fitted readings stood for; None: unknown
 
     @cached_property
     def arrays(self):
@@ -166,6 +168,7 @@ class MagnetometerAlignment:
     dip_rms_deg: float
     shots: int
     fitted_at: str
+    temperature_c: float = None  # what the fitted readings stood for; None: unknown
 
     @cached_property
     def matrix(self):

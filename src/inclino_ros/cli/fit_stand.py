@@ -47,7 +47,7 @@ reference, else their mean temperature).
 
 from functools import partial
 
-from inclino_ros.calibration.magnetometer import fit_field_stand
+from inclino_ros.calibration.magnetometer import fit_field_stand, mean_temperature_c
 from inclino_ros.calibration.model import CalibrationModel, readings_temperature_c
 from inclino_ros.calibration.plausibility import check_accelerometer_readings
 from inclino_ros.calibration.stand_fit import (
@@ -298,7 +298,10 @@ def fit_magnetometer(args, existing, fields, attitude_deg, times_s, temperature_
         position_noise_deg(fields, None if times_s is None else times_s[paired], position,
                            len(means), still_limits(args), ' (magnetometer)')
         fit = fit_field_stand(means, positions, total_nT, dip_deg, stand,
-                              args.max_field_rms_deg)
+                              args.max_field_rms_deg, readings_temperature_c(
+                                  existing.magnetometer_temperature, mean_temperature_c(
+                                      None if temperature_c is None
+                                      else temperature_c[paired])))
     except (CaptureRefused, StandFitRefused) as err:
         raise Refused(str(err)) from None
     lines.append(f'magnetometer (seed 001 Eq. 12) against {total_nT:.1f} nT, dip '
