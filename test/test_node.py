@@ -49,13 +49,8 @@ def parse_angles(message):
 
 
 def latest_status(probe, suffix):
-    """Return the newest diagnostics status whose name ends with ``suffix``."""
-    probe.spin_for(1.2)
-    for array in reversed(probe.received['/diagnostics']):
-        for status in array.status:
-            if status.name.endswith(suffix):
-                return status, {kv.key: kv.value for kv in status.values}
-    raise AssertionError(f'no diagnostics status {suffix}')
+    """Return a diagnostics status whose name ends with ``suffix``, built after the call."""
+    return probe.wait_status(suffix)
 
 
 @pytest.mark.parametrize('axes', [3, 2])

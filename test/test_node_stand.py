@@ -114,14 +114,8 @@ def temperature_model(tmp_path):
 
 
 def diagnostics_status(probe, suffix):
-    """Return the newest diagnostics status whose name ends with ``suffix``."""
-    probe.received['/diagnostics'].clear()
-    probe.spin_for(1.2)
-    for array in reversed(probe.received['/diagnostics']):
-        for status in array.status:
-            if status.name.endswith(suffix):
-                return status
-    raise AssertionError(f'no status {suffix}')
+    """Return a diagnostics status whose name ends with ``suffix``, built after the call."""
+    return probe.wait_status(suffix)[0]
 
 
 def test_temperature_stage_uses_the_latest_temperature(node_and_probe, tmp_path):
