@@ -110,8 +110,10 @@ def _samples(path, rows, header):
     counts = _numbers(rows, header, SAMPLES_COLUMN)
     bad = np.flatnonzero(~((counts >= 1) & (np.mod(counts, 1.0) == 0.0)))
     if bad.size:
+        row, index = rows[bad[0]], header.index(SAMPLES_COLUMN)
+        cell = row[index] if index < len(row) else ''
         raise CommandError(f'{path}: column {SAMPLES_COLUMN} must be a whole count >= 1 '
-                           f'(row {bad[0] + 1} has {rows[bad[0]][header.index(SAMPLES_COLUMN)]!r})')
+                           f'(row {bad[0] + 1} has {cell!r})')
     return counts
 
 
