@@ -293,14 +293,18 @@ def correct(tool_mps2, model, settings, temperature_c=None, field_nT=None,
                             settings.two_axis_max_inclination_deg)
     codes[kept] = late
     good = late == ACCEPTED
-    tool_mps2, sensor, corrected = tool_mps2[good], sensor[good], corrected[good]
-    if np.ndim(temperature_c) == 1:
-        temperature_c = np.asarray(temperature_c)[good]
-    if field_nT is not None:
-        field_nT = np.asarray(field_nT, dtype=float).reshape(-1, 3)[good]
-    if np.ndim(averaged):   # one count per row (averaged windows)
-        averaged = np.asarray(averaged)[good]
-        field_averaged = None if field_averaged is None else np.asarray(field_averaged)[good]
+    if not good.all():   # (all kept, the usual case: no copies)
+        tool_mps2, sensor, corrected = tool_mps2[good], sensor[good], corrected[good]
+        if np.ndim(temperature_c) == 1:
+            temperature_c = np.asarray(temperature_c)[good]
+        if field_nT is not None:
+            field_nT = np.asarray(field_nT, dtype=float).reshape(-1, 3)[good]
+        if np.ndim(averaged):   # one count per row (averaged windows)
+            averaged = np.asarray(averaged)[good]
+            field_averaged = (None if field_averaged is None
+                              else np.asarray(field_averaged)[good])
+    elif field_nT is not None:
+        field_nT = np.asarray(field_nT, dtype=float).reshape(-1, 3)
     noise_mps2 = settings.noise_std_mps2 / np.sqrt(averaged)
     covariance = specific_force_covariance(sensor, np.reshape(noise_mps2, (-1, 1, 1)),
                                            settings.accelerometer_axes, model.linear_map)

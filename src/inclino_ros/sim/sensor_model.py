@@ -262,6 +262,41 @@ def true_specific_force(inclination_deg, toolface_deg, gravity_mps2=STANDARD_GRA
     return np.einsum('nji,j->ni', rotation, np.array([0.0, 0.0, -gravity_mps2]))
 
 
+def hand_held(inclination_deg, toolface_deg, azimuth_deg, wander_deg, rng=None):
+    """
+    Return (inclination, toolface, azimuth) [deg] of shots a hand aims at the given attitudes.
+
+    A hand-held instrument held "in one direction" for a roll set points a
+    little elsewhere at every shot (real-sensors.md: 0.1-0.7 deg RMS on real
+    instruments): the tool axis leaves the aimed direction by an independent
+    Gaussian angle of ``wander_deg`` RMS in each of the two directions across
+    it (up-down: inclination; sideways: the azimuth changes by that angle
+    over sin I, never more than over sin 3 deg near vertical).  The toolface
+    is what the hand turns, kept.
+    """
+    incl, tf, az = _samples(inclination_deg, toolface_deg, azimuth_deg)
+    rng = np.random.default_rng(rng)
+    up_down, sideways = rng.normal(0.0, wander_deg, (2, incl.size))
+    across = np.maximum(np.abs(np.sin(np.radians(incl))), math.sin(math.radians(3.0)))
+    return incl + up_down, tf, az + sideways / across
+
+
+def iron_near(count, shots, magnitude_nT, rng=None):
+    """
+    Return (count, 3) fields [nT] of iron brought near some shots (an outlier shot).
+
+    Each of ``shots`` (indices) gets a field of ``magnitude_nT`` in a random
+    direction, fixed to the tool for that shot (a knife, a car, a rebar near
+    the instrument); every other shot none.  Add it to the drill string's
+    ``interference_nT`` of ``read``.
+    """
+    rng = np.random.default_rng(rng)
+    fields = np.zeros((count, 3))
+    directions = rng.normal(size=(len(shots), 3))
+    fields[list(shots)] = magnitude_nT * directions / np.linalg.norm(directions, axis=1)[:, None]
+    return fields
+
+
 @dataclass(frozen=True)
 class Field:
     """The Earth's magnetic field: total intensity [nT] and dip [deg, positive down]."""
