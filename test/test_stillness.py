@@ -291,3 +291,31 @@ def test_level_capture_sigma_of_correlated_noise_covers_gamma_beta():
     ratios = np.array(ratios)
     one, two = np.mean(ratios <= 1.0), np.mean(ratios <= 2.0)
     assert 0.60 <= one <= 0.76 and 0.93 <= two <= 0.98, (one, two)
+
+
+@pytest.mark.parametrize('timed', [True, False])
+def test_slow_turns_that_move_the_mean_beyond_its_precision_are_refused(timed):
+    """
+    One rule (issue 19 item 5): the mean must lie within max_sem_deg of every part's attitude.
+
+    500 samples at 100 Hz of 0.005 m/s^2 noise (0.029 deg per sample: the drift's standard
+    error 0.0009 deg/s, so 0.015 deg/s is 17 sigma, always significant): a 0.015 deg/s turn
+    puts the ends 0.0375 deg from the mean, a 0.1 deg step at 4 s the last fifth 0.08 deg
+    from it, both beyond the 0.01 deg target: refused, with or without times (the former
+    rule took any drift below 0.02 deg/s, and without times compared another figure).  A
+    settling of 0.003 deg/s (ends 0.0075 deg from the mean) is accepted, 17 sigma at 0.001
+    m/s^2 noise (ends known to 0.0005 deg), as is a still tool.
+    """
+    times_s = np.arange(SAMPLES) / RATE_HZ
+    limits = StillLimits()
+
+    def verdict(inclination_deg, seed, noise_mps2=0.005):
+        readings = sensor_model.read(tool(noise_mps2), inclination_deg, 30.0,
+                                     rng=seed).accel_mps2
+        return motion(assess(tangent_angles(readings), times_s if timed else None), limits)
+
+    for seed in range(20):
+        assert verdict(40.0 + 0.015 * times_s, seed).startswith('tool is moving (drift')
+        assert verdict(40.0 + 0.1 * (times_s >= 4.0), 100 + seed).startswith('tool is moving')
+        assert verdict(40.0 + 0.003 * times_s, 200 + seed, 0.001) is None
+        assert verdict(np.full(SAMPLES, 40.0), 300 + seed) is None

@@ -38,6 +38,15 @@ import math
 
 import numpy as np
 
+#: The fraction of the squared differences the variogram keeps (the smallest), and the
+#: mean of the kept part of a chi-square of one degree of freedom, relative to its whole
+#: mean: ``E[X; X <= q] / KEPT = chi2.cdf(q, 3) / KEPT``, q = chi2.ppf(KEPT, 1), since
+#: x f_1(x) = f_3(x) (scipy.stats.chi2).
+KEPT = 0.9
+TRIMMED_MEAN = 0.6230154841346819
+#: Fewest degrees of freedom given a correlated noise (a capture of a few independent
+#: samples still tells a turn of millions of its sigma: F(2, 4) has finite tails).
+MIN_DOF = 4.0
 #: Fewest samples of a segment whose correlation is estimated (shorter: taken as white).
 MIN_SEGMENT = 8
 #: Significant correlation: above THRESHOLD / sqrt(N), N the capture's samples.
@@ -93,9 +102,17 @@ def _residuals(values, segments, sizes, degree):
 
 
 def _variogram(residual, segments, lag):
-    """Return 1/2 the mean squared difference of residuals ``lag`` apart in one segment."""
+    """
+    Return 1/2 the mean squared difference of residuals ``lag`` apart in one segment.
+
+    Robust: the mean of the smallest KEPT of the squared differences over
+    its Gaussian value (``TRIMMED_MEAN`` times the whole mean), so that jumps
+    (a knock, a turn the still test is to see) do not pass for noise.
+    """
     same = segments[lag:] == segments[:-lag]
-    return 0.5 * float(np.mean((residual[lag:][same] - residual[:-lag][same]) ** 2))
+    squared = np.sort((residual[lag:][same] - residual[:-lag][same]).ravel() ** 2)
+    kept = squared[:max(int(KEPT * squared.size), 1)]
+    return 0.5 * float(np.mean(kept)) / TRIMMED_MEAN
 
 
 def estimate(values, segments):
@@ -133,13 +150,13 @@ def dof(noise, samples):
     Return the degrees of freedom of a CorrelatedNoise's variance of a mean of ``samples``.
 
     White: the within-segment residuals' (the F laws of ``core.stillness`` are
-    exact).  Correlated: ``dof / (2 F(N))``, as measured on the simulator
-    (AR(1), 2 components, 300 captures each): the estimate of F spreads with a
-    relative 1 sigma of 0.35 at rho 0.9 and 500 samples, 0.27 at 1000 samples,
-    i.e. ``2 / 0.35^2 = 16`` and 27 degrees of freedom, where ``dof / (2 F)``
-    gives 26 and 53 and ``dof / F`` (the samples' worth) 64 and 105 (a still
-    capture refused 2 times in 300 at 500 samples).
+    exact).  Correlated: ``dof / (4 F(N))``, from the spread measured on the
+    simulator (AR(1), 2 components, 300 captures each): the estimate of F
+    has a relative 1 sigma of ~0.4 at rho 0.9 and 500 samples, ~0.3 at 1000,
+    i.e. ``2 / 0.4^2 = 12`` and 22 degrees of freedom, where ``dof / (4 F)``
+    gives 13 and 26 (``dof / (2 F)`` refused 1 still capture in 300 at rho
+    0.9 and 500 samples, ``dof / F`` 2).  At least MIN_DOF.
     """
     if noise.rho == 0.0:
         return noise.dof
-    return noise.dof / (2.0 * float(noise.inflation(samples)))
+    return max(noise.dof / (4.0 * float(noise.inflation(samples))), MIN_DOF)

@@ -68,10 +68,12 @@ class StillLimits:
     """
     When a capture is still enough and precise enough (``judge``).
 
-    ``max_drift_deg_per_s``: a significant drift slower than this is accepted
-    (a tool settling on its stand, a warming sensor);
-    ``max_sem_deg``: the standard error of the mean the capture must reach; a
-    significant unsteadiness that moves the mean less than it is accepted too.
+    ``max_drift_deg_per_s``: a significant drift faster than this is refused
+    whatever the capture's length;
+    ``max_sem_deg``: the standard error of the mean the capture must reach,
+    and how far the mean may lie from the attitude at any part of the
+    capture: a significant drift or unsteadiness within it is accepted (a
+    tool settling on its stand, a warming sensor), beyond it refused.
     ``drift_name``, ``sem_name``: how the messages name the two limits.
     """
 
@@ -96,6 +98,7 @@ class Stillness:
     scatter_ratio: float        # F_steady: X / (k (B - 2) s^2), about 1 for white noise
     scatter_p: float            # tail probability of F_steady for a still sensor
     motion_deg: float           # RMS of the block means' motion beyond the noise
+    part_offset_deg: float = 0.0  # largest distance of a block's attitude from the mean
 
     @property
     def white_noise_deg(self):
@@ -191,6 +194,10 @@ def assess(angles_rad, times_s=None):
             math.inf if slope_norm > 0 else 0.0)
         ratio = scatter / block_var / dof if sigma > 0 else (math.inf if scatter > 0 else 0.0)
     motion_var = np.mean(np.sum(off_line ** 2, axis=1) / k - noise.mean_variance(n_b))
+    # Each block's attitude against the capture's mean, its noise taken out:
+    # var(m_b - a) = var(m_b) (1 - n_b / N) per component for independent blocks.
+    offset = (np.sum((means - a_mean) ** 2, axis=1)
+              - k * noise.mean_variance(n_b) * (1.0 - n_b / count))
     return Stillness(
         samples=count, duration_s=float(np.ptp(t)) if timed else math.nan,
         noise_deg=math.degrees(sigma),
@@ -199,33 +206,42 @@ def assess(angles_rad, times_s=None):
         drift_deg_per_s=math.degrees(slope_norm), drift_sigma=math.sqrt(k * drift_f),
         drift_p=float(fisher_f.sf(drift_f, k, noise_dof)), scatter_ratio=float(ratio),
         scatter_p=float(fisher_f.sf(ratio, dof, noise_dof)),
-        motion_deg=math.degrees(math.sqrt(max(motion_var, 0.0))))
+        motion_deg=math.degrees(math.sqrt(max(motion_var, 0.0))),
+        part_offset_deg=math.degrees(math.sqrt(max(float(offset.max()), 0.0))))
 
 
 def motion(stillness, limits, steady=True):
     """
     Return why a capture moves, or None for a still one.
 
-    Moving: a drift significant (tail probability below FALSE_MOTION_P) and
-    faster than ``limits.max_drift_deg_per_s`` (without times: one that moves
-    the mean by more than ``max_sem_deg`` over half the capture), or
-    (``steady``) block means off their trend, significant likewise, by more
-    than ``max_sem_deg`` RMS.
+    One rule, timed or not (issue 19 item 5): the capture's mean must lie
+    within ``limits.max_sem_deg`` of the attitude at every part of it.
+    Moving: a drift significant (tail probability below FALSE_MOTION_P)
+    whose line puts the ends further than that from the mean
+    (``drift_offset_deg``, its noise taken out), or (timed) faster than
+    ``limits.max_drift_deg_per_s`` whatever the capture's length; or
+    (``steady``) block means off their trend, significant likewise, one of
+    them further than that from the mean (``part_offset_deg``, the largest,
+    its noise taken out).
     """
     s = stillness
+    far = s.part_offset_deg > limits.max_sem_deg
+    where = (f'a part of the capture is {s.part_offset_deg:.4f} deg from its mean, beyond '
+             f'{limits.sem_name} {limits.max_sem_deg} deg')
     if math.isnan(s.duration_s):
-        drifting = s.drift_deg_per_s * s.samples / 2.0 > limits.max_sem_deg
+        fast = False
         rate = f'{s.drift_deg_per_s * s.samples:.4f} deg over the capture'
     else:
-        drifting = s.drift_deg_per_s > limits.max_drift_deg_per_s
+        fast = s.drift_deg_per_s > limits.max_drift_deg_per_s
         rate = f'{s.drift_deg_per_s:.4f} deg/s'
-    if s.drift_p < FALSE_MOTION_P and drifting:
+    if s.drift_p < FALSE_MOTION_P and (far or fast):
         return (f'tool is moving (drift {rate}, {s.drift_sigma:.0f} sigma of the noise; '
-                f'{limits.drift_name} {limits.max_drift_deg_per_s} deg/s)')
-    if steady and s.scatter_p < FALSE_MOTION_P and s.motion_deg > limits.max_sem_deg:
+                + (where if far else
+                   f'{limits.drift_name} {limits.max_drift_deg_per_s} deg/s') + ')')
+    if steady and s.scatter_p < FALSE_MOTION_P and far:
         return (f'tool is moving (not steady: the means of its blocks scatter '
                 f'{math.sqrt(s.scatter_ratio):.1f}x the noise about their trend, '
-                f'{s.motion_deg:.4f} deg RMS)')
+                f'{s.motion_deg:.4f} deg RMS; {where})')
     return None
 
 
