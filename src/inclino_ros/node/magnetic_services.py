@@ -30,7 +30,7 @@ from inclino_ros.core.magnetics import iscwsa_from_tool
 from inclino_ros.core.msa import (
     azimuth_difference_deg, improved_cross_axial, MsaRefused, solve_msa_axial, solve_msa_classic,
     solve_msa_improved)
-from inclino_ros.pipeline import correct
+from inclino_ros.pipeline import capture_mean
 import numpy as np
 from rclpy.callback_groups import ReentrantCallbackGroup
 
@@ -103,9 +103,10 @@ class MagneticServices:
             return self.collector.refuse(response, str(err), kept)
         temperatures_c = (None if captured.temperatures_c is None
                           else captured.temperatures_c[paired].mean())
-        survey = correct(captured.raw[paired].mean(axis=0), node.model, node.settings,
-                         temperatures_c, field_nT[None], node.magnetic_settings,
-                         averaged=int(paired.sum()))
+        # The station's 1 sigma from its own noise (correlated noise too, issue 19 item 4).
+        survey = capture_mean(captured.raw[paired], captured.times_s[paired], node.model,
+                              node.settings, temperatures_c, captured.field_nT[paired],
+                              node.magnetic_settings)
         if not survey.accepted.all():
             return self.collector.refuse(response, 'the averaged station is not a valid '
                                          'reading', kept)
