@@ -103,6 +103,8 @@ def test_calibration_round_trip_corrects_the_stations(start_node, probe, tmp_pat
     status, values = latest_status(probe, ': calibration')
     assert status.level == DiagnosticStatus.OK
     assert float(values['gamma_deg']) == pytest.approx(angles['gamma_deg'], abs=1e-4)
+    # A level bench cannot see the board's roll: the toolface is the board's (issue 19).
+    assert values['toolface_zero'] == 'board'
     assert node.stop() == 0
 
 

@@ -33,7 +33,8 @@ class Position:
     inclination_deg: float
     toolface_deg: float
     reading_mps2: tuple  # mean of the temperature-compensated readings
-    std_deg: float       # per-sample noise of the direction, one component (still test)
+    std_deg: float       # per-sample noise of the direction, one component (still test;
+    #                      correlated: the white one of the same standard error)
     samples: int
     azimuth_deg: float = 0.0   # magnetic azimuth of the hole direction (as survey.z)
     field_nT: tuple = None     # mean raw magnetometer reading, None when not captured
@@ -98,10 +99,10 @@ def average_position(samples, inclination_deg, toolface_deg, limits, times_s=Non
             except CaptureRefused as err:
                 raise CaptureRefused(f'magnetometer: {err}') from None
             field = tuple(fields_nT[paired].mean(axis=0).tolist())
-            field_std_deg = field_still.noise_deg
+            field_std_deg = field_still.white_noise_deg
     return Position(inclination_deg=float(inclination_deg), toolface_deg=float(toolface_deg),
                     reading_mps2=tuple(samples.mean(axis=0).tolist()),
-                    std_deg=stillness.noise_deg, samples=int(samples.shape[0]),
+                    std_deg=stillness.white_noise_deg, samples=int(samples.shape[0]),
                     azimuth_deg=float(azimuth_deg), field_nT=field, field_std_deg=field_std_deg,
                     temperature_c=temperature_c)
 

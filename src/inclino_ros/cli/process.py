@@ -182,6 +182,8 @@ def run(args):
     print(f'wrote {args.output} ({args.storage}): {summary.written} messages on each of '
           f'{SURVEY_TOPIC} and {IMU_TOPIC}')
     print('\n'.join(summary.lines(magnetometer)))
+    # 'board': the toolface written is the sensor board's, not the tool's (issue 19 item 6).
+    print(f'toolface_zero: {model.toolface_zero}')
     loud = summary.mostly_dropped()
     if loud is not None:
         print(f'inclino process: ERROR: {loud}', file=sys.stderr)

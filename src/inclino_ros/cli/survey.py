@@ -13,7 +13,10 @@ Output: the input columns (one whose name the output uses is kept as
 ``g_total_mps2``, ``b_total_nT``, ``dip_deg``, the 1 sigma of each
 (``inclination_std_deg``, ``toolface_std_deg``, ``azimuth_std_deg``,
 ``g_total_std_mps2``, ``b_total_std_nT``, ``dip_std_deg``: the sensor noise
-and the calibration's tilt, as ``pipeline.run`` propagates them) and ``status`` (``ok`` or why
+and the calibration's tilt, as ``pipeline.run`` propagates them),
+``toolface_zero`` (``stand``: the toolface is the tool's, its zero
+calibrated on a stand; ``board``: measured from the sensor board's x axis,
+off the tool's high side by the board's unknown roll) and ``status`` (``ok`` or why
 the row gave no angles: ``non_finite``, ``saturated``, ``zero``).  The
 azimuth is written wherever it is defined (a field of at least 1000 nT, a
 1 sigma within ``--azimuth-max-std-deg``: not near vertical): QC is a column
@@ -108,9 +111,10 @@ def _samples(path, rows, header):
     counts = _numbers(rows, header, SAMPLES_COLUMN)
     bad = np.flatnonzero(~((counts >= 1) & (np.mod(counts, 1.0) == 0.0)))
     if bad.size:
-        value = rows[bad[0]][header.index(SAMPLES_COLUMN)]
+        row, index = rows[bad[0]], header.index(SAMPLES_COLUMN)
+        cell = row[index] if index < len(row) else ''
         raise CommandError(f'{path}: column {SAMPLES_COLUMN} must be a whole count >= 1 '
-                           f'(row {bad[0] + 1} has {value!r})')
+                           f'(row {bad[0] + 1} has {cell!r})')
     return counts
 
 
@@ -156,12 +160,13 @@ def survey(args, outputs):
                                 noise_std_nT=args.mag_noise_nT,
                                 azimuth_max_std_deg=args.azimuth_max_std_deg)
     result = run_pipeline(raw, model, settings, temperature_c, field, magnetic, averaged)
-    columns = output_columns(result, declination_deg, total_nT is not None)
+    columns = output_columns(result, declination_deg, total_nT is not None,
+                             model.toolface_zero)
     write(outputs.path(args.output), header, rows, result.codes, columns)
     return len(rows), int(np.isfinite(columns['azimuth_deg'][1]).sum())
 
 
-def output_columns(result, declination_deg, with_qc):
+def output_columns(result, declination_deg, with_qc, toolface_zero):
     """Return ``{name: (accepted mask, values of the accepted rows)}`` of the output."""
     accepted = result.accepted
     azimuth = result.magnetic
@@ -173,6 +178,7 @@ def output_columns(result, declination_deg, with_qc):
               'azimuth_std_deg': azimuth.azimuth_std_deg,
               'g_total_std_mps2': azimuth.g_total_std_mps2,
               'b_total_std_nT': azimuth.b_total_std_nT, 'dip_std_deg': azimuth.dip_std_deg}
+    values['toolface_zero'] = [toolface_zero] * int(np.count_nonzero(accepted))
     if declination_deg is not None:
         values['true_azimuth_deg'] = true_azimuth_deg(azimuth.defined_azimuth_deg,
                                                       declination_deg)

@@ -331,7 +331,9 @@ class InclinometerNode(Node):
                   'sensor_id': str(model.sensor_id),
                   'capture_running': str(self.collector.capture is not None),
                   'stand_positions_held': str(len(self.calibration.positions)),
-                  'tilt_std_deg': f'{math.degrees(model.tilt_std_rad):.5f}'}
+                  'tilt_std_deg': f'{math.degrees(model.tilt_std_rad):.5f}',
+                  # 'board': the published toolface is the board's (issue 19 item 6).
+                  'toolface_zero': model.toolface_zero}
         values.update({f'{name}_age_days': f'{age_s / 86400.0:.2f}'
                        for name, age_s, _ in stage_ages_s(model)})
         stale = stale_stages(model, self.param('calibration.max_age_days') * 86400.0,
