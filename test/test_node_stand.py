@@ -75,10 +75,11 @@ def test_stand_positions_solve_into_a_correction(node_and_probe, tmp_path):
         assert answer.success, answer.message
         assert answer.message.startswith(f'position {number} captured')
 
-    # The same attitude again is refused before any sample is taken.
-    duplicate = probe.call('capture_position')
-    assert not duplicate.success and 'duplicate position' in duplicate.message
-    assert '9 positions kept' in duplicate.message
+    # The same attitude again is a repeat: captured, said, weighed by the solve (issue 18).
+    repeat = probe.calibrate(lambda i: sensor_reading(*POSITIONS_DEG[-1], rng),
+                             service='capture_position')
+    assert repeat.success, repeat.message
+    assert 'a repeat of position 9' in repeat.message and '10 positions held' in repeat.message
 
     # A tool that moves during the capture (0.1 deg a sample, 1 s apart) is refused.
     probe.set_parameters(stand__inclination_deg=30.0, stand__toolface_deg=10.0)
@@ -91,7 +92,9 @@ def test_stand_positions_solve_into_a_correction(node_and_probe, tmp_path):
     stand = load_model(tmp_path / 'calibration.json').stand
     assert np.max(np.abs(np.array(stand.scale_matrix) - TRUE_K)) < 1e-4
     assert np.max(np.abs(np.array(stand.bias_mps2) - TRUE_BIAS_MPS2)) < 5e-5 * G
-    assert stand.positions == len(POSITIONS_DEG)
+    assert stand.positions == len(POSITIONS_DEG) + 1
+    assert f'{len(POSITIONS_DEG)} distinct attitudes, 1 repeated: repeatability' \
+        in solved.message
 
     raw_errors_deg = []
     for incl_deg, tf_deg in ((2.0, 40.0), (33.0, 200.0), (75.0, 310.0), (120.0, 95.0)):
@@ -102,7 +105,7 @@ def test_stand_positions_solve_into_a_correction(node_and_probe, tmp_path):
                                                                abs=INCLINATION_TOL_DEG)
     assert max(raw_errors_deg) > 0.2  # the uncorrected sensor is visibly off
     cleared = probe.call('clear_positions')
-    assert cleared.success and cleared.message == 'cleared 9 stand positions'
+    assert cleared.success and cleared.message == 'cleared 10 stand positions'
     assert node.stop() == 0
 
 

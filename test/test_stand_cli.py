@@ -611,10 +611,6 @@ def stand_rows(case):
     if case == 'too few positions':
         keep = stand.segment <= 5
         return attitudes[keep], readings[keep]
-    if case == 'repeated attitude':
-        extra = simulate_stand(StandRun(TOOL), ((90.0, 0.5),))
-        return (np.vstack([attitudes, [(90.0, 0.5)] * 100]),
-                np.vstack([readings, extra.raw_mps2]))
     if case == 'moving':
         moving = stand.segment == 7
         readings[moving] = sm.read(noise_free(TOOL), 45.0 + np.linspace(-1.0, 1.0, 100),
@@ -641,7 +637,6 @@ def refused_fit(case, tmp_path):
 
 @pytest.mark.parametrize('case, reason', [
     ('too few positions', 'only 5 stand position'),
-    ('repeated attitude', 'are one attitude'),
     ('moving', 'position 7: tool is moving'),
     ('wrong attitude', 'exceeds --max-rms-deg'),
     ('no 25 C', 'no reading within 1.0 deg C of 25.0'),

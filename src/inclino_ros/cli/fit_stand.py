@@ -10,7 +10,10 @@ the stand attitude on ``/stand/attitude`` (Vector3Stamped: x
 inclination_deg, y seed-000 toolface_deg, z azimuth_deg; each Imu sample
 takes the latest attitude at or before its stamp), optionally
 ``/imu/temperature`` and ``--mag-topic``.  Samples of one attitude are
-averaged into one position.
+averaged into one position; a later visit of an attitude (its rows
+after another attitude's, or less than 1 deg from it) is a repeat: weighed
+in the fit like any position, and the scatter of the visits is reported as
+the stand's repeatability (deg, per attitude and overall).
 
 With a reference field (``--reference-total-nT`` and
 ``--reference-dip-deg``, or ``--site``) and magnetometer readings, the
@@ -18,7 +21,7 @@ magnetometer's K_m and bias are fitted too (seed 001 Eq. 12: the same fit
 against the field expected at each position), into the stages
 ``magnetometer`` and ``magnetometer_alignment``; refused beyond
 ``--max-field-rms-deg``.  Positions that differ only in azimuth are one
-attitude for the accelerometer (averaged).
+attitude for the accelerometer (repeats).
 
 ``--method stand`` fits ``A = K G + b`` to the positions (``stand.fit_stand``);
 ``--method sphere`` needs no attitude and fits every sample to ``|G| = g``
@@ -32,7 +35,7 @@ must be measured again on the stand-corrected readings.
 
 Refused (exit 1, the calibration file untouched): readings that are not
 those of a still tool in m/s^2 (``plausibility.check_accelerometer_readings``:
-g or mg named), a fit ``stand`` refuses (too few positions, repeated
+g or mg named), a fit ``stand`` refuses (fewer than six distinct
 attitudes, an ill-posed set), a position where the tool moved (its mean
 drifts faster than ``--max-drift-deg-per-s`` against its own noise, or is
 not steady) or whose mean misses ``--max-sem-deg`` (``still_capture``:
@@ -48,10 +51,11 @@ reference, else their mean temperature).
 from dataclasses import replace
 from functools import partial
 
-from inclino_ros.calibration.magnetometer import fit_field_stand, merge_repeated_attitudes
+from inclino_ros.calibration.magnetometer import fit_field_stand
 from inclino_ros.calibration.model import (
     CalibrationModel, readings_temperature_c, Stand, utc_now_iso)
 from inclino_ros.calibration.plausibility import check_accelerometer_readings
+from inclino_ros.calibration.stand_capture import repeatability_note
 from inclino_ros.calibration.still_capture import CaptureRefused, require_still_vectors
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
@@ -63,7 +67,7 @@ from inclino_ros.cli.options import between, node_parameter
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core.attitude import inclination
 from inclino_ros.core.stand import (
-    fit_sphere, fit_stand, MIN_SEPARATION_DEG, stand_specific_force, StandFitRefused)
+    fit_sphere, fit_stand, stand_specific_force, StandFitRefused)
 from inclino_ros.core.stillness import MIN_SAMPLES, StillLimits
 from inclino_ros.io.timing import pair_nearest
 import numpy as np
@@ -87,8 +91,9 @@ def register(subparsers):
         'spread; nine are typical): a bag with the raw sensor on /imu/data_raw and the stand '
         'attitude on /stand/attitude (what inclino simulate --stand writes), or a CSV with the '
         'columns inclination_deg, toolface_deg, ax, ay, az (m/s^2, one row per sample or per '
-        'averaged position; optional temperature_c). Samples of one attitude are averaged into '
-        'one position.',
+        'averaged position; optional temperature_c). Consecutive samples of one attitude are '
+        'averaged into one position; an attitude visited again is a repeat, fitted too, and '
+        "the scatter of its visits reported as the stand's repeatability.",
         '--method sphere needs no attitudes: it fits |G| = g over readings in many '
         'orientations. It cannot see how the sensor is turned in the tool: calibrate the '
         'level bench afterwards.',
@@ -96,8 +101,8 @@ def register(subparsers):
         'stage replaces the old one and drops the level-bench stage (K holds the mounting '
         'error). The report, fit_stand.png and fit_stand.txt, goes beside the file or to '
         '--report-dir.',
-        'Refused (exit 1, the file untouched): too few or repeated positions, the tool moved '
-        'at a position (spread above --max-std-deg), or the fit does not reproduce its '
+        'Refused (exit 1, the file untouched): fewer than six distinct attitudes, the tool '
+        'moved at a position (spread above --max-std-deg), or the fit does not reproduce its '
         'positions within --max-rms-deg. Exit 2: unusable input.')
     add_common_arguments(parser)
     parser.add_argument('--method', choices=('stand', 'sphere'), default='stand',
@@ -235,21 +240,22 @@ def load_input(args):
 
 def group_positions(readings, attitude_deg):
     """
-    Return the positions: (attitudes (P, 2), mean readings (P, 3), samples, position (N,)).
+    Return the positions: (attitudes (P, k), mean readings (P, 3), samples, position (N,)).
 
-    Samples of equal attitude form one position, in the order of first
-    appearance; ``position`` is the number of each sample's position.
+    Consecutive samples of equal attitude form one position (one visit of
+    the stand: a later visit of the same attitude is a position of its own, a
+    repeat ``fit_stand`` weighs and reports); ``position`` is the number of
+    each sample's position.
     """
-    unique, first, inverse = np.unique(attitude_deg, axis=0, return_index=True,
-                                       return_inverse=True)
-    order = np.argsort(first)
-    rank = np.empty_like(order)
-    rank[order] = np.arange(order.size)
-    position = rank[inverse.reshape(-1)]
+    attitude_deg = np.asarray(attitude_deg, dtype=float)
+    changed = np.any(attitude_deg[1:] != attitude_deg[:-1], axis=1)
+    position = np.concatenate([[0], np.cumsum(changed)]).astype(int)
+    first = np.flatnonzero(np.concatenate([[True], changed]))
+    unique = attitude_deg[first]
     counts = np.bincount(position)
     means = np.stack([np.bincount(position, weights=readings[:, axis]) for axis in range(3)],
                      axis=1) / counts[:, None]
-    return unique[order], means, counts, position
+    return unique, means, counts, position
 
 
 def position_noise_deg(args, readings, times_s, position, count, what=''):
@@ -284,7 +290,6 @@ def fit_positions(args, readings, attitude_deg, times_s, lines):
     """
     attitudes, means, counts, position = group_positions(readings, attitude_deg)
     spread_deg = position_noise_deg(args, readings, times_s, position, len(means))
-    means, attitudes = merge_repeated_attitudes(means, attitudes, MIN_SEPARATION_DEG)
     truth = stand_specific_force(attitudes[:, 0], attitudes[:, 1], args.gravity_mps2)
     try:
         result = fit_stand(means, truth)
@@ -293,11 +298,13 @@ def fit_positions(args, readings, attitude_deg, times_s, lines):
     raw_deg = np.degrees(inclination(means)) - attitudes[:, 0]
     after_deg = result.inclination_residual_deg
     lines += geometry_lines(result)
-    lines.append(f'{"pos":>3} {"incl_deg":>9} {"tf_deg":>8} {"samples":>7} {"noise_deg":>10} '
-                 f'{"raw_err_deg":>11} {"residual_deg":>12}')
-    lines += [f'{k + 1:>3} {incl:9.3f} {tf:8.3f} {n:>7} {s:10.4f} {before:11.4f} {after:12.6f}'
-              for k, ((incl, tf), n, s, before, after) in enumerate(
-                  zip(attitudes, counts, spread_deg, raw_deg, after_deg))]
+    lines.append(f'{"pos":>3} {"att":>3} {"incl_deg":>9} {"tf_deg":>8} {"az_deg":>7} '
+                 f'{"samples":>7} {"noise_deg":>10} {"raw_err_deg":>11} {"residual_deg":>12}')
+    lines += [f'{k + 1:>3} {a + 1:>3} {incl:9.3f} {tf:8.3f} {az:7.2f} {n:>7} {s:10.4f} '
+              f'{before:11.4f} {after:12.6f}'
+              for k, ((incl, tf, az), a, n, s, before, after) in enumerate(
+                  zip(attitudes, result.attitude, counts, spread_deg, raw_deg, after_deg))]
+    lines.append(repeatability_note(result))
     lines.append(f'RMS inclination residual: {result.rms_inclination_deg:.6f} deg (raw '
                  f'{np.sqrt(np.mean(raw_deg ** 2)):.4f} deg); RMS residual '
                  f'{result.rms_residual_mps2:.3g} m/s^2')

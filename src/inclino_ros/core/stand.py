@@ -16,7 +16,7 @@ Vectors are REP 145 specific force in the z-up tool frame of seed 000 (see
 non-orthogonality from ``|G| = g`` alone (no rotation: see its docstring).
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 import math
 
 from inclino_ros.core.attitude import angle_between, as_vectors, inclination, specific_force
@@ -26,7 +26,7 @@ from scipy.linalg import polar
 #: Least stand positions: 12 unknowns (K and b), three equations per position,
 #: and six is the classic six-position set (each axis up and down).
 MIN_POSITIONS = 6
-#: Truth vectors closer than this [deg] are one attitude repeated.
+#: Truth vectors closer than this [deg] are one attitude visited again (a repeat).
 MIN_SEPARATION_DEG = 1.0
 #: Largest condition number (2-norm) of the stand design ``[G / |G|, 1]``, of
 #: the fitted K, and of the sphere design: noise is amplified up to this much.
@@ -87,6 +87,14 @@ class StandFit(_LinearSensor):
     inclination_residual_deg: np.ndarray  # (N,) inclination of K^-1 (A - b) minus the true one
     rms_residual_mps2: float              # over all positions and axes
     rms_inclination_deg: float
+    attitude: np.ndarray = None           # (N,) attitude number of each position (repeats share)
+    repeatability_deg: np.ndarray = None  # (P,) per attitude (``repeatability``); NaN: one visit
+    rms_repeatability_deg: float = math.nan  # over every repeated attitude; NaN: no repeat
+
+    @property
+    def attitudes(self):
+        """Return the number of distinct attitudes among the positions."""
+        return int(self.repeatability_deg.size)
 
 
 @dataclass(frozen=True)
@@ -125,12 +133,17 @@ def fit_stand(readings, truth, min_separation_deg=MIN_SEPARATION_DEG):
     Each row of K and b is an independent linear least-squares problem on the
     design ``[G / |G|, 1]``, solved together by ``numpy.linalg.lstsq``.
 
+    A position may repeat an attitude (truth vectors less than
+    ``min_separation_deg`` apart, ``attitude_numbers``): a real stand visits
+    attitudes again.  Every visit is one more equation of the least squares (an
+    attitude visited twice weighs twice; its visits average their noise), and
+    the scatter of the visits is reported (``repeatability``).
+
     Raises StandFitRefused, with the reason, for: fewer than MIN_POSITIONS
-    positions; non-finite values; truth vectors not of one gravity, or readings
-    beyond MAX_READING_RATIO times it (checked before any arithmetic); two
-    positions whose truth vectors are less than ``min_separation_deg`` apart
-    (a repeat adds no attitude); a design or a fitted K with condition number
-    above MAX_CONDITION_NUMBER; a numerical failure of the solve.
+    distinct attitudes; non-finite values; truth vectors not of one gravity,
+    or readings beyond MAX_READING_RATIO times it (checked before any
+    arithmetic); a design or a fitted K with condition number above
+    MAX_CONDITION_NUMBER; a numerical failure of the solve.
     """
     readings, truth = as_vectors(readings, 'readings'), as_vectors(truth, 'truth')
     if readings.shape != truth.shape:
@@ -147,11 +160,67 @@ def fit_stand(readings, truth, min_separation_deg=MIN_SEPARATION_DEG):
         raise StandFitRefused(f'the truth vectors are not of one gravity (median |G| '
                               f'{g_scale:.4g}): every stand attitude has |G| = g')
     _refuse_beyond(readings, g_scale)
-    _refuse_repeated_attitudes(truth, min_separation_deg)
+    attitude = attitude_numbers(truth, min_separation_deg)
+    distinct = int(attitude.max()) + 1
+    if distinct < MIN_POSITIONS:
+        raise StandFitRefused(
+            f'only {distinct} stand position(s) of distinct attitude ({count} with repeats), '
+            f'need at least {MIN_POSITIONS} (K and b have 12 unknowns; e.g. each axis up and '
+            'down)')
     try:
-        return _fit_stand(readings, truth, g_scale)
+        fit = _fit_stand(readings, truth, g_scale)
     except np.linalg.LinAlgError as err:
         raise StandFitRefused(f'numerical failure of the fit ({err})') from None
+    per_attitude, overall = repeatability(fit.apply(readings), truth, attitude)
+    return replace(fit, attitude=attitude, repeatability_deg=per_attitude,
+                   rms_repeatability_deg=overall)
+
+
+def attitude_numbers(truth, min_separation_deg=MIN_SEPARATION_DEG):
+    """
+    Return the attitude number (0, 1, ...) of each truth vector (N, 3), in order of appearance.
+
+    A vector less than ``min_separation_deg`` from an earlier one repeats its
+    attitude (shares its number): the stand visited it again.
+    """
+    truth = as_vectors(truth, 'truth')
+    near = np.degrees(angle_between(truth[:, None, :], truth[None, :, :])) < min_separation_deg
+    near |= np.eye(len(truth), dtype=bool)
+    owner = np.argmax(near, axis=1)          # the first position near each (itself at least)
+    while np.any(owner[owner] != owner):     # a chain of repeats belongs to its first visit
+        owner = owner[owner]
+    number = np.unique(owner, return_inverse=True)[1]
+    return number.reshape(-1).astype(int)
+
+
+def repeatability(corrected, truth, attitude):
+    """
+    Return (per attitude, overall) repeatability [deg] of the visits of each attitude.
+
+    The error of a visit is the difference of unit vectors ``corrected/|corrected|
+    - truth/|truth|`` (its angle from the truth, in radians, with its direction);
+    an attitude's repeatability is the sample standard deviation of its
+    visits' errors, ``sqrt(sum |e - mean e|^2 / (n - 1))``, as an angle (NaN for
+    an attitude visited once); the overall figure pools every repeated
+    attitude, ``sqrt(sum of squares / sum (n - 1))`` (NaN without a repeat).
+    Comparing errors, not readings, lets two visits of one attitude stand a
+    little apart (0.012 deg on a real stand) without that counting as scatter.
+    """
+    corrected, truth = as_vectors(corrected, 'corrected'), as_vectors(truth, 'truth')
+    attitude = np.asarray(attitude, dtype=int).reshape(-1)
+    error = (corrected / np.linalg.norm(corrected, axis=1)[:, None]
+             - truth / np.linalg.norm(truth, axis=1)[:, None])
+    counts = np.bincount(attitude).astype(float)
+    mean = np.stack([np.bincount(attitude, weights=error[:, axis]) for axis in range(3)],
+                    axis=1) / counts[:, None]
+    squares = np.bincount(attitude, weights=np.sum((error - mean[attitude]) ** 2, axis=1))
+    repeated = counts > 1
+    per_attitude = np.full(counts.size, math.nan)
+    per_attitude[repeated] = np.degrees(np.sqrt(squares[repeated] / (counts[repeated] - 1)))
+    freedom = np.sum(counts[repeated] - 1)
+    overall = (math.degrees(math.sqrt(np.sum(squares[repeated]) / freedom)) if freedom
+               else math.nan)
+    return per_attitude, overall
 
 
 def _fit_stand(readings, truth, g_scale):
@@ -283,18 +352,6 @@ def _refuse_beyond(readings, g):
         raise StandFitRefused(
             f'reading(s) {(bad + 1)[:10].tolist()} exceed {MAX_READING_RATIO:g} times g '
             f'(largest |A| {_norms(readings).max():.4g}): not a still sensor, or another unit')
-
-
-def _refuse_repeated_attitudes(truth, min_separation_deg):
-    """Raise StandFitRefused for two truth vectors less than the separation apart."""
-    apart_deg = np.degrees(angle_between(truth[:, None, :], truth[None, :, :]))
-    first, second = np.nonzero(np.triu(apart_deg < min_separation_deg, k=1))
-    if first.size:
-        i, j = first[0], second[0]
-        raise StandFitRefused(
-            f'positions {i + 1} and {j + 1} are one attitude ({apart_deg[i, j]:.3f} deg apart, '
-            f'limit {min_separation_deg:g} deg): a repeat adds no information on K; '
-            f'{first.size} such pair(s) in all')
 
 
 def _condition_number(matrix):

@@ -291,10 +291,13 @@ class StandRun:
         """
         Return the SimulatedRun of attitudes held in turn, numbered from 1.
 
-        ``sensor_temperature_c`` is one temperature or one per sample; ``entries``
+        ``attitudes_deg``: (inclination, toolface) pairs, or triples with the
+        magnetic azimuth (NaN: read at 0).  ``sensor_temperature_c`` is one
+        temperature or one per sample; ``entries``
         add to the run's truth record.
         """
-        attitudes = [(incl, tf, math.nan) for incl, tf in attitudes_deg]
+        attitudes = [(attitude[0], attitude[1], attitude[2] if len(attitude) > 2 else math.nan)
+                     for attitude in attitudes_deg]
         segment, inclination, toolface, azimuth, records = _segments(
             attitudes, counts, [kind] * len(counts), first_index=1)
         stamps_ns = _stamps(self.start_ns, segment.size, self.rate_hz)
@@ -313,15 +316,63 @@ class StandRun:
 
 
 def simulate_stand(run=StandRun(), positions_deg=STAND_POSITIONS_DEG, samples=100,
-                   temperature_c=25.0):
+                   temperature_c=25.0, visits=1, azimuth_step_deg=0.0, setting_error_deg=0.0,
+                   seating_error_deg=0.0):
     """
     Return a multi-position stand run: ``samples`` still readings per position.
 
     Positions are numbered 1..N in ``segment`` and in the truth's segments;
     the sensor is at ``temperature_c`` throughout.
+
+    A factory sequence visits its attitudes again (``visits`` > 1: the whole
+    sequence once more per visit, e.g. positions 1 and 10 one attitude).  A
+    visit is set within the stand's setting error: its inclination and
+    toolface land ``setting_error_deg`` (1 sigma each) from the nominal ones,
+    and the stand's encoders read where it landed (the run's inclination_deg
+    and toolface_deg: e.g. 0.012 deg apart).  Each visit turns the stand's
+    azimuth by ``azimuth_step_deg`` (180: the same attitude at azimuth 0 and
+    180; it changes the magnetometer's reading, not the accelerometer's).  The
+    tool is seated anew each time: its gravity direction is tilted from the
+    encoders' by ``seating_error_deg`` per component (1 sigma), which no encoder
+    sees: what the visits' scatter (the stand's repeatability) shows.  The
+    truth's ``repeats`` record the nominal, read and actual attitude of each.
     """
-    return run.sample(tuple(positions_deg), [samples] * len(positions_deg), temperature_c,
-                      'position', temperature_c=temperature_c)
+    rng = np.random.default_rng([run.seed, 1])
+    nominal = np.tile(np.asarray(positions_deg, dtype=float).reshape(-1, 2), (visits, 1))
+    visit = np.repeat(np.arange(visits), len(positions_deg))
+    setting = rng.standard_normal(nominal.shape) * setting_error_deg * (visit > 0)[:, None]
+    read_deg = nominal + setting
+    seating = rng.standard_normal(nominal.shape) * seating_error_deg
+    actual_deg = _tilted(read_deg, seating) if seating_error_deg > 0.0 else read_deg
+    azimuth_deg = np.mod(visit * azimuth_step_deg, 360.0)
+    sim = run.sample(tuple(zip(actual_deg[:, 0], actual_deg[:, 1], azimuth_deg)),
+                     [samples] * len(nominal), temperature_c, 'position',
+                     temperature_c=temperature_c,
+                     repeats=[{'visit': int(v), 'nominal_deg': n.tolist(), 'read_deg': r.tolist(),
+                               'actual_deg': a.tolist()}
+                              for v, n, r, a in zip(visit, nominal, read_deg, actual_deg)])
+    index = sim.segment - 1
+    return replace(sim, inclination_deg=read_deg[index, 0], toolface_deg=read_deg[index, 1])
+
+
+def _tilted(attitudes_deg, tilt_deg):
+    """
+    Return (inclination, toolface) [deg] of gravity directions tilted by small angles.
+
+    ``tilt_deg`` (N, 2): the turn about the two axes perpendicular to each
+    direction (the inclination's and the toolface's), a small-angle rotation
+    of the unit vector ``(sin I cos TF, sin I sin TF, cos I)``.
+    """
+    incl, tf = np.radians(attitudes_deg).T
+    unit = np.stack([np.sin(incl) * np.cos(tf), np.sin(incl) * np.sin(tf), np.cos(incl)], axis=1)
+    along_incl = np.stack([np.cos(incl) * np.cos(tf), np.cos(incl) * np.sin(tf), -np.sin(incl)],
+                          axis=1)
+    along_tf = np.stack([-np.sin(tf), np.cos(tf), np.zeros_like(tf)], axis=1)
+    tilt = np.radians(tilt_deg)
+    moved = unit + tilt[:, :1] * along_incl + tilt[:, 1:] * along_tf
+    moved /= np.linalg.norm(moved, axis=1)[:, None]
+    inclination_deg = np.degrees(np.arctan2(np.hypot(moved[:, 0], moved[:, 1]), moved[:, 2]))
+    return np.column_stack([inclination_deg, np.degrees(np.arctan2(moved[:, 1], moved[:, 0]))])
 
 
 def simulate_heating(run=StandRun(), attitudes_deg=(HEATING_ATTITUDE_DEG,), t_start_c=20.0,
