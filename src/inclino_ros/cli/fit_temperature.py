@@ -3,7 +3,7 @@
 
 Input: a CSV with the columns ``temperature_c, ax, ay, az`` (m/s^2; with
 ``--triad magnetometer``: ``bx, by, bz`` in nT) and optionally ``attitude``
-(a label per row: rows of one label share one attitude) or the reference
+(a label per row, any text: rows of one label share one attitude) or the reference
 columns ``ref_ax, ref_ay, ref_az`` (``ref_bx, ...``); or a bag with the raw
 sensor on ``/imu/data_raw`` (``--mag-topic`` /imu/mag for the magnetometer)
 and sensor_msgs/Temperature on ``/imu/temperature``, the temperature
@@ -82,7 +82,7 @@ def register(subparsers):
         'bag with the raw sensor on /imu/data_raw (--mag-topic for the magnetometer) and '
         'sensor_msgs/Temperature on /imu/temperature (what inclino simulate --heating writes), '
         'or a CSV with the columns temperature_c, ax, ay, az (bx, by, bz in nT for the '
-        'magnetometer), optional attitude (a label per row) or ref_ax, ref_ay, ref_az (the '
+        'magnetometer), optional attitude (a label per row, any text such as up or 3) or ref_ax, ref_ay, ref_az (the '
         'reading at 25 C). Without them a one-attitude reference is the mean reading within '
         '--reference-window-c of 25 C.',
         'The stage compensates to the temperature the later stages stood for; it replaces the '
@@ -284,7 +284,7 @@ def load_input(args):
     columns, reference_columns, _, _, _ = TRIADS[args.triad]
     if not is_bag(args.input):
         table = read_csv(args.input, ('temperature_c',) + columns,
-                         optional=reference_columns + ('attitude',))
+                         optional=reference_columns, text=('attitude',))
         given = [name for name in reference_columns if name in table]
         if given and len(given) != 3:
             raise CommandError(f'{args.input} has {", ".join(given)}: give all of '
@@ -292,7 +292,11 @@ def load_input(args):
         readings = np.column_stack([table[name] for name in columns])
         reference = (np.column_stack([table[name] for name in reference_columns])
                      if given else None)
-        attitude = table.get('attitude', np.zeros(readings.shape[0]))
+        labels = table.get('attitude', [''] * readings.shape[0])
+        # Any text is a label (a number, 'up', 'A3'): rows of one label share one attitude,
+        # numbered in the order they first appear.
+        first = {label: number for number, label in enumerate(dict.fromkeys(labels))}
+        attitude = np.array([first[label] for label in labels])
         return table['temperature_c'], readings, reference, attitude
     if args.triad == 'accelerometer':
         series = read_topic(args.input, args.raw_topic)

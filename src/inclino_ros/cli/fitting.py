@@ -68,10 +68,10 @@ def is_bag(path):
     return os.path.isdir(path)
 
 
-def read_csv(path, required, optional=()):
+def read_csv(path, required, optional=(), text=()):
     """Return the columns of a CSV file (``tables.read_csv``); CommandError if unusable."""
     try:
-        return tables.read_csv(path, required, optional)
+        return tables.read_csv(path, required, optional, text)
     except tables.TableError as err:
         raise CommandError(str(err)) from None
 

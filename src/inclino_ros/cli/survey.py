@@ -2,9 +2,12 @@
 ``inclino survey``: inclination, toolface and azimuth of each shot of a CSV file.
 
 Input: a CSV with ``ax, ay, az`` (m/s^2, REP 145 specific force, tool frame)
-and ``bx, by, bz`` (nT, same frame), optionally ``temperature_c``; any other
-columns are carried through.  Every row goes through ``pipeline.run`` with
-the calibration file, as in the node and ``inclino process``.
+and optionally ``bx, by, bz`` (nT, same frame) and ``temperature_c``; any
+other columns are carried through.  Every row goes through ``pipeline.run``
+with the calibration file, as in the node and ``inclino process``; without
+``--calibration`` the raw readings give the raw angles.  Without ``bx, by,
+bz`` (an accelerometer-only tool) the output has inclination and toolface,
+no azimuth columns, and says so once.
 
 Output: the input columns (one whose name the output uses is kept as
 ``input_<name>``) plus ``inclination_deg``, ``toolface_deg``, ``azimuth_deg``,
@@ -27,7 +30,7 @@ import csv
 import math
 import sys
 
-from inclino_ros.calibration.model import CalibrationFileError, load_model
+from inclino_ros.calibration.model import CalibrationFileError, CalibrationModel, load_model
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import NODE_DEFAULTS, node_option
 from inclino_ros.cli.options import add_force_argument, node_parameter
@@ -40,7 +43,8 @@ from inclino_ros.io.files import Outputs
 from inclino_ros.pipeline import MagneticSettings, run as run_pipeline, Settings
 import numpy as np
 
-INPUT_COLUMNS = ('ax', 'ay', 'az', 'bx', 'by', 'bz')
+ACCEL_COLUMNS = ('ax', 'ay', 'az')
+FIELD_COLUMNS = ('bx', 'by', 'bz')
 ANGLE_COLUMNS = ('inclination_deg', 'toolface_deg', 'azimuth_deg', 'g_total_mps2',
                  'b_total_nT', 'dip_deg')
 QC_COLUMNS = ('b_total_delta_nT', 'dip_delta_deg', 'g_total_delta_mps2', 'qc_b_total',
@@ -52,10 +56,11 @@ def register(subparsers):
     parser = subparsers.add_parser(
         'survey', help='inclination, toolface, azimuth and QC of each shot of a CSV file',
         description=__doc__.split('\n\n', 1)[1])
-    parser.add_argument('input', metavar='IN', help='CSV file (ax, ay, az, bx, by, bz)')
+    parser.add_argument('input', metavar='IN',
+                        help='CSV file (ax, ay, az; optional bx, by, bz and temperature_c)')
     parser.add_argument('-o', '--output', required=True, metavar='OUT', help='CSV file to write')
-    parser.add_argument('--calibration', required=True, metavar='FILE',
-                        help='calibration file to apply')
+    parser.add_argument('--calibration', metavar='FILE',
+                        help='calibration file to apply (default: none, the raw angles)')
     parser.add_argument('--toolface-convention', choices=('seed000', 'iscwsa_highside'),
                         default=NODE_DEFAULTS['toolface_convention'],
                         help='gravity toolface definition (default: %(default)s)')
@@ -75,11 +80,13 @@ def register(subparsers):
 
 def run(args):
     """Write the survey of IN to OUT; return the exit code."""
-    outputs = Outputs(inputs=[args.input, args.calibration], force=args.force)
+    outputs = Outputs(inputs=[args.input] + ([args.calibration] if args.calibration else []),
+                      force=args.force)
     outputs.check(args.output)
     with outputs:
         rows, written = survey(args, outputs)
-    print(f'wrote {args.output}: {rows} rows, {written} with an azimuth')
+    print(f'wrote {args.output}: {rows} rows'
+          + ('' if written is None else f', {written} with an azimuth'))
     return 0
 
 
@@ -96,7 +103,16 @@ def _numbers(rows, header, name):
 
 
 def _model(path):
-    """Return the calibration model of ``path``; CommandError if there is none or it is bad."""
+    """
+    Return the calibration model of ``path``; CommandError if there is none or it is bad.
+
+    None (no ``--calibration``): the empty model, every stage absent: the raw
+    angles (said on stderr).
+    """
+    if path is None:
+        print('inclino survey: no --calibration: raw angles (no correction applied)',
+              file=sys.stderr)
+        return CalibrationModel(3)
     try:
         return load_model(path)
     except FileNotFoundError:
@@ -106,20 +122,27 @@ def _model(path):
 
 
 def survey(args, outputs):
-    """Compute and write the survey; return (rows, rows with an azimuth)."""
+    """Compute and write the survey; return (rows, rows with an azimuth or None: no field)."""
     try:
         header, rows = tables.read_rows(args.input)
     except tables.TableError as err:
         raise CommandError(str(err)) from None
-    missing = [name for name in INPUT_COLUMNS if name not in header]
+    has_field = [name in header for name in FIELD_COLUMNS]
+    missing = [name for name in ACCEL_COLUMNS if name not in header] + (
+        [name for name, has in zip(FIELD_COLUMNS, has_field) if not has]
+        if any(has_field) else [])
     if missing:
         raise CommandError(f'{args.input} lacks the column(s) {", ".join(missing)}; it has '
                            f'{", ".join(header)}')
-    raw, field = (np.column_stack([_numbers(rows, header, n) for n in names])
-                  for names in (INPUT_COLUMNS[:3], INPUT_COLUMNS[3:]))
+    raw = np.column_stack([_numbers(rows, header, n) for n in ACCEL_COLUMNS])
+    field = (np.column_stack([_numbers(rows, header, n) for n in FIELD_COLUMNS])
+             if any(has_field) else None)
     temperature_c = (_numbers(rows, header, 'temperature_c') if 'temperature_c' in header
                      else None)
-    magnitude = np.linalg.norm(field, axis=1)
+    if field is None:
+        print(f'inclino survey: no bx, by, bz in {args.input}: inclination and toolface '
+              'only (an accelerometer-only tool: no azimuth columns)', file=sys.stderr)
+    magnitude = np.linalg.norm(field, axis=1) if field is not None else np.array([np.nan])
     if np.isfinite(magnitude).any():
         problem = field_unit_problem(np.nanmedian(magnitude))
         if problem:
@@ -151,6 +174,8 @@ def survey(args, outputs):
     result = run_pipeline(raw, model, settings, temperature_c, field, magnetic)
     columns = output_columns(result, declination_deg, total_nT is not None)
     write(outputs.path(args.output), header, rows, result.codes, columns)
+    if field is None:
+        return len(rows), None
     return len(rows), int(np.isfinite(columns['azimuth_deg'][1]).sum())
 
 
@@ -158,9 +183,12 @@ def output_columns(result, declination_deg, with_qc):
     """Return ``{name: (accepted mask, values of the accepted rows)}`` of the output."""
     accepted = result.accepted
     azimuth = result.magnetic
-    values = {'inclination_deg': result.inclination_deg, 'toolface_deg': result.toolface_deg,
-              'azimuth_deg': azimuth.defined_azimuth_deg, 'g_total_mps2': result.g_total_mps2,
-              'b_total_nT': azimuth.b_total_nT, 'dip_deg': azimuth.dip_deg}
+    values = {'inclination_deg': result.inclination_deg, 'toolface_deg': result.toolface_deg}
+    if azimuth is None:    # no magnetometer: no azimuth, no field QC
+        values['g_total_mps2'] = result.g_total_mps2
+        return {name: (accepted, value) for name, value in values.items()}
+    values.update(azimuth_deg=azimuth.defined_azimuth_deg, g_total_mps2=result.g_total_mps2,
+                  b_total_nT=azimuth.b_total_nT, dip_deg=azimuth.dip_deg)
     if declination_deg is not None:
         values['true_azimuth_deg'] = true_azimuth_deg(azimuth.defined_azimuth_deg,
                                                       declination_deg)
