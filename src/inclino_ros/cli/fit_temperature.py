@@ -83,8 +83,8 @@ def register(subparsers):
         'sensor_msgs/Temperature on /imu/temperature (what inclino simulate --heating writes), '
         'or a CSV with the columns temperature_c, ax, ay, az (bx, by, bz in nT for the '
         'magnetometer), optional attitude (a label per row, any text such as up or 3) or '
-        'ref_ax, ref_ay, ref_az (the reading at 25 C). Without them a one-attitude reference is the mean reading within '
-        '--reference-window-c of 25 C.',
+        'ref_ax, ref_ay, ref_az (the reading at 25 C). Without them a one-attitude reference '
+        'is the mean reading within --reference-window-c of 25 C.',
         'The stage compensates to the temperature the later stages stood for; it replaces the '
         'old one of its triad, every other stage is kept. The report, fit_temperature.png and '
         'fit_temperature.txt, goes beside the file or to --report-dir.',
