@@ -51,6 +51,8 @@ reference, else their mean temperature).
 from dataclasses import replace
 from functools import partial
 
+from inclino_ros.calibration.continuous_log import (
+    GYRO_COLUMNS, log_segments, segment_limits, TIME_COLUMN)
 from inclino_ros.calibration.magnetometer import fit_field_stand
 from inclino_ros.calibration.model import (
     CalibrationModel, readings_temperature_c, Stand, utc_now_iso)
@@ -67,7 +69,7 @@ from inclino_ros.cli.options import between, node_parameter
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core.attitude import inclination
 from inclino_ros.core.stand import (
-    fit_sphere, fit_stand, stand_specific_force, StandFitRefused)
+    consecutive_poses, fit_sphere, fit_stand, stand_specific_force, StandFitRefused)
 from inclino_ros.core.stillness import MIN_SAMPLES, StillLimits
 from inclino_ros.io.timing import pair_nearest
 import numpy as np
@@ -140,8 +142,12 @@ def run(args):
 def fit(args, lines, outputs):
     """Fit the stand stage of ``args.input`` into ``args.calibration``; see ``run_fit``."""
     existing = load_existing(args.calibration, args.sensor_id)
-    readings, attitude_deg, temperature_c, times_s, fields = load_input(args)
+    readings, attitude_deg, temperature_c, times_s, fields, gyro = load_input(args)
     readings, fields = tool_axes(args, readings), tool_axes(args, fields, 'magnetometer')
+    segment = None
+    if attitude_deg is None and gyro is not False:   # a continuous log: its still samples
+        segment, readings, temperature_c, times_s = still_samples(
+            args, readings, gyro, temperature_c, times_s, lines)
     check_accelerometer_readings(readings, args.gravity_mps2)
     stood_for_c = readings_temperature_c(
         existing.temperature, None if temperature_c is None else float(np.mean(temperature_c)))
@@ -165,7 +171,7 @@ def fit(args, lines, outputs):
             magnetometer = fit_magnetometer(args, existing, fields, attitude_deg, times_s,
                                             temperature_c, stage, lines)
     else:
-        stage, refusal, draw = fit_readings(args, readings, lines)
+        stage, refusal, draw = fit_readings(args, readings, lines, segment)
     stage = replace(stage, temperature_c=stood_for_c)
     lines.append('the readings stood for ' + ('an unknown temperature' if stood_for_c is None
                                               else f'{stood_for_c:.2f} C'))
@@ -194,31 +200,48 @@ def fit(args, lines, outputs):
 
 def load_input(args):
     """
-    Return (readings (N, 3), attitude_deg (N, 3) or None, temperature_c, times_s, fields).
+    Return (readings (N, 3), attitude_deg, temperature_c, times_s, fields, gyro).
 
-    The attitude (inclination, toolface, azimuth: 0 without the column) is
-    required for ``--method stand`` only; ``temperature_c`` (N,) or None;
-    ``times_s`` (N,) or None (a CSV without ``time_s``); ``fields`` (N, 3)
-    [nT] the paired magnetometer readings when the input has them, else None.
+    The attitude (N, 3: inclination, toolface, azimuth: 0 without the
+    column) is read for ``--method stand``, None for a sphere fit or a CSV
+    without attitude columns; ``temperature_c`` (N,) or None; ``times_s``
+    (N,) or None (a CSV without ``time_s``); ``fields`` (N, 3) [nT] the
+    paired magnetometer readings when the input has them, else None;
+    ``gyro``: a continuous log (a CSV with ``time_s`` and no attitude
+    columns) gives its ``wx, wy, wz`` [rad/s] (N, 3) or None without them;
+    False: not a continuous log.
     """
     need_attitude = args.method == 'stand'
     if not is_bag(args.input):
-        table = read_csv(args.input, (ATTITUDE_COLUMNS if need_attitude else ()) + AXIS_COLUMNS,
-                         optional=('temperature_c', 'time_s', AZIMUTH_COLUMN) + FIELD_COLUMNS)
+        table = read_csv(args.input, AXIS_COLUMNS,
+                         optional=ATTITUDE_COLUMNS + ('temperature_c', TIME_COLUMN,
+                                                      AZIMUTH_COLUMN) + FIELD_COLUMNS
+                         + GYRO_COLUMNS)
         readings = np.column_stack([table[name] for name in AXIS_COLUMNS])
+        has_attitude = all(name in table for name in ATTITUDE_COLUMNS)
+        if need_attitude and not has_attitude and TIME_COLUMN not in table:
+            missing = [name for name in ATTITUDE_COLUMNS if name not in table]
+            raise CommandError(f'{args.input} lacks the column(s) {", ".join(missing)} (the '
+                               f'stand attitudes), and has no {TIME_COLUMN} column (a '
+                               'continuous log, whose still segments a sphere fit takes)')
         attitude_deg = (np.column_stack(
             [table[name] for name in ATTITUDE_COLUMNS]
-            + [table.get(AZIMUTH_COLUMN, np.zeros(len(readings)))]) if need_attitude else None)
+            + [table.get(AZIMUTH_COLUMN, np.zeros(len(readings)))])
+            if need_attitude and has_attitude else None)
         fields = (np.column_stack([table[name] for name in FIELD_COLUMNS])
                   if all(name in table for name in FIELD_COLUMNS) else None)
-        return (readings, attitude_deg, table.get('temperature_c'), table.get('time_s'),
-                fields)
+        gyro = False
+        if not has_attitude and TIME_COLUMN in table:
+            gyro = (np.column_stack([table[name] for name in GYRO_COLUMNS])
+                    if all(name in table for name in GYRO_COLUMNS) else None)
+        return (readings, attitude_deg, table.get('temperature_c'), table.get(TIME_COLUMN),
+                fields, gyro)
     imu = read_topic(args.input, args.raw_topic)
     temperature_c = (sample_temperatures(imu, args.input, args.temperature_topic)[0]
                      if has_topic(args.input, args.temperature_topic) else None)
     times_s = imu.stamps_ns * 1e-9
     if not need_attitude:
-        return imu.linear_acceleration_mps2, None, temperature_c, times_s, None
+        return imu.linear_acceleration_mps2, None, temperature_c, times_s, None, False
     fields = None
     if has_topic(args.input, args.mag_topic):
         mag = read_topic(args.input, args.mag_topic)
@@ -235,7 +258,31 @@ def load_input(args):
     attitude_deg[~np.isfinite(attitude_deg[:, 2]), 2] = 0.0   # z NaN: no azimuth known
     return (imu.linear_acceleration_mps2[held], attitude_deg,
             None if temperature_c is None else temperature_c[held], times_s[held],
-            None if fields is None else fields[held])
+            None if fields is None else fields[held], False)
+
+
+def still_samples(args, readings, gyro, temperature_c, times_s, lines):
+    """
+    Return (segment (M,), readings, temperature_c, times_s) of a log's still samples only.
+
+    The still segments (``continuous_log.log_segments`` with the command's
+    still limits) are what a sphere fit takes, one reading a segment; the
+    samples between them (the tool turned by hand) are left out.
+    """
+    try:
+        found = log_segments(times_s, readings, gyro, temperature_c,
+                             segment_limits(args.max_drift_deg_per_s, args.max_sem_deg))
+    except ValueError as err:
+        raise CommandError(f'{args.input}: {err}') from None
+    lines.extend(found.lines(f'log {args.input}'))
+    lines.append("no attitude columns: a continuous log; each still segment's mean is one "
+                 'reading of a sphere fit (--method sphere)' + (
+                     ', the gyro (wx, wy, wz) checked too' if gyro is not None else
+                     ' (no gyro columns: the accelerometer alone tells still from moving)'))
+    args.method = 'sphere'
+    still = found.still
+    return (found.segment[still], readings[still],
+            None if temperature_c is None else temperature_c[still], times_s[still])
 
 
 def group_positions(readings, attitude_deg):
@@ -356,8 +403,23 @@ def fit_magnetometer(args, existing, fields, attitude_deg, times_s, temperature_
     return {'magnetometer': fit.magnetometer, 'magnetometer_alignment': fit.alignment}
 
 
-def fit_readings(args, readings, lines):
-    """Return (Stand stage, refusal reason or None, draw) of a sphere fit of every reading."""
+def fit_readings(args, readings, lines, segment=None):
+    """
+    Return (Stand stage, refusal reason or None, draw) of a sphere fit of every reading.
+
+    ``segment`` (N,): the still segment of each reading of a continuous log,
+    whose means are the readings fitted; None: every reading is one.
+    """
+    if segment is None:
+        segment = consecutive_poses(readings)
+        if segment is not None:
+            lines.append(f'the {readings.shape[0]} readings are samples of '
+                         f'{segment.max() + 1} still poses in turn (their direction jumps '
+                         "between poses): each pose's mean is one reading (a single sample's "
+                         'noise is no residual of the model)')
+    if segment is not None:
+        readings = np.array([readings[segment == k].mean(axis=0)
+                             for k in np.unique(segment[segment >= 0])]).reshape(-1, 3)
     try:
         result = fit_sphere(readings, args.gravity_mps2)
     except StandFitRefused as err:

@@ -317,6 +317,35 @@ def _fit_sphere(readings, g):
                      residual_mps2=residual, rms_residual_mps2=_rms(residual))
 
 
+def consecutive_poses(readings, min_samples=6, jump_ratio=10.0, min_jump_deg=1.0):
+    """
+    Return the pose number of each reading (N,) when they are samples of still poses, or None.
+
+    Readings in the order taken, the samples of each still pose together (a
+    log's still samples, the motion between them cut out): consecutive
+    samples of one pose turn by their noise, a change of pose by much more.
+    A pose ends where the direction jumps by more than ``jump_ratio`` times
+    the median turn between consecutive readings (and ``min_jump_deg``).
+    None when the readings are not such samples: fewer than
+    MIN_SPHERE_READINGS poses of at least ``min_samples`` samples holding at
+    least half the readings (single readings in many attitudes).  Poses of
+    fewer samples are numbered -1 (left out).
+    """
+    readings = as_vectors(readings, 'readings')
+    if readings.shape[0] < MIN_SPHERE_READINGS * min_samples:
+        return None
+    turn_deg = np.degrees(angle_between(readings[1:], readings[:-1]))
+    jump = turn_deg > max(min_jump_deg, jump_ratio * float(np.median(turn_deg)))
+    pose = np.concatenate([[0], np.cumsum(jump)])
+    counts = np.bincount(pose)
+    kept = counts >= min_samples
+    if kept.sum() < MIN_SPHERE_READINGS or counts[kept].sum() < 0.5 * readings.shape[0]:
+        return None
+    number = np.full(counts.size, -1)
+    number[kept] = np.arange(kept.sum())
+    return number[pose]
+
+
 def rotation_part(matrix):
     """
     Return the rotation nearest ``matrix`` (3x3): the orthogonal factor of its polar decomposition.

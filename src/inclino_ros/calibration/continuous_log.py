@@ -1,0 +1,75 @@
+"""
+A continuous log as the fits take it: its still segments (``core.stillness.still_segments``).
+
+A user's own recording (a CSV with a time column, the accelerometer and
+optionally a gyro and the temperature) holds the tool still in several poses
+with motion between them.  The fits use only the still segments, found by
+the still test every capture passes: a sphere fit takes each segment's mean
+as one reading, a level fit the longest segment, a temperature fit the
+still samples (each segment's direction an attitude).
+"""
+
+from dataclasses import dataclass
+
+from inclino_ros.core.stillness import SegmentLimits, still_segments, StillLimits
+import numpy as np
+
+#: Log columns: the time [s] (increasing), the gyro [rad/s] (optional).
+TIME_COLUMN = 'time_s'
+GYRO_COLUMNS = ('wx', 'wy', 'wz')
+
+
+@dataclass(frozen=True)
+class LogSegments:
+    """The still segments of a log: sample ranges, means and what each stood for."""
+
+    ranges: tuple               # ((start, end), ...) sample index ranges
+    means: np.ndarray           # (S, 3) mean reading of each segment
+    samples: np.ndarray         # (S,) samples in each
+    temperature_c: np.ndarray   # (S,) mean temperature of each, or None
+    still: np.ndarray           # (N,) bool: the sample lies in a segment
+    segment: np.ndarray         # (N,) segment number of each sample, -1 outside
+
+    def lines(self, what='log'):
+        """Return a summary of the segments as text lines."""
+        if not self.ranges:
+            return [f'no still segment found in the {what}']
+        duration = [end - start for start, end in self.ranges]
+        return [f'{len(self.ranges)} still segment(s) found in the {what}: '
+                f'{int(self.still.sum())} of {self.still.size} samples '
+                f'({min(duration)}..{max(duration)} samples a segment)']
+
+
+def segment_limits(max_drift_deg_per_s, max_sem_deg, max_rate_deg_per_s=None):
+    """Return the SegmentLimits of a command's still options (the capture's own limits)."""
+    still = StillLimits(max_drift_deg_per_s=max_drift_deg_per_s, max_sem_deg=max_sem_deg,
+                        drift_name='--max-drift-deg-per-s', sem_name='--max-sem-deg')
+    return SegmentLimits(still=still, **({} if max_rate_deg_per_s is None else
+                                         {'max_rate_deg_per_s': max_rate_deg_per_s}))
+
+
+def log_segments(times_s, readings, gyro_radps=None, temperature_c=None,
+                 limits=SegmentLimits()):
+    """
+    Return the LogSegments of a continuous log (``stillness.still_segments``).
+
+    ``times_s`` (N,) [s], increasing (ValueError otherwise: a log written
+    out of order or with repeated times is not a continuous log);
+    ``readings`` (N, 3); ``gyro_radps`` (N, 3) or None; ``temperature_c``
+    (N,) or None.
+    """
+    times_s = np.asarray(times_s, dtype=float).reshape(-1)
+    if not (np.all(np.isfinite(times_s)) and np.all(np.diff(times_s) > 0.0)):
+        raise ValueError('the time column must hold finite, increasing times (a continuous '
+                         'log in the order it was recorded)')
+    readings = np.asarray(readings, dtype=float).reshape(-1, 3)
+    ranges = still_segments(times_s, readings, gyro_radps, limits)
+    segment = np.full(times_s.size, -1)
+    for number, (start, end) in enumerate(ranges):
+        segment[start:end] = number
+    means = np.array([readings[start:end].mean(axis=0) for start, end in ranges]).reshape(-1, 3)
+    temperatures = (None if temperature_c is None else np.array(
+        [np.mean(np.asarray(temperature_c, dtype=float)[start:end]) for start, end in ranges]))
+    return LogSegments(ranges=tuple(ranges), means=means,
+                       samples=np.array([end - start for start, end in ranges], dtype=int),
+                       temperature_c=temperatures, still=segment >= 0, segment=segment)
