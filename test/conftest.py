@@ -3,11 +3,17 @@ Test-wide setup: DDS stays on this host, on a domain of this run's own; node fix
 
 The environment is set here, before any test calls ``rclpy.init``; child
 processes (the node under test) inherit it.
+
+Hypothesis runs the same examples on every run (``derandomize``) and keeps no
+database: a failure reproduces anywhere, and a run never replays an example
+an older run found (from ``.hypothesis/``) against a changed test.  To search
+afresh, ``INCLINO_HYPOTHESIS=explore`` (random examples, still no database).
 """
 
 import os
 import tempfile
 
+from hypothesis import settings
 import pytest
 import rclpy
 from ros_harness import NodeProcess, Probe
@@ -15,6 +21,11 @@ from ros_harness import NodeProcess, Probe
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 os.environ['ROS_DOMAIN_ID'] = os.environ.get('INCLINO_TEST_DOMAIN_ID', str(1 + os.getpid() % 100))
 os.environ.setdefault('ROS_LOG_DIR', tempfile.mkdtemp(prefix='inclino-ros-log-'))
+
+# Loaded before any test module builds its settings(...), which inherit these.
+settings.register_profile('reproducible', derandomize=True, database=None, print_blob=True)
+settings.register_profile('explore', derandomize=False, database=None, print_blob=True)
+settings.load_profile(os.environ.get('INCLINO_HYPOTHESIS', 'reproducible'))
 
 
 @pytest.fixture(scope='module')

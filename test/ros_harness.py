@@ -224,6 +224,31 @@ class Probe:
             self.executor.spin_once(timeout_sec=0.01)
         return self.received[topic]
 
+    def survey_for(self, publish, retry_s=2.0, timeout_s=60.0):
+        """
+        Call ``publish()`` (returns the index it stamped) until a survey of that stamp comes.
+
+        Return the first survey stamped with an index ``publish`` sent (``stamp.sec``).  A
+        sample sent while the node's reader has not yet discovered the probe's writer is
+        lost (the publisher side matches first; on a loaded machine the other side can
+        lag): after ``retry_s`` without its survey the same reading is sent again, with
+        a new stamp.  Earlier outputs are forgotten first, and those of this call stay
+        in ``received`` (a survey of an older sample arriving late is not taken).
+        """
+        self.spin_for(0.2)  # let outputs of earlier samples drain
+        self.clear()
+        sent = set()
+        end = time.monotonic() + timeout_s
+        while time.monotonic() < end:
+            sent.add(publish())
+            retry = min(end, time.monotonic() + retry_s)
+            while time.monotonic() < retry:
+                for survey in self.received['survey']:
+                    if survey.header.stamp.sec in sent:
+                        return survey
+                self.executor.spin_once(timeout_sec=0.01)
+        raise AssertionError(f'no survey of the samples stamped {sorted(sent)} in {timeout_s} s')
+
     def clear(self):
         """Forget the messages received so far."""
         for messages in self.received.values():

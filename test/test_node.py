@@ -33,12 +33,8 @@ def level_samples(seed=1, scale=1.0):
 
 def survey_of(probe, inclination_deg, toolface_deg):
     """Publish one station of the misaligned tool; return its survey vector."""
-    probe.spin_for(0.2)  # let outputs of earlier samples drain
-    probe.clear()
-    index = probe.publish(tilted_reading(inclination_deg, toolface_deg, GAMMA_DEG, BETA_DEG))
-    (survey,) = probe.wait_outputs('survey', 1)
-    assert survey.header.stamp.sec == index
-    return survey.vector
+    reading = tilted_reading(inclination_deg, toolface_deg, GAMMA_DEG, BETA_DEG)
+    return probe.survey_for(lambda: probe.publish(reading)).vector
 
 
 def angle_diff_deg(a, b):

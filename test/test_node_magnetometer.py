@@ -35,16 +35,9 @@ def capture(probe, accel, field, timeout_s=20.0):
 
 
 def azimuths_of(probe, accel, field):
-    """Publish paired readings one by one; return the node's survey.z for each."""
-    out = []
-    for a, b in zip(accel, field):
-        probe.spin_for(0.05)
-        probe.clear()
-        index = probe.publish_pair(a, b)
-        (survey,) = probe.wait_outputs('survey', 1)
-        assert survey.header.stamp.sec == index
-        out.append(survey.vector.z)
-    return np.array(out)
+    """Publish paired readings one by one; return the node's survey.z for each (``survey_for``)."""
+    return np.array([probe.survey_for(lambda: probe.publish_pair(a, b)).vector.z
+                     for a, b in zip(accel, field)])
 
 
 def magnetics_status(probe):

@@ -52,12 +52,7 @@ def node_and_probe(start_node, probe):
 
 def inclination_of(probe, reading):
     """Publish one reading; return the node's inclination for it."""
-    probe.spin_for(0.2)
-    probe.clear()
-    index = probe.publish(reading)
-    (survey,) = probe.wait_outputs('survey', 1)
-    assert survey.header.stamp.sec == index
-    return survey.vector.x
+    return probe.survey_for(lambda: probe.publish(reading)).vector.x
 
 
 def test_stand_positions_solve_into_a_correction(node_and_probe, tmp_path):

@@ -17,7 +17,7 @@ import dataclasses
 import json
 import math
 
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from inclino_ros.sim import sensor_model as sm
 import numpy as np
@@ -257,16 +257,37 @@ def test_mount_rotates_both_triads_alike(incl, tf, az, dip_deg, gamma, beta, rol
 @hyp
 @given(incl=inclination, tf=angle_360, az=angle_360, dip_deg=dip,
        extra=st.tuples(*[st.floats(min_value=-2.0, max_value=2.0)] * 3))
+@example(incl=60.0, tf=30.0, az=45.0, dip_deg=60.0, extra=(4.5e-7, 0.0, 0.0))
 def test_magnetometer_misalignment_moves_the_dip_by_at_most_its_angle(incl, tf, az, dip_deg,
                                                                       extra):
     """An extra turn of the magnetometer triad keeps |B| and moves the f-B angle <= its size."""
     tool = sm.Tool(mount=sm.Mount(gamma_deg=1.0, beta_deg=-0.5, magnetometer_deg=extra))
     field = sm.Field(dip_deg=dip_deg)
     r = sm.read(tool, incl, tf, az, field=field)
-    turn = np.degrees(np.arccos(np.clip(
-        (np.trace(tool.mount.board_from_magnetometer()) - 1.0) / 2.0, -1.0, 1.0)))
     assert np.linalg.norm(r.mag_nT[0]) == pytest.approx(field.total_nT, abs=EPS_B)
-    assert abs(angle_deg(r.accel_mps2[0], r.mag_nT[0]) - (90.0 + dip_deg)) <= turn + 1e-7
+    turn = rotation_angle_deg(tool.mount.board_from_magnetometer())
+    assert abs(angle_deg(r.accel_mps2[0], r.mag_nT[0]) - (90.0 + dip_deg)) <= turn + EPS_DEG
+
+
+def rotation_angle_deg(rotation):
+    """
+    Return the angle [deg] of a rotation matrix, exact to round-off at any size.
+
+    ``atan2(sin, cos)`` of the angle: ``cos = (trace - 1) / 2`` and ``sin`` the norm of
+    the axial vector of ``(R - R^T) / 2``.  ``arccos`` of the cosine alone rounds a turn
+    below ~1e-6 deg to 0 (1 - cos = theta^2 / 2 under the double's epsilon).
+    """
+    skew = (rotation - rotation.T) / 2.0
+    sin = np.linalg.norm([skew[2, 1], skew[0, 2], skew[1, 0]])
+    return math.degrees(math.atan2(sin, (np.trace(rotation) - 1.0) / 2.0))
+
+
+def test_rotation_angle_is_exact_for_small_and_large_turns():
+    """The angle of a turn about a skew axis, from 1e-9 deg to 179 deg (relative 1e-9)."""
+    axis = np.array([1.0, -2.0, 0.5])
+    for angle_deg_ in (1e-9, 4.5e-7, 1e-3, 1.0, 90.0, 179.0):
+        turned = axangle2mat(axis, math.radians(angle_deg_))
+        assert rotation_angle_deg(turned) == pytest.approx(angle_deg_, rel=1e-9)
 
 
 def test_magnetometer_misalignment_is_seen_by_the_magnetometer_only():

@@ -125,7 +125,7 @@ def add_still_options(parser, sem_parameter, mean_of, capture):
     node_option(parser, '--max-sem-deg', sem_parameter,
                 f'largest standard error of the mean {mean_of} [deg]')
     node_option(parser, '--max-drift-deg-per-s', 'still.max_drift_deg_per_s',
-                f'{capture} whose mean drifts faster [deg/s], beyond 5 sigma of its noise, moved')
+                f'{capture} whose mean drifts faster [deg/s], significantly for its noise, moved')
 
 
 def add_sensor_argument(parser):

@@ -12,33 +12,43 @@ components; times t_i) is cut into B blocks of consecutive samples and:
   means): a slow motion hardly enters it, white noise wholly;
 * precision: the standard error of the mean, ``s / sqrt(N)`` per component;
   N_needed = N (SE / target)^2 samples reach a target;
-* drift: the least-squares slope of the angles against time,
-  ``d = sum (t_i - t) (a_i - a) / S_tt`` with standard error
-  ``s / sqrt(S_tt)``, ``S_tt = sum (t_i - t)^2``; for a still sensor
-  ``|d|^2 / SE^2`` is chi-square with k degrees of freedom;
+* drift: the weighted least-squares slope of the block means m_b against
+  the block times t_b (weights n_b), ``d = sum_b n_b (t_b - t) (m_b - a) / S``
+  with standard error ``s / sqrt(S)``, ``S = sum_b n_b (t_b - t)^2`` (a, t the
+  capture's means; with ten blocks this keeps 99 % of the information of a
+  fit through every sample);
 * unsteadiness (a knock, a step): the block means about that line,
-  ``X = sum_b n_b |m_b - a - d (t_b - t)|^2 / s^2``, chi-square with
-  ``k (B - 2)`` degrees of freedom for a still sensor (white noise: the
-  block means scatter as s / sqrt(n_b), real-sensors.md).
+  ``X = sum_b n_b |m_b - a - d (t_b - t)|^2``.
 
-A capture moves when a test exceeds SIGNIFICANCE_SIGMA (a still sensor is
-refused with probability ~1e-6 per test) AND the motion is large enough to
-matter (``StillLimits``).  Angles are in radians in, degrees in the result.
+For a still sensor with white Gaussian noise sigma the block means are
+independent of the within-block residuals, so ``s^2`` is ``sigma^2
+chi^2(nu) / nu`` with ``nu = k (N - B)``, ``|d|^2 S / sigma^2`` is chi-square
+with k degrees of freedom and ``X / sigma^2`` chi-square with ``k (B - 2)``:
+the ratios ``F_drift = |d|^2 S / (k s^2)`` and ``F_steady = X / (k (B - 2)
+s^2)`` follow Fisher's F(k, nu) and F(k (B - 2), nu) exactly, whatever N.
+(The chi-square of the former rule took s for sigma: with 16 samples, nu =
+16, a still capture was refused 3 times in 1000, ``bench/bench_stillness.py``.)
+A test refuses when its statistic's tail probability under that law is below
+FALSE_MOTION_P AND the motion is large enough to matter (``StillLimits``).
+Angles are in radians in, degrees in the result.
 """
 
 from dataclasses import dataclass
 import math
 
 import numpy as np
+from scipy.stats import f as fisher_f
 
 #: Blocks a capture is cut into (at most; at least 2 samples a block).
 BLOCKS = 10
 #: Fewest samples a still test takes: 3 blocks of 2 (a line and a residual).
 MIN_SAMPLES = 6
-#: A test statistic beyond this many standard deviations is motion, not noise:
-#: a still sensor passes the drift test with probability 1 - 3.7e-6 (k = 2,
-#: Rayleigh) or 1 - 5.7e-7 (k = 1, Gaussian), the block test likewise.
-SIGNIFICANCE_SIGMA = 5.0
+#: Tail probability under which a test statistic is motion, not noise: a still
+#: capture (white noise) is refused by each of the two tests with at most this
+#: probability, by either with at most twice it (2e-6 per capture: a suite of a
+#: thousand captures refuses a still one with probability 0.2 %), before the
+#: limits of ``StillLimits`` lower it further.  Measured in bench/bench_stillness.py.
+FALSE_MOTION_P = 1e-6
 
 
 @dataclass(frozen=True)
@@ -69,8 +79,9 @@ class Stillness:
     sem_deg: float              # standard error of the mean, one component
     drift_deg_per_s: float      # |slope|; per sample when the capture has no times
     drift_sigma: float          # |slope| / its standard error
-    scatter_sigma: float        # block test as a Gaussian z (Wilson-Hilferty)
-    scatter_ratio: float        # X / its degrees of freedom (1 for white noise)
+    drift_p: float              # tail probability of F_drift for a still sensor
+    scatter_ratio: float        # F_steady: X / (k (B - 2) s^2), about 1 for white noise
+    scatter_p: float            # tail probability of F_steady for a still sensor
     motion_deg: float           # RMS of the block means' motion beyond the noise
 
     def samples_needed(self, max_sem_deg):
@@ -110,17 +121,6 @@ def tangent_angles(vectors):
     return np.arctan2(vectors @ np.stack([e1, e2], axis=1), along[:, None])
 
 
-def chi_square_sigma(value, dof):
-    """
-    Return the Gaussian z of a chi-square ``value`` with ``dof`` degrees of freedom.
-
-    Wilson-Hilferty: ``(X / dof)^(1/3)`` is about normal with mean
-    ``1 - 2 / (9 dof)`` and variance ``2 / (9 dof)``.
-    """
-    spread = 2.0 / (9.0 * dof)
-    return ((value / dof) ** (1.0 / 3.0) - (1.0 - spread)) / math.sqrt(spread)
-
-
 def assess(angles_rad, times_s=None):
     """
     Return the Stillness of a capture (module docstring).
@@ -144,40 +144,41 @@ def assess(angles_rad, times_s=None):
     n_b = np.bincount(block).astype(float)
     means = np.stack([np.bincount(block, weights=angles[:, j]) for j in range(k)], axis=1)
     means /= n_b[:, None]
-    noise_var = np.sum((angles - means[block]) ** 2) / (k * (count - blocks))
+    noise_dof = k * (count - blocks)
+    noise_var = np.sum((angles - means[block]) ** 2) / noise_dof
     t_mean = t.mean()
-    s_tt = np.sum((t - t_mean) ** 2)
     a_mean = angles.mean(axis=0)
-    slope = (t - t_mean) @ (angles - a_mean) / s_tt
+    t_b = np.bincount(block, weights=t) / n_b - t_mean
+    s_tt = np.sum(n_b * t_b ** 2)
+    slope = (n_b * t_b) @ (means - a_mean) / s_tt
     slope_norm = float(np.linalg.norm(slope))
-    t_b = np.bincount(block, weights=t) / n_b
-    off_line = means - a_mean - np.outer(t_b - t_mean, slope)
+    off_line = means - a_mean - np.outer(t_b, slope)
     scatter = float(np.sum(n_b * np.sum(off_line ** 2, axis=1)))
     dof = k * (blocks - 2)
     noise = math.sqrt(noise_var)
     with np.errstate(divide='ignore', invalid='ignore'):
-        drift_sigma = slope_norm * math.sqrt(s_tt) / noise if noise > 0 else (
+        drift_f = slope_norm ** 2 * s_tt / (k * noise_var) if noise > 0 else (
             math.inf if slope_norm > 0 else 0.0)
-        ratio = scatter / noise_var / dof if noise > 0 else (math.inf if scatter > 0 else 1.0)
+        ratio = scatter / noise_var / dof if noise > 0 else (math.inf if scatter > 0 else 0.0)
     motion_var = np.mean(np.sum(off_line ** 2, axis=1) / k - noise_var / n_b)
     return Stillness(
         samples=count, duration_s=float(np.ptp(t)) if timed else math.nan,
         noise_deg=math.degrees(noise), sem_deg=math.degrees(noise / math.sqrt(count)),
-        drift_deg_per_s=math.degrees(slope_norm), drift_sigma=float(drift_sigma),
-        scatter_sigma=(float(chi_square_sigma(ratio * dof, dof)) if math.isfinite(ratio)
-                       else math.inf),
-        scatter_ratio=float(ratio), motion_deg=math.degrees(math.sqrt(max(motion_var, 0.0))))
+        drift_deg_per_s=math.degrees(slope_norm), drift_sigma=math.sqrt(k * drift_f),
+        drift_p=float(fisher_f.sf(drift_f, k, noise_dof)), scatter_ratio=float(ratio),
+        scatter_p=float(fisher_f.sf(ratio, dof, noise_dof)),
+        motion_deg=math.degrees(math.sqrt(max(motion_var, 0.0))))
 
 
 def motion(stillness, limits, steady=True):
     """
     Return why a capture moves, or None for a still one.
 
-    Moving: a drift beyond SIGNIFICANCE_SIGMA and faster than
-    ``limits.max_drift_deg_per_s`` (without times: one that moves the mean by
-    more than ``max_sem_deg`` over half the capture), or (``steady``) block
-    means off their trend beyond SIGNIFICANCE_SIGMA by more than
-    ``max_sem_deg`` RMS.
+    Moving: a drift significant (tail probability below FALSE_MOTION_P) and
+    faster than ``limits.max_drift_deg_per_s`` (without times: one that moves
+    the mean by more than ``max_sem_deg`` over half the capture), or
+    (``steady``) block means off their trend, significant likewise, by more
+    than ``max_sem_deg`` RMS.
     """
     s = stillness
     if math.isnan(s.duration_s):
@@ -186,10 +187,10 @@ def motion(stillness, limits, steady=True):
     else:
         drifting = s.drift_deg_per_s > limits.max_drift_deg_per_s
         rate = f'{s.drift_deg_per_s:.4f} deg/s'
-    if s.drift_sigma > SIGNIFICANCE_SIGMA and drifting:
+    if s.drift_p < FALSE_MOTION_P and drifting:
         return (f'tool is moving (drift {rate}, {s.drift_sigma:.0f} sigma of the noise; '
                 f'{limits.drift_name} {limits.max_drift_deg_per_s} deg/s)')
-    if steady and s.scatter_sigma > SIGNIFICANCE_SIGMA and s.motion_deg > limits.max_sem_deg:
+    if steady and s.scatter_p < FALSE_MOTION_P and s.motion_deg > limits.max_sem_deg:
         return (f'tool is moving (not steady: the means of its blocks scatter '
                 f'{math.sqrt(s.scatter_ratio):.1f}x the noise about their trend, '
                 f'{s.motion_deg:.4f} deg RMS)')

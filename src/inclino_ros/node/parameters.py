@@ -101,10 +101,12 @@ PARAMETERS = (
               'Depth of the sensor-data (best-effort) subscription queues on imu/data_raw and '
               'imu/mag: what waits while the node is held up (0.4 s at 5 kHz: another process '
               'on the CPU) before samples are lost.', 1, 10000),
-    Parameter('input_batch_period_s', 0.005,
-              'After a sample arrives, wait this long [s] for more and correct them as one '
-              'batch (one executor wake-up for all): the added latency, at most; 0: at once. '
-              'imu_queue_depth must hold the samples of one period and one batch.', 0.0, 0.1),
+    Parameter('input_batch_period_s', 0.0,
+              'After a sample arrives, wait this long [s] for more before correcting what is '
+              'queued as one batch (fewer, larger batches; the added latency, at most). 0: at '
+              'once; every batch is still all that waits, so batches grow by themselves when '
+              'the node is busy. imu_queue_depth must hold the samples of one period and one '
+              'batch.', 0.0, 0.1),
     Parameter('output.average_samples', 1,
               'Publish the mean of every N accepted samples (a station: the angles of the mean '
               'reading, the standard error in the covariances) instead of every sample; '
@@ -115,8 +117,9 @@ PARAMETERS = (
     Parameter('diagnostics_period_s', 1.0,
               'Period of the /diagnostics report [s].', 0.1, 60.0),
     Parameter('still.max_drift_deg_per_s', 0.02,
-              'Every capture: a drift of its mean faster than this [deg/s] and beyond 5 sigma '
-              'of its own noise is motion, and refused.', 1e-4, 10.0, read_only=False),
+              'Every capture: a drift of its mean faster than this [deg/s] and significant '
+              'against its own noise (chance below 1e-6 for a still tool) is motion, and '
+              'refused.', 1e-4, 10.0, read_only=False),
     Parameter('level_capture.samples', 500,
               'Samples a level capture collects after the service call.', 6, 1000000,
               read_only=False),

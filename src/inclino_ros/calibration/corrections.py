@@ -1,0 +1,177 @@
+"""
+The calibration model: its stages in the order they are applied to every sample.
+
+A model is an ordered set of correction stages (``stages``).  Each triad has
+its own, and both share the mount.  Raw specific force (three-axis sensors; a
+two-axis sensor has the mount stages only) goes through:
+
+1. ``temperature``: seed 001 Eqs. 5-7 with a bias drift, each axis
+   ``(A - B_T(T)) / K_T(T)``, with T clamped to the fitted range;
+2. ``stand``: seed 001 Eqs. 10-11, ``K^-1 (A - b)`` from a multi-position
+   stand (or the reference-free sphere fit); its output is the
+   accelerometer frame;
+3. ``installation`` (shared mount): seed 000 Eqs. 8-9, the level-bench
+   angles gamma, beta;
+4. ``tool_axis`` (shared mount): the same rotation found from roll groups
+   (``inclino fit-magnetometer``), measured after the installation stage.
+
+Raw magnetometer readings [nT] go through their own stages into the
+accelerometer frame, then the same mount, then seed 002's corrections:
+
+1. ``magnetometer_temperature``: the same temperature model in nT;
+2. ``magnetometer``: seed 001 Eq. 12, ``K_m^-1 (m - b_m)`` (scale,
+   non-orthogonality, hard and soft iron) from the stand or the ellipsoid;
+3. ``magnetometer_alignment``: the rotation of the magnetometer's axes into
+   the accelerometer's sensing axes (identity without the stage: the
+   magnetometer sits on the accelerometer's axes), then the rotation the
+   accelerometer's own ``stand`` correction gives those axes
+   (``Stand.rotation``), so that a new accelerometer calibration carries
+   the magnetometer along;
+4. ``installation``, ``tool_axis``: the shared mount, as above;
+5. ``magnetic``: seed 002's cross-axial correction and interference.
+"""
+
+from dataclasses import dataclass
+from functools import cached_property
+import math
+
+from inclino_ros.calibration.stages import (
+    Installation, Magnetic, Magnetometer, MagnetometerAlignment, MagnetometerTemperature, Stand,
+    Temperature, ToolAxis)
+from inclino_ros.core.installation import to_tool_frame
+import numpy as np
+
+#: Gravity [m/s^2] against which a temperature residual becomes an angle.
+STANDARD_GRAVITY_MPS2 = 9.80665
+
+#: The accelerometer's stages, in the order they are applied.
+STAGES = ('temperature', 'stand', 'installation', 'tool_axis')
+#: The stages both triads share: the mount.
+MOUNT_STAGES = ('installation', 'tool_axis')
+#: The magnetometer's stages, in the order they are applied (the mount included).
+MAGNETOMETER_STAGES = ('magnetometer_temperature', 'magnetometer',
+                       'magnetometer_alignment') + MOUNT_STAGES + ('magnetic',)
+
+
+@dataclass(frozen=True)
+class CalibrationModel:
+    """All corrections for one tool; a stage that is None is not applied."""
+
+    accelerometer_axes: int
+    installation: Installation = None
+    stand: Stand = None
+    temperature: Temperature = None
+    magnetic: Magnetic = None
+    tool_axis: ToolAxis = None
+    magnetometer: Magnetometer = None
+    magnetometer_alignment: MagnetometerAlignment = None
+    magnetometer_temperature: MagnetometerTemperature = None
+    sensor_id: str = None     # the sensor this calibration belongs to; None: not named
+
+    @property
+    def stages(self):
+        """Return the names of the accelerometer stages present, in their order."""
+        return tuple(name for name in STAGES if getattr(self, name) is not None)
+
+    @property
+    def magnetometer_stages(self):
+        """Return the names of the magnetometer stages present (the mount included), in order."""
+        return tuple(name for name in MAGNETOMETER_STAGES if getattr(self, name) is not None)
+
+    @cached_property
+    def magnetometer_rotation(self):
+        """
+        Return the rotation taking the magnetometer's corrected axes into the accelerometer frame.
+
+        ``Stand.rotation`` (the turn of the accelerometer's own correction,
+        identity without a stand stage) after the alignment's R (identity
+        without one): the magnetometer follows the accelerometer's axes.
+        """
+        rotation = np.eye(3) if self.stand is None else self.stand.rotation
+        if self.magnetometer_alignment is not None:
+            rotation = rotation @ self.magnetometer_alignment.matrix
+        return rotation
+
+    @property
+    def calibrated(self):
+        """Whether any accelerometer correction stage is present."""
+        return bool(self.stages)
+
+    def apply(self, f, temperature_c=None, before=None):
+        """
+        Return corrected specific force for raw ``f`` of shape (N, 3).
+
+        Stages run in the order of STAGES; ``before`` names a stage to stop
+        at (e.g. ``before='installation'`` gives the input of a level capture).
+        """
+        f = np.asarray(f, dtype=float)
+        for name in STAGES:
+            if name == before:
+                break
+            stage = getattr(self, name)
+            if stage is not None:
+                f = stage.apply(f, temperature_c)
+        return f
+
+    def apply_magnetic(self, b_nT, temperature_c=None, before=None):
+        """
+        Return corrected magnetometer readings (N, 3) [nT, tool frame].
+
+        Stages run in the order of MAGNETOMETER_STAGES, the temperature stage
+        at ``temperature_c`` (None: its reference); ``before`` names one to
+        stop at (``before='magnetic'``: the input of seed 002's fits).  The
+        alignment's rotation is applied with the accelerometer's
+        (``magnetometer_rotation``) even without an alignment stage.
+        """
+        b_nT = np.asarray(b_nT, dtype=float)
+        for name in MAGNETOMETER_STAGES:
+            if name == before:
+                break
+            if name == 'magnetometer_alignment':
+                if self.magnetometer_alignment is not None or self.stand is not None:
+                    b_nT = to_tool_frame(b_nT, self.magnetometer_rotation)
+                continue
+            stage = getattr(self, name)
+            if stage is None:
+                continue
+            if name == 'magnetometer_temperature':
+                b_nT = stage.apply(b_nT.reshape(-1, 3), temperature_c).reshape(b_nT.shape)
+            else:
+                b_nT = stage.apply(b_nT)
+        return b_nT
+
+    @cached_property
+    def linear_map(self):
+        """
+        Return the 3x3 matrix the stand and mount stages apply (C^-1 K^-1), built once.
+
+        What turns the sensor's noise into the corrected reading's (the
+        temperature stage's scale, within a few percent of 1, is left out).
+        """
+        matrix = np.eye(3)
+        if self.stand is not None:
+            matrix = np.linalg.inv(self.stand.arrays[0]) @ matrix
+        for stage in (self.installation, self.tool_axis):
+            if stage is not None:
+                matrix = stage.inverse_matrix @ matrix
+        return matrix
+
+    @property
+    def tilt_std_rad(self):
+        """
+        Return the 1 sigma of the corrected tilt from the calibration itself [rad].
+
+        The stages' own uncertainties, independent, added in quadrature: the
+        installation capture's standard error, the stand fit's inclination
+        residual, the temperature fit's residual as an angle against g.
+        """
+        variance = sum(stage.tilt_std_rad ** 2 for stage in (self.installation, self.stand)
+                       if stage is not None)
+        if self.temperature is not None:
+            variance += self.temperature.residual_angle_rad(STANDARD_GRAVITY_MPS2) ** 2
+        return math.sqrt(variance)
+
+    def to_dict(self):
+        """Return the JSON-ready document of this model (``schema.model_to_dict``)."""
+        from inclino_ros.calibration.schema import model_to_dict
+        return model_to_dict(self)

@@ -1,0 +1,237 @@
+"""
+The calibration document: the model as JSON and the one validated way back.
+
+``model_to_dict`` writes the current version (``migrations.SCHEMA_VERSION``);
+``model_from_dict`` reads every readable version (older sections upgraded by
+``migrations``), checking each section's structure here and what each stage
+can physically be in ``plausibility``; a defect raises ValueError (or
+KeyError, TypeError) with the reason, never a silent zero correction.
+"""
+
+from dataclasses import asdict, fields
+from datetime import datetime
+from functools import partial
+import math
+
+from inclino_ros.calibration import plausibility
+from inclino_ros.calibration.corrections import CalibrationModel
+from inclino_ros.calibration.migrations import (
+    READABLE_VERSIONS, SCHEMA_VERSION, SECTIONS, upgraded)
+from inclino_ros.calibration.stages import (
+    Installation, Magnetic, Magnetometer, MagnetometerAlignment, MagnetometerTemperature, Stand,
+    Temperature, ToolAxis)
+import numpy as np
+
+FORMAT = 'inclino_ros.calibration'
+
+
+def model_to_dict(model):
+    """Return the JSON-ready document of ``model``."""
+    doc = {'format': FORMAT, 'schema_version': SCHEMA_VERSION,
+           'accelerometer_axes': model.accelerometer_axes, 'sensor_id': model.sensor_id}
+    for name in SECTIONS[SCHEMA_VERSION]:
+        stage = getattr(model, name)
+        if stage is not None:
+            doc[name] = asdict(stage)
+    return doc
+
+
+def is_int(value):
+    """Return whether ``value`` is a JSON integer (not a bool, not a float)."""
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def model_from_dict(doc):
+    """Return the model of a parsed document; ValueError/KeyError if invalid."""
+    if not isinstance(doc, dict) or doc.get('format') != FORMAT:
+        raise ValueError(f'not an {FORMAT} document')
+    version = doc.get('schema_version')
+    if not is_int(version) or version not in READABLE_VERSIONS:
+        raise ValueError(f'schema_version {version!r} is not one of {READABLE_VERSIONS}')
+    axes = doc['accelerometer_axes']
+    if not is_int(axes) or axes not in (2, 3):
+        raise ValueError(f'accelerometer_axes {axes!r} is not 2 or 3')
+    stages = SECTIONS[version]
+    top = {'format', 'schema_version', 'accelerometer_axes'} | (
+        {'sensor_id'} if version >= 3 else set())
+    unknown = set(doc) - top - set(stages)
+    if unknown:
+        raise ValueError(f'unknown sections {sorted(unknown)} in a version {version} file')
+    sensor_id = doc.get('sensor_id') if version >= 3 else None
+    if sensor_id is not None and not isinstance(sensor_id, str):
+        raise ValueError(f'sensor_id {sensor_id!r} is not a string')
+    sections = {name: upgraded(doc[name], name, version)
+                for name in stages if doc.get(name) is not None}
+    model = CalibrationModel(accelerometer_axes=axes, sensor_id=sensor_id, **{
+        name: stage_from_dict(name, section) for name, section in sections.items()})
+    if axes == 2 and (model.stand or model.temperature):
+        raise ValueError('stand and temperature stages need a three-axis accelerometer')
+    return model
+
+
+def stage_from_dict(name, section):
+    """
+    Return the validated stage ``name`` from its file section; ValueError (the reason) if not.
+
+    ``STAGE_FIELDS`` drives it: the section must hold exactly its dataclass's
+    fields, each field is read by its reader, then the checks across fields
+    and the stage's ``plausibility`` check run.
+    """
+    kind, readers, checks, plausible = STAGE_FIELDS[name]
+    expected = {f.name for f in fields(kind)}
+    if not isinstance(section, dict) or set(section) != expected:
+        got = sorted(section) if isinstance(section, dict) else section
+        raise ValueError(f'{name} needs exactly the fields {sorted(expected)}, got {got}')
+    values = {key: read(section, name, key) for key, read in readers.items()}
+    for check in checks:
+        check(values, name)
+    stage = kind(**values)
+    plausible(stage)
+    return stage
+
+
+def _finite(section, name, key, shape=()):
+    """Return ``section[key]`` as a finite float array of ``shape``; ValueError if not."""
+    value = section[key]
+    array = np.asarray(value, dtype=object)
+    if array.shape != shape or any(
+            isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v)
+            for v in array.flat):
+        what = 'a finite number' if shape == () else f'finite numbers of shape {shape}'
+        raise ValueError(f'{name}.{key} = {value!r} is not {what}')
+    return np.asarray(value, dtype=float)
+
+
+def _number(section, name, key):
+    """Read a finite number, as written."""
+    _finite(section, name, key)
+    return section[key]
+
+
+def _array(*shape):
+    """Return the reader of finite numbers of ``shape``, as nested tuples of floats."""
+    def read(section, name, key):
+        value = _finite(section, name, key, shape)
+        return tuple(map(tuple, value.tolist())) if len(shape) == 2 else tuple(value.tolist())
+    return read
+
+
+def _optional(read):
+    """Return ``read`` letting None through."""
+    def read_optional(section, name, key):
+        return None if section[key] is None else read(section, name, key)
+    return read_optional
+
+
+def _count(section, name, key):
+    """Read a positive integer."""
+    if not is_int(section[key]) or section[key] < 1:
+        raise ValueError(f'{name}.{key} = {section[key]!r} is not a positive integer')
+    return section[key]
+
+
+def _time(section, name, key):
+    """Read an ISO 8601 time with a zone."""
+    try:
+        moment = datetime.fromisoformat(section[key])
+    except (TypeError, ValueError):
+        raise ValueError(f'{name}.{key} = {section[key]!r} is not an ISO 8601 time') from None
+    if moment.tzinfo is None:
+        raise ValueError(f'{name}.{key} has no time zone')
+    return section[key]
+
+
+def _choice(*options):
+    """Return the reader of one of ``options``."""
+    def read(section, name, key):
+        if section[key] not in options:
+            raise ValueError(f'{name}.{key} = {section[key]!r} is not '
+                             + ', '.join(options[:-1]) + f' or {options[-1]}')
+        return section[key]
+    return read
+
+
+def _temperature(section, name, key):
+    """Read the temperature [deg C] a stage's readings stood for: None or a sensor's."""
+    if section[key] is not None:
+        plausibility.check_temperatures([float(_finite(section, name, key))], f'{name}.{key}')
+    return section[key]
+
+
+def _kept(section, name, key):
+    """Read a field the checks across fields look at (or none does), as written."""
+    return section[key]
+
+
+def _rows(section, name, key):
+    """Read 3 rows of polynomial coefficients a0..an, shaped as ``coefficients``."""
+    coefficients = np.asarray(section['coefficients'], dtype=object)
+    if coefficients.ndim != 2 or coefficients.shape[0] != 3 or coefficients.shape[1] < 1:
+        raise ValueError(f'{name}.coefficients must be 3 rows of a0..an')
+    return _array(*coefficients.shape)(section, name, key)
+
+
+def _temperature_range(values, name):
+    """Raise ValueError unless the fitted range is not empty and holds the reference."""
+    t_min, t_max, t_ref = (values[key] for key in ('t_min_c', 't_max_c',
+                                                   'reference_temperature_c'))
+    if not t_min <= t_ref <= t_max or t_min == t_max:
+        raise ValueError(f'{name} range [{float(t_min)}, {float(t_max)}] C is empty or does '
+                         f'not contain the reference {float(t_ref)} C')
+
+
+def _msa(values, name):
+    """Raise ValueError unless a solved interference names its method, stations and field."""
+    if values['msa_method'] is not None:
+        _count(values, name, 'msa_stations')
+        for key in ('msa_reference_total_nT', 'msa_reference_dip_deg'):
+            _finite(values, name, key)
+
+
+def _temperature_fields(unit):
+    """Return the field readers of a temperature stage whose unit-named fields end in ``unit``."""
+    return {'coefficients': _rows, f'bias_coefficients_{unit}': _optional(_rows),
+            't_min_c': _number, 't_max_c': _number, 'reference_temperature_c': _number,
+            f'rms_residual_{unit}': _array(3), 'samples': _count, 'attitudes': _count,
+            'fitted_at': _time}
+
+
+#: Each stage's section: its dataclass, a reader per field (which validates and
+#: converts), the checks across fields, in the order they run, and what the stage can
+#: physically be (``plausibility``).
+STAGE_FIELDS = {
+    'installation': (Installation, {
+        'gamma_deg': _number, 'beta_deg': _number, 'std_deg': _number, 'g_total_mps2': _number,
+        'sample_count': _count, 'captured_at': _time, 'temperature_c': _temperature}, (),
+        plausibility.check_installation),
+    'tool_axis': (ToolAxis, {
+        'gamma_deg': _number, 'beta_deg': _number, 'axial_rms_deg': _number,
+        'roll_groups': _count, 'shots': _count, 'fitted_at': _time}, (),
+        plausibility.check_tool_axis),
+    'stand': (Stand, {
+        'scale_matrix': _array(3, 3), 'bias_mps2': _array(3), 'condition_number': _number,
+        'method': _choice('stand', 'sphere'), 'rms_inclination_deg': _optional(_number),
+        'positions': _count, 'fitted_at': _time, 'temperature_c': _temperature}, (),
+        plausibility.check_stand),
+    'magnetometer': (Magnetometer, {
+        'scale_matrix': _array(3, 3), 'bias_nT': _array(3), 'condition_number': _number,
+        'rms_residual_nT': _number, 'field_nT': _number,
+        'method': _choice('stand', 'ellipsoid'), 'positions': _count, 'fitted_at': _time}, (),
+        plausibility.check_magnetometer),
+    'magnetometer_alignment': (MagnetometerAlignment, {
+        'rotation': _array(3, 3), 'method': _choice('dip', 'stand', 'given'),
+        'dip_deg': _optional(_number), 'dip_rms_deg': _optional(_number), 'shots': _count,
+        'fitted_at': _time}, (), plausibility.check_magnetometer_alignment),
+    'temperature': (Temperature, _temperature_fields('mps2'), (_temperature_range,),
+                    partial(plausibility.check_temperature, name='temperature')),
+    'magnetometer_temperature': (
+        MagnetometerTemperature, _temperature_fields('nT'), (_temperature_range,),
+        partial(plausibility.check_temperature, name='magnetometer_temperature')),
+    'magnetic': (Magnetic, {
+        'soft_iron': _array(2, 2), 'hard_iron_nT': _array(2), 'interference_nT': _array(3),
+        'rotation_fitted_at': _optional(_time), 'msa_fitted_at': _optional(_time),
+        'msa_method': _optional(_choice('improved', 'classic', 'axial')),
+        'msa_stations': _kept, 'msa_reference_total_nT': _kept, 'msa_reference_dip_deg': _kept,
+        'interference_std_nT': _optional(_array(3)), 'rotation_temperature_c': _temperature},
+        (_msa,), plausibility.check_magnetic),
+}

@@ -1,0 +1,311 @@
+"""
+The correction stages of a calibration and their math, one dataclass each.
+
+Each stage is frozen, holds what its file section holds, and applies its
+correction to an array of readings; ``corrections.CalibrationModel`` runs
+them in order, ``schema`` reads and validates them.
+"""
+
+from dataclasses import dataclass
+from functools import cached_property
+import math
+
+from inclino_ros.core.cross_axial import apply_cross_axial
+from inclino_ros.core.installation import (
+    inverse_installation_matrix, pseudo_inclination, to_tool_frame)
+from inclino_ros.core.stand import correct_stand, rotation_part
+from inclino_ros.core.temperature import compensate_temperature, TemperatureFit
+import numpy as np
+
+
+class _SeedZeroRotation:
+    """A rotation of seed 000's form (gamma about Y, beta about X', Eq. 1) from sensor to tool."""
+
+    @property
+    def theta_deg(self):
+        """Return the false tilt of the sensor on a level bench (seed 000 Eq. 4)."""
+        return math.degrees(float(pseudo_inclination(
+            math.radians(self.gamma_deg), math.radians(self.beta_deg))))
+
+    @cached_property
+    def inverse_matrix(self):
+        """Return C^-1 of seed 000 Eq. 8 for these angles (computed once)."""
+        return inverse_installation_matrix(
+            math.radians(self.gamma_deg), math.radians(self.beta_deg))
+
+    def apply(self, f, temperature_c=None):
+        """Return ``f`` (N x 3) in the ideal tool frame (seed 000 Eq. 9)."""
+        return to_tool_frame(f, self.inverse_matrix)
+
+
+@dataclass(frozen=True)
+class Installation(_SeedZeroRotation):
+    """Seed 000 installation angles with the provenance of their capture."""
+
+    gamma_deg: float
+    beta_deg: float
+    captured_at: str
+    sample_count: int
+    std_deg: float             # per-sample noise of one axis tilt; std / sqrt(N): 1 sigma
+    g_total_mps2: float
+    temperature_c: float = None  # what the captured readings stood for; None: unknown
+
+    @property
+    def tilt_std_rad(self):
+        """Return the 1 sigma of the captured tilt: the standard error of its mean [rad]."""
+        return math.radians(self.std_deg) / math.sqrt(self.sample_count)
+
+
+@dataclass(frozen=True)
+class ToolAxis(_SeedZeroRotation):
+    """
+    The tool axis found from roll groups, as seed 000's gamma, beta (shared mount).
+
+    Shots taken with the tool axis held in one direction and the tool turned
+    about it keep the components of gravity and field along that axis
+    constant (``core.shots``): the axis, in the frame after the installation
+    stage, is the level-bench reading of a vertical tool (``u = C e_z``,
+    seed 000 Eqs. 11-14), without a level bench.
+    """
+
+    gamma_deg: float
+    beta_deg: float
+    roll_groups: int
+    shots: int
+    axial_rms_deg: float       # what the fit leaves of the within-group axial spread
+    fitted_at: str
+
+
+@dataclass(frozen=True)
+class Stand:
+    """Seed 001 scale/misalignment matrix K and bias b: ``G = K^-1 (A - b)``."""
+
+    scale_matrix: tuple        # K, 3 rows of 3, dimensionless
+    bias_mps2: tuple           # b, 3 values
+    method: str                # 'stand' (known attitudes) or 'sphere' (|G| = g only)
+    condition_number: float    # of the fit's design matrix
+    rms_inclination_deg: float  # residual at the stand positions; None for 'sphere'
+    positions: int             # positions (stand) or readings (sphere) fitted
+    fitted_at: str
+    temperature_c: float = None  # what the captured readings stood for; None: unknown
+
+    @property
+    def tilt_std_rad(self):
+        """Return the fit's own inclination residual as the stage's tilt 1 sigma [rad]."""
+        return math.radians(self.rms_inclination_deg or 0.0)
+
+    def apply(self, f, temperature_c=None):
+        """Return ``K^-1 (f - b)`` (seed 001 Eq. 11) for ``f`` of shape (N, 3)."""
+        return correct_stand(f, self.arrays[0], self.arrays[1])
+
+    @cached_property
+    def arrays(self):
+        """Return K and b as numpy arrays, built once."""
+        return np.array(self.scale_matrix), np.array(self.bias_mps2)
+
+    @cached_property
+    def rotation(self):
+        """
+        Return the rotation ``K^-1`` gives the sensing axes (``stand.rotation_part``).
+
+        The magnetometer, sitting on the accelerometer's axes, is turned by it
+        too: for a stand fit it holds the mount, for a sphere fit the turn of
+        its upper-triangular convention.
+        """
+        return rotation_part(np.linalg.inv(self.arrays[0]))
+
+
+@dataclass(frozen=True)
+class Magnetometer:
+    """
+    The magnetometer's own correction ``B = K_m^-1 (m - b_m)`` (seed 001 Eq. 12) [nT].
+
+    K_m holds the axis scales, their non-orthogonality and the soft iron,
+    b_m the bias and hard iron (and any field fixed to the tool when it was
+    fitted).  ``method``: ``stand`` (Eq. 12 against the field expected at
+    known stand attitudes) or ``ellipsoid`` (``inclino fit-magnetometer``,
+    no reference: K_m symmetric, scaled to ``field_nT``).
+    """
+
+    scale_matrix: tuple        # K_m, 3 rows of 3
+    bias_nT: tuple             # b_m
+    method: str
+    condition_number: float
+    rms_residual_nT: float     # stand: |corrected - expected|; ellipsoid: |B| - field_nT
+    field_nT: float            # the total field the scale refers to
+    positions: int             # stand positions or shots
+    fitted_at: str
+
+    @cached_property
+    def arrays(self):
+        """Return K_m and b_m as numpy arrays, built once."""
+        return np.array(self.scale_matrix), np.array(self.bias_nT)
+
+    def apply(self, b_nT):
+        """Return ``K_m^-1 (m - b_m)`` for readings (N, 3)."""
+        return correct_stand(b_nT, *self.arrays)
+
+
+@dataclass(frozen=True)
+class MagnetometerAlignment:
+    """
+    The rotation R of the magnetometer's axes into the accelerometer's sensing axes.
+
+    ``v_accelerometer = R v_magnetometer``.  ``method``: ``dip`` (from the
+    constancy of the dip, ``inclino fit-magnetometer``), ``stand`` (the turn
+    of the magnetometer's stand K_m, seed 001 Eq. 12) or ``given`` (a known
+    mounting).  ``dip_deg`` and ``dip_rms_deg``: the constant dip the fit
+    found and what it leaves (None otherwise).
+    """
+
+    rotation: tuple            # R, 3 rows of 3
+    method: str
+    dip_deg: float
+    dip_rms_deg: float
+    shots: int
+    fitted_at: str
+
+    @cached_property
+    def matrix(self):
+        """Return R as a numpy array, built once."""
+        return np.array(self.rotation)
+
+    @property
+    def angle_deg(self):
+        """Return the angle of the rotation [deg]."""
+        return math.degrees(math.acos(float(np.clip((np.trace(self.matrix) - 1.0) / 2.0,
+                                                    -1.0, 1.0))))
+
+
+class _TemperatureStage:
+    """
+    What the temperature stages of both triads do (seed 001 Eqs. 5-7 with a bias drift).
+
+    ``A = (A_T - B_T(T)) / K_T(T)`` per axis, T clamped to the fitted range;
+    readings then stand for ``reference_temperature_c``.
+    """
+
+    @cached_property
+    def fit(self):
+        """Return the TemperatureFit of this stage (built once)."""
+        bias = self._bias_coefficients
+        return TemperatureFit(
+            coefficients=np.array(self.coefficients), t_min_c=self.t_min_c,
+            t_max_c=self.t_max_c, reference_temperature_c=self.reference_temperature_c,
+            rms_residual=np.array(self._rms_residual),
+            bias_coefficients=None if bias is None else np.array(bias),
+            attitudes=self.attitudes)
+
+    def clamp(self, temperature_c):
+        """Return the temperatures clamped to the fitted range; NaN is the reference one."""
+        temperature_c = np.asarray(temperature_c, dtype=float)
+        return np.clip(np.where(np.isnan(temperature_c), self.reference_temperature_c,
+                                temperature_c), self.t_min_c, self.t_max_c)
+
+    def apply(self, f, temperature_c=None):
+        """
+        Return ``(A_T - B_T(T)) / K_T(T)`` per axis (seed 001 Eq. 6), T clamped to the range.
+
+        Without a temperature (None, or NaN for a sample), the reference
+        temperature is used (no change).
+        """
+        f = np.asarray(f, dtype=float)
+        if temperature_c is None:
+            temperature_c = self.reference_temperature_c
+        temperature_c = np.broadcast_to(self.clamp(temperature_c), f.shape[:1])
+        return compensate_temperature(f, temperature_c, self.fit)
+
+    def residual_angle_rad(self, magnitude):
+        """Return the fit's RMS residual as an angle against a vector of ``magnitude``."""
+        return float(np.sqrt(np.mean(np.square(self._rms_residual)))) / magnitude
+
+
+@dataclass(frozen=True)
+class Temperature(_TemperatureStage):
+    """Accelerometer temperature drift: K_T(T) per axis (1 at the reference) and B_T(T)."""
+
+    coefficients: tuple          # 3 rows of a0..an, T in deg C (Eq. 7)
+    t_min_c: float               # fitted range; T is clamped to it
+    t_max_c: float
+    reference_temperature_c: float
+    rms_residual_mps2: tuple     # per axis
+    samples: int
+    fitted_at: str
+    bias_coefficients_mps2: tuple = None  # 3 rows of b0..bn, 0 at the reference; None: none
+    attitudes: int = 1           # 1: scale only (seed 001); >= 2: bias and scale
+
+    @property
+    def _bias_coefficients(self):
+        return self.bias_coefficients_mps2
+
+    @property
+    def _rms_residual(self):
+        return self.rms_residual_mps2
+
+
+@dataclass(frozen=True)
+class MagnetometerTemperature(_TemperatureStage):
+    """Magnetometer temperature drift, the same model in nT (seed 001 §3.2)."""
+
+    coefficients: tuple
+    t_min_c: float
+    t_max_c: float
+    reference_temperature_c: float
+    rms_residual_nT: tuple
+    samples: int
+    fitted_at: str
+    bias_coefficients_nT: tuple = None
+    attitudes: int = 1
+
+    @property
+    def _bias_coefficients(self):
+        return self.bias_coefficients_nT
+
+    @property
+    def _rms_residual(self):
+        return self.rms_residual_nT
+
+
+@dataclass(frozen=True)
+class Magnetic:
+    """
+    Seed 002 magnetometer corrections, all in the z-up tool frame, nT.
+
+    ``B = W (m_xy - c)`` on the cross-axial axes (the per-rotation ellipse
+    fit, seed 002 §2.1), then ``B - interference`` (the multi-station
+    analysis, §2.2; solved in the ISCWSA frame and stored here turned into
+    the tool frame).
+    """
+
+    hard_iron_nT: tuple        # c, tool x and y
+    soft_iron: tuple           # W, 2 rows of 2 (identity without a rotation fit)
+    interference_nT: tuple     # MSA eps in tool axes x, y, z
+    rotation_fitted_at: str    # None until ~/capture_rotation
+    msa_method: str            # None until ~/solve_msa, else improved/classic/axial
+    msa_stations: int
+    msa_reference_total_nT: float
+    msa_reference_dip_deg: float
+    msa_fitted_at: str
+    interference_std_nT: tuple = None  # 1 sigma of the MSA interference (tool axes), None
+    rotation_temperature_c: float = None  # what the rotation's readings stood for
+
+    @property
+    def offset_nT(self):
+        """Return c as an array (``cross_axial.apply_cross_axial`` reads it)."""
+        return np.array(self.hard_iron_nT)
+
+    @property
+    def correction(self):
+        """Return W as an array (``cross_axial.apply_cross_axial`` reads it)."""
+        return np.array(self.soft_iron)
+
+    def apply(self, b_nT):
+        """Return corrected tool-frame field readings (..., 3) [nT]."""
+        return apply_cross_axial(b_nT, self) - np.asarray(self.interference_nT)
+
+
+#: A magnetic stage that changes nothing, to build the first correction on.
+NO_MAGNETIC_CORRECTION = Magnetic(
+    hard_iron_nT=(0.0, 0.0), soft_iron=((1.0, 0.0), (0.0, 1.0)),
+    interference_nT=(0.0, 0.0, 0.0), rotation_fitted_at=None, msa_method=None,
+    msa_stations=0, msa_reference_total_nT=0.0, msa_reference_dip_deg=0.0, msa_fitted_at=None)
