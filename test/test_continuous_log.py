@@ -127,3 +127,80 @@ def test_segments_lie_inside_the_holds(with_gyro):
     for start, end in found.ranges:
         assert hold[start:end].all()
         assert times[end - 1] - times[start] >= 1.9   # 4 s less two windows and a sample
+
+
+def turn_between(tool, start_deg, end_deg, samples, rng):
+    """Return readings of the tool turned from one attitude to another over ``samples``."""
+    fraction = np.arange(1, samples + 1) / (samples + 1)
+    incl = start_deg[0] + fraction * (end_deg[0] - start_deg[0])
+    tf = start_deg[1] + fraction * (end_deg[1] - start_deg[1])
+    return sm.read(tool, incl, tf, rng=rng).accel_mps2
+
+
+def test_fit_level_takes_the_longest_still_segment_of_a_log(tmp_path):
+    """
+    Set down on the level bench after being carried: gamma and beta of the mount.
+
+    Ideal triads mounted gamma 0.8, beta -1.2 deg, 0.002 m/s^2 of noise: 1 s held at 30 deg,
+    a 1 s turn, 5 s level (the longest). Its mean tilt has 0.0005 deg of noise; 0.01 deg is 20
+    sigma.  Main refused the log: 'tool is moving'.
+    """
+    rng = np.random.default_rng(3)
+    tool = make_tool('ideal', 0.8, -1.2, noise_mps2=0.002)
+    accel = np.concatenate([
+        sm.read(tool, np.full(100, 30.0), np.full(100, 40.0), rng=rng).accel_mps2,
+        turn_between(tool, (30.0, 40.0), (0.0, 40.0), 100, rng),
+        sm.read(tool, np.zeros(500), np.zeros(500), rng=rng).accel_mps2])
+    times = np.arange(accel.shape[0]) / 100.0
+    write_csv(tmp_path / 'log.csv', {'time_s': times, 'ax': accel[:, 0], 'ay': accel[:, 1],
+                                     'az': accel[:, 2]})
+    code, out, err = quiet(['fit-level', tmp_path / 'log.csv', '--calibration',
+                            tmp_path / 'cal.json'])
+    assert code == 0, err
+    assert 'the log moves: its longest still segment taken' in err
+    installation = load_model(tmp_path / 'cal.json').installation
+    assert installation.gamma_deg == pytest.approx(0.8, abs=0.01)
+    assert installation.beta_deg == pytest.approx(-1.2, abs=0.01)
+    assert installation.sample_count <= 500
+
+
+def test_fit_temperature_takes_the_still_samples_of_a_log(tmp_path):
+    """
+    A heating log turned over half way: the still samples and their two attitudes.
+
+    The MEMS tool (2e-4 g noise) heated 20 -> 100 deg C at 55/45 deg over 320 s, turned over in
+    20 s, cooled at 125/225 deg; 5 Hz (the drift moves the reading ~0.015 deg/s).  The log's
+    fit equals, within its noise, the fit of the held samples labelled by attitude (the turn
+    left out): K_T within 2e-5 and B_T within 2e-5 g over 20..100 deg C (each fit's 1 sigma
+    is ~1e-5, test_stand_cli).  Main took the turn's samples as readings of one attitude.
+    """
+    from inclino_ros.sim.bench import (
+        simulate_heating, StandRun, TURNED_OVER_HEATING_ATTITUDES_DEG)
+    tool = make_tool('mems', 0.8, -1.2, noise_mps2=2e-4 * 9.80665)
+    run = simulate_heating(StandRun(tool, seed=2), TURNED_OVER_HEATING_ATTITUDES_DEG)
+    first = run.segment == 1
+    rng = np.random.default_rng(5)
+    turn = turn_between(tool, *TURNED_OVER_HEATING_ATTITUDES_DEG, 100, rng)
+    accel = np.concatenate([run.raw_mps2[first], turn, run.raw_mps2[~first]])
+    temperature = np.concatenate([run.temperature_c[first], np.full(100, 100.0),
+                                  run.temperature_c[~first]])
+    times = np.arange(accel.shape[0]) / 5.0
+    write_csv(tmp_path / 'log.csv', {'time_s': times, 'temperature_c': temperature,
+                                     'ax': accel[:, 0], 'ay': accel[:, 1], 'az': accel[:, 2]})
+    write_csv(tmp_path / 'held.csv', {'temperature_c': run.temperature_c,
+                                      'attitude': run.segment, 'ax': run.raw_mps2[:, 0],
+                                      'ay': run.raw_mps2[:, 1], 'az': run.raw_mps2[:, 2]})
+    stages, said = {}, {}
+    for name in ('log', 'held'):
+        code, out, err = quiet(['fit-temperature', tmp_path / f'{name}.csv', '--calibration',
+                                tmp_path / f'{name}.json'])
+        assert code == 0, err
+        assert '2 attitudes heated' in out
+        stages[name], said[name] = load_model(tmp_path / f'{name}.json').temperature, err
+    assert '2 still segment(s) found in the log' in said['log']
+    grid = np.linspace(20.0, 100.0, 9)
+    for field, limit in (('coefficients', 2e-5), ('bias_coefficients_mps2', 2e-5 * 9.80665)):
+        values = {name: np.array([np.polynomial.polynomial.polyval(grid, row)
+                                  for row in getattr(stage, field)])
+                  for name, stage in stages.items()}
+        assert np.abs(values['log'] - values['held']).max() < limit, field

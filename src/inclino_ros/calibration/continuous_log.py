@@ -11,7 +11,8 @@ still samples (each segment's direction an attitude).
 
 from dataclasses import dataclass
 
-from inclino_ros.core.stillness import SegmentLimits, still_segments, StillLimits
+from inclino_ros.core.stillness import (
+    assess, MIN_SAMPLES, motion, SegmentLimits, still_segments, StillLimits, tangent_angles)
 import numpy as np
 
 #: Log columns: the time [s] (increasing), the gyro [rad/s] (optional).
@@ -73,3 +74,29 @@ def log_segments(times_s, readings, gyro_radps=None, temperature_c=None,
     return LogSegments(ranges=tuple(ranges), means=means,
                        samples=np.array([end - start for start, end in ranges], dtype=int),
                        temperature_c=temperatures, still=segment >= 0, segment=segment)
+
+
+def longest_still_part(times_s, readings, gyro_radps=None, limits=SegmentLimits()):
+    """
+    Return (index array of the samples a one-attitude capture takes, note or None).
+
+    A capture whose samples are still as a whole (``stillness.motion``) is
+    taken whole (note None).  A continuous log that moved gives its longest
+    still segment (``log_segments``), said in the note; ValueError when it
+    has none.
+    """
+    readings = np.asarray(readings, dtype=float).reshape(-1, 3)
+    everything = np.arange(readings.shape[0])
+    if readings.shape[0] >= MIN_SAMPLES and np.all(np.isfinite(readings)) and motion(
+            assess(tangent_angles(readings), times_s), limits.still) is None:
+        return everything, None
+    found = log_segments(times_s, readings, gyro_radps, limits=limits)
+    if not found.ranges:
+        raise ValueError('the log moves and has no still segment (still for at least '
+                         f'{limits.min_s:g} s)')
+    longest = int(np.argmax(found.samples))
+    start, end = found.ranges[longest]
+    return everything[start:end], (
+        f'the log moves: its longest still segment taken, samples {start + 1}..{end} '
+        f'({end - start} samples, {times_s[end - 1] - times_s[start]:.2f} s; '
+        f'{len(found.ranges)} still segment(s) in all)')

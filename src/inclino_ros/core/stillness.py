@@ -227,13 +227,15 @@ class SegmentLimits:
     windows join; the first and last window of a run are left out (the tool
     settling after the hand lets go, the hand taking it); what is left, at
     least ``min_s`` long and still as a whole (``motion``: a slow settling
-    that no window shows shows there), is a segment.
+    that no window shows shows there; not tested with ``whole`` False, for
+    a heating run whose readings drift with the temperature), is a segment.
     """
 
     window_s: float = 0.5
     min_s: float = 1.0
     max_rate_deg_per_s: float = 2.0
     still: StillLimits = StillLimits()
+    whole: bool = True
 
 
 def still_segments(times_s, vectors, gyro_radps=None, limits=SegmentLimits()):
@@ -275,8 +277,8 @@ def still_segments(times_s, vectors, gyro_radps=None, limits=SegmentLimits()):
         if after <= first:
             continue
         start, end = starts[first], ends[after - 1]
-        if times_s[end - 1] - times_s[start] >= limits.min_s and motion(
+        if times_s[end - 1] - times_s[start] >= limits.min_s and (not limits.whole or motion(
                 assess(tangent_angles(vectors[start:end]), times_s[start:end]),
-                limits.still) is None:
+                limits.still) is None):
             segments.append((int(start), int(end)))
     return segments
