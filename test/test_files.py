@@ -25,16 +25,17 @@ def dead_pid():
 
 
 def test_existing_output_refused_unless_forced(tmp_path):
-    """An existing file or folder is refused (and left as it was); force replaces it."""
+    """An existing file or bag folder is refused (and left as it was); force replaces it."""
     csv, bag = tmp_path / 'out.csv', tmp_path / 'bag'
     csv.write_text('old')
     bag.mkdir()
-    (bag / 'x').write_text('old')
+    (bag / 'metadata.yaml').write_text('old')
+    (bag / 'bag_0.mcap').write_text('old')
     for final in (csv, bag):
         with pytest.raises(OutputError, match='exists already'):
             with Outputs() as outputs:
                 outputs.path(final)
-    assert csv.read_text() == 'old' and os.listdir(bag) == ['x']
+    assert csv.read_text() == 'old' and sorted(os.listdir(bag)) == ['bag_0.mcap', 'metadata.yaml']
     with Outputs(force=True) as outputs:
         with open(outputs.path(csv), 'x') as stream:
             stream.write('new')
@@ -89,7 +90,8 @@ def test_stale_temporaries_of_killed_writes_are_removed(tmp_path):
     stale.append(tmp_path / f'.calibration.json-{dead}-4567abcd.tmp')
     assert sorted(stale_temporaries(path)) == sorted(map(str, stale))
     save_model(str(path), CalibrationModel(accelerometer_axes=3))
-    assert sorted(os.listdir(tmp_path)) == sorted(['calibration.json', live.name, other.name])
+    assert sorted(os.listdir(tmp_path)) == sorted(['calibration.json', 'calibration.json.history',
+                                                   live.name, other.name])
     save_stations(str(tmp_path / 'stations.json'), [])
     assert (tmp_path / 'stations.json').exists()
 
@@ -125,3 +127,45 @@ def test_oversized_json_is_refused(tmp_path):
     path.write_text(json.dumps({'format': 'x', 'pad': ' ' * (17 * 1024 * 1024)}))
     with pytest.raises(CalibrationFileError, match='larger than'):
         load_model(str(path))
+
+
+def test_outputs_land_together_or_none(tmp_path, monkeypatch):
+    """The second rename fails: the first output, already in place, is put back as it was."""
+    first, second = tmp_path / 'cal.json', tmp_path / 'report.txt'
+    first.write_text('old calibration')
+    rename = os.replace
+
+    def failing(source, target):
+        if str(target) == str(second):
+            raise OSError(30, 'Read-only file system')
+        return rename(source, target)
+
+    monkeypatch.setattr(os, 'replace', failing)
+    with pytest.raises(OSError, match='Read-only'):
+        with Outputs(force=True) as outputs:
+            for path, text in ((first, 'new calibration'), (second, 'report')):
+                with open(outputs.path(path), 'x') as stream:
+                    stream.write(text)
+    monkeypatch.undo()
+    assert first.read_text() == 'old calibration'
+    assert sorted(os.listdir(tmp_path)) == ['cal.json']
+
+
+@pytest.mark.parametrize('case', ['folder of the user', 'folder holding the input', 'fifo'])
+def test_force_replaces_only_what_the_project_writes(tmp_path, case):
+    """--force never replaces a folder that is no bag, one holding an input, or a FIFO."""
+    project = tmp_path / 'proj'
+    project.mkdir()
+    (project / 'notes.txt').write_text('mine')
+    source = project / 'in.csv'
+    source.write_text('gx\n1\n')
+    final = {'folder of the user': project, 'folder holding the input': project,
+             'fifo': tmp_path / 'pipe'}[case]
+    inputs = [str(source)] if case == 'folder holding the input' else []
+    if case == 'fifo':
+        os.mkfifo(final)
+    with pytest.raises(OutputError, match='holding the input|not a bag|FIFO'):
+        with Outputs(inputs=inputs, force=True) as outputs:
+            outputs.path(final)
+    assert sorted(os.listdir(project)) == ['in.csv', 'notes.txt']
+    assert (project / 'notes.txt').read_text() == 'mine'

@@ -62,7 +62,7 @@ def test_save_load_round_trip(tmp_path, model):
     doc = json.loads(path.read_text())
     assert doc['format'] == 'inclino_ros.calibration'
     assert doc['schema_version'] == SCHEMA_VERSION == 3
-    assert os.listdir(path.parent) == ['calibration.json']
+    assert sorted(os.listdir(path.parent)) == ['calibration.json', 'calibration.json.history']
 
 
 def test_save_replaces_target_atomically(tmp_path):
@@ -75,7 +75,7 @@ def test_save_replaces_target_atomically(tmp_path):
     # (open(path, 'w')) would keep the old one and expose a half-written file.
     assert os.stat(path).st_ino != inode_before
     assert load_model(str(path)) == MODEL
-    assert os.listdir(tmp_path) == ['calibration.json']
+    assert sorted(os.listdir(tmp_path)) == ['calibration.json', 'calibration.json.history']
 
 
 def _previous_file(tmp_path):
@@ -95,7 +95,7 @@ def test_invalid_model_is_not_written(tmp_path, gamma_deg):
     with pytest.raises(ValueError, match='gamma_deg'):
         save_model(str(path), broken)
     assert path.read_bytes() == before
-    assert os.listdir(tmp_path) == ['calibration.json']
+    assert sorted(os.listdir(tmp_path)) == ['calibration.json', 'calibration.json.history']
 
 
 @pytest.mark.parametrize('target', ['replace', 'fsync'])
@@ -111,7 +111,8 @@ def test_failing_rename_or_fsync_keeps_previous_file(tmp_path, monkeypatch, targ
         save_model(str(path), CalibrationModel(accelerometer_axes=3))
     monkeypatch.undo()
     assert path.read_bytes() == before
-    assert os.listdir(tmp_path) == ['calibration.json']
+    assert os.listdir(tmp_path / 'calibration.json.history') == ['v000001.json']  # none added
+    assert sorted(os.listdir(tmp_path)) == ['calibration.json', 'calibration.json.history']
 
 
 def test_unwritable_folder_keeps_previous_file(tmp_path, monkeypatch):
@@ -140,7 +141,7 @@ def test_read_only_folder_keeps_previous_file(tmp_path):
     finally:
         os.chmod(tmp_path, 0o755)
     assert path.read_bytes() == before
-    assert os.listdir(tmp_path) == ['calibration.json']
+    assert sorted(os.listdir(tmp_path)) == ['calibration.json', 'calibration.json.history']
 
 
 def test_missing_file_is_file_not_found(tmp_path):

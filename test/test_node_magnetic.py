@@ -221,3 +221,65 @@ def test_a_left_handed_axes_map_stops_the_node(start_node):
     node = start_node(magnetometer_axes_map='+X+Y-Z')
     assert node.process.wait(timeout=30) != 0
     assert 'magnetometer_axes_map' in node.log() and 'left-handed' in node.log()
+
+
+def test_rotation_gives_one_calibration_through_the_service_and_the_command(
+        start_node, probe, tmp_path):
+    """
+    One rotation, two doors: ~/capture_rotation and inclino fit-rotation write the same stage.
+
+    Both start from one file holding an MSA interference: both reset it (it was
+    solved on the old cross-axial correction) and record the temperature the
+    readings stood for.  The field is noise-free, so that any window of the
+    turn the node happens to capture gives the same ellipse (to rounding).
+    """
+    import shutil
+
+    from inclino_ros.calibration.model import (
+        CalibrationModel, NO_MAGNETIC_CORRECTION, save_model)
+    from test_msa_cli import quiet
+
+    start = CalibrationModel(3, magnetic=NO_MAGNETIC_CORRECTION.__class__(**{
+        **NO_MAGNETIC_CORRECTION.__dict__, 'interference_nT': (10.0, -5.0, -2000.0),
+        'interference_std_nT': (1.0, 1.0, 5.0), 'msa_method': 'classic', 'msa_stations': 20,
+        'msa_reference_total_nT': REFERENCE_TOTAL_NT,
+        'msa_reference_dip_deg': REFERENCE_DIP_DEG,
+        'msa_fitted_at': '2026-01-01T00:00:00+00:00'}))
+    save_model(tmp_path / 'node.json', start)
+    shutil.copy(tmp_path / 'node.json', tmp_path / 'command.json')
+    start_node(calibration_file=str(tmp_path / 'node.json'), **{'rotation.duration_s': 3.0})
+    probe.wait_for_node()
+    rng = np.random.default_rng(5)
+    temperature_c, fields = 31.5, []
+
+    def turn(i):
+        field = readings(60.0, 100.0, (i * 3.0) % 360.0)[1]
+        fields.append(field)
+        probe.publish_temperature(temperature_c)
+        probe.mag_publisher.publish(mag_message(probe.sent, field))
+        return readings(60.0, 100.0, (i * 3.0) % 360.0, rng)[0]
+
+    probe.publish_temperature(temperature_c)
+    probe.spin_for(0.3)
+    answer = probe.calibrate(turn, service='capture_rotation')
+    assert answer.success, answer.message
+    rows = np.column_stack([np.array(fields), np.full(len(fields), temperature_c)])
+    np.savetxt(tmp_path / 'rotation.csv', rows, delimiter=',', header='bx,by,bz,temperature_c',
+               comments='')
+    code, _, err = quiet(['fit-rotation', tmp_path / 'rotation.csv', '--calibration',
+                          tmp_path / 'command.json', '--report-dir', tmp_path / 'report'])
+    assert code == 0, err
+
+    node_doc = json.loads((tmp_path / 'node.json').read_text())
+    command_doc = json.loads((tmp_path / 'command.json').read_text())
+    node_magnetic, command_magnetic = node_doc.pop('magnetic'), command_doc.pop('magnetic')
+    assert node_doc == command_doc
+    for name in ('hard_iron_nT', 'soft_iron'):   # noise-free: rounding only
+        np.testing.assert_allclose(node_magnetic.pop(name), command_magnetic.pop(name),
+                                   rtol=0, atol=1e-6)
+    assert node_magnetic.pop('rotation_fitted_at') is not None
+    assert command_magnetic.pop('rotation_fitted_at') is not None
+    assert node_magnetic == command_magnetic
+    assert command_magnetic['interference_nT'] == [0.0, 0.0, 0.0]
+    assert command_magnetic['msa_method'] is None
+    assert command_magnetic['rotation_temperature_c'] == pytest.approx(temperature_c)

@@ -1,5 +1,5 @@
 """
-A continuous log as the fits take it: its still segments (``core.stillness.still_segments``).
+A continuous log as the fits take it: its still segments (``core.stillness.find_still_segments``).
 
 A user's own recording (a CSV with a time column, the accelerometer and
 optionally a gyro and the temperature) holds the tool still in several poses
@@ -11,8 +11,9 @@ still samples (each segment's direction an attitude).
 
 from dataclasses import dataclass
 
+from inclino_ros.core.stand import consecutive_poses
 from inclino_ros.core.stillness import (
-    assess, MIN_SAMPLES, motion, SegmentLimits, still_segments, StillLimits, tangent_angles)
+    assess, find_still_segments, MIN_SAMPLES, motion, SegmentLimits, StillLimits, tangent_angles)
 import numpy as np
 
 #: Log columns: the time [s] (increasing), the gyro [rad/s] (optional).
@@ -52,7 +53,7 @@ def segment_limits(max_drift_deg_per_s, max_sem_deg, max_rate_deg_per_s=None):
 def log_segments(times_s, readings, gyro_radps=None, temperature_c=None,
                  limits=SegmentLimits()):
     """
-    Return the LogSegments of a continuous log (``stillness.still_segments``).
+    Return the LogSegments of a continuous log (``stillness.find_still_segments``).
 
     ``times_s`` (N,) [s], increasing (ValueError otherwise: a log written
     out of order or with repeated times is not a continuous log);
@@ -64,7 +65,7 @@ def log_segments(times_s, readings, gyro_radps=None, temperature_c=None,
         raise ValueError('the time column must hold finite, increasing times (a continuous '
                          'log in the order it was recorded)')
     readings = np.asarray(readings, dtype=float).reshape(-1, 3)
-    ranges = still_segments(times_s, readings, gyro_radps, limits)
+    ranges = find_still_segments(times_s, readings, gyro_radps, limits)
     segment = np.full(times_s.size, -1)
     for number, (start, end) in enumerate(ranges):
         segment[start:end] = number
@@ -100,3 +101,31 @@ def longest_still_part(times_s, readings, gyro_radps=None, limits=SegmentLimits(
         f'the log moves: its longest still segment taken, samples {start + 1}..{end} '
         f'({end - start} samples, {times_s[end - 1] - times_s[start]:.2f} s; '
         f'{len(found.ranges)} still segment(s) in all)')
+
+
+def sphere_readings(readings, segment=None, stood_c=None):
+    """
+    Return (readings, stood_c, note or None) a sphere fit takes: one per still pose.
+
+    ``segment`` (N,): each reading's still segment of a continuous log
+    (``log_segments``), or None: readings taken one after the other are
+    grouped by pose when they are the samples of still poses in turn
+    (``stand.consecutive_poses``; a single sample's noise is no residual of
+    the model), else each is one reading (shots).  ``stood_c`` (N,) or None:
+    the temperature each stood for, averaged likewise.  Readings of no pose
+    (-1) are left out.
+    """
+    readings = np.asarray(readings, dtype=float).reshape(-1, 3)
+    note = None
+    if segment is None:
+        segment = consecutive_poses(readings)
+        if segment is None:
+            return readings, stood_c, None
+        note = (f'the {readings.shape[0]} readings are samples of {segment.max() + 1} still '
+                "poses in turn (their direction jumps between poses): each pose's mean is one "
+                "reading (a single sample's noise is no residual of the model)")
+    poses = np.unique(segment[segment >= 0])
+    means = np.array([readings[segment == k].mean(axis=0) for k in poses]).reshape(-1, 3)
+    if stood_c is not None:
+        stood_c = np.array([np.mean(np.asarray(stood_c)[segment == k]) for k in poses])
+    return means, stood_c, note

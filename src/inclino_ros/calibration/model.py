@@ -8,7 +8,8 @@ What is applied to every sample, and its file, live in modules by concern:
   applied (see its docstring for the chain of each triad);
 - ``schema``: the JSON document and its one validated reader;
 - ``migrations``: the file's versions and how an older one is read;
-- ``store``: load, atomic save, the sensor check (``CalibrationFileError``);
+- ``store``: load, atomic save (the one door of every write, its history
+  kept: ``history``), the sensor check (``CalibrationFileError``);
 - ``provenance``: stage ages and staleness, the temperatures stages stand for.
 
 Every public name of those modules can be imported from here.
@@ -28,16 +29,17 @@ from inclino_ros.calibration.stages import (
     Installation, Magnetic, Magnetometer, MagnetometerAlignment, MagnetometerTemperature,
     NO_MAGNETIC_CORRECTION, Stand, Temperature, ToolAxis)
 from inclino_ros.calibration.store import (
-    CalibrationFileError, check_sensor, load_model, save_model)
+    CalibrationChanged, CalibrationFileError, check_sensor, load_model, model_text,
+    PYTHON_WRITER, read_model_history, save_model, UNCHECKED)
 
 __all__ = [
-    'age_seconds', 'CalibrationFileError', 'CalibrationModel', 'check_sensor',
-    'common_stage_temperature', 'FORMAT', 'Installation', 'is_int', 'load_model', 'Magnetic',
-    'Magnetometer', 'MAGNETOMETER_STAGES', 'MagnetometerAlignment', 'MagnetometerTemperature',
-    'model_from_dict', 'model_to_dict', 'MOUNT_STAGES', 'NO_MAGNETIC_CORRECTION',
-    'READABLE_VERSIONS', 'readings_temperature_c', 'save_model', 'SCHEMA_VERSION', 'SECTIONS',
-    'stage_ages_s', 'STAGE_FIELDS', 'stage_from_dict', 'stage_temperatures', 'STAGE_TIMES',
-    'STAGES', 'stale_stages', 'Stand', 'STANDARD_GRAVITY_MPS2', 'Temperature',
-    'temperature_conflict', 'TEMPERATURE_FIELDS', 'ToolAxis', 'upgraded', 'utc_now_iso',
-    'VERSION_3_FIELDS',
+    'age_seconds', 'CalibrationChanged', 'CalibrationFileError', 'CalibrationModel',
+    'check_sensor', 'common_stage_temperature', 'FORMAT', 'Installation', 'is_int', 'load_model',
+    'Magnetic', 'Magnetometer', 'MAGNETOMETER_STAGES', 'MagnetometerAlignment',
+    'MagnetometerTemperature', 'model_from_dict', 'model_text', 'model_to_dict', 'MOUNT_STAGES',
+    'NO_MAGNETIC_CORRECTION', 'PYTHON_WRITER', 'READABLE_VERSIONS', 'read_model_history',
+    'readings_temperature_c', 'save_model', 'SCHEMA_VERSION', 'SECTIONS', 'stage_ages_s',
+    'STAGE_FIELDS', 'stage_from_dict', 'stage_temperatures', 'STAGE_TIMES', 'STAGES',
+    'stale_stages', 'Stand', 'STANDARD_GRAVITY_MPS2', 'Temperature', 'temperature_conflict',
+    'TEMPERATURE_FIELDS', 'ToolAxis', 'UNCHECKED', 'upgraded', 'utc_now_iso', 'VERSION_3_FIELDS',
 ]

@@ -15,14 +15,13 @@ from dataclasses import dataclass
 import math
 
 from inclino_ros.calibration.magnetometer import fit_field_stand
-from inclino_ros.calibration.model import Stand, utc_now_iso
 from inclino_ros.calibration.plausibility import check_accelerometer_readings
+from inclino_ros.calibration.stand_fit import repeatability_note, solve_stand
 from inclino_ros.calibration.still_capture import (
     CaptureRefused, require_still, require_still_vectors)
 from inclino_ros.core.attitude import angle_between
 from inclino_ros.core.magnetics import expected_field_tool_nT
-from inclino_ros.core.stand import (
-    fit_stand, MIN_SEPARATION_DEG, stand_specific_force, StandFitRefused)
+from inclino_ros.core.stand import MIN_SEPARATION_DEG, stand_specific_force, StandFitRefused
 from inclino_ros.core.stillness import tangent_angles
 import numpy as np
 
@@ -111,48 +110,22 @@ def solve_positions(positions, gravity_mps2, max_rms_deg, reference=None,
     """
     Return (Stand, FieldStandFit or None, note, repeats) of ``positions``; StandFitRefused.
 
-    Refused as ``stand.fit_stand`` refuses (too few distinct attitudes, an
-    ill-posed set; repeats are weighed and their repeatability reported), and
-    when the fit's inclination residual RMS over its own
-    positions exceeds ``max_rms_deg`` (inconsistent captures: a position
-    mislabelled, or the tool not seated the same way).  Positions that differ
-    only in azimuth are one attitude for the accelerometer (repeats).  With
+    The stand fit of ``stand_fit.solve_stand`` (its refusals raised, the
+    limits named as the node's parameters; repeats weighed, ``repeats`` says
+    their repeatability: ``stand_fit.repeatability_note``); with
     ``reference`` (total nT, dip deg) and a field at every position the
     magnetometer is fitted too (``magnetometer.fit_field_stand``, refused
     beyond ``max_field_rms_deg``); the note says why it was not otherwise.
-    Refused too when the positions stand for temperatures more than
-    ``max_temperature_difference_c`` apart (a drift between them the stand
-    would take for K); the stage records their mean temperature (None when
-    any is unknown).
     """
-    temperatures_c = [p.temperature_c for p in positions]
-    known = None not in temperatures_c and bool(temperatures_c)
-    if known and max_temperature_difference_c is not None \
-            and np.ptp(temperatures_c) > max_temperature_difference_c:
-        raise StandFitRefused(
-            f'the positions were captured {np.ptp(temperatures_c):.1f} C apart '
-            f'({min(temperatures_c):.1f} .. {max(temperatures_c):.1f} C, more than '
-            f'{max_temperature_difference_c:g} C): without a temperature stage the drift is '
-            'taken for K; fit the temperature stage first or capture at one temperature')
     readings = np.array([p.reading_mps2 for p in positions]).reshape(-1, 3)
     attitudes = np.array([(p.inclination_deg, p.toolface_deg, p.azimuth_deg)
                           for p in positions]).reshape(-1, 3)
-    truth = stand_specific_force(attitudes[:, 0], attitudes[:, 1], gravity_mps2)
-    fit = fit_stand(readings, np.reshape(truth, (-1, 3)))
-    if fit.rms_inclination_deg > max_rms_deg:
-        worst = int(np.argmax(np.abs(fit.inclination_residual_deg)))
-        raise StandFitRefused(
-            f'the fit does not reproduce its positions: residual RMS '
-            f'{fit.rms_inclination_deg:.4f} deg exceeds stand.max_rms_deg {max_rms_deg} deg '
-            f'(worst: position {worst + 1}, {fit.inclination_residual_deg[worst]:+.4f} deg)')
-    stand = Stand(
-        scale_matrix=tuple(map(tuple, fit.scale_matrix.tolist())),
-        bias_mps2=tuple(fit.bias_mps2.tolist()), method='stand',
-        condition_number=float(fit.condition_number),
-        rms_inclination_deg=float(fit.rms_inclination_deg), positions=len(readings),
-        fitted_at=utc_now_iso(),
-        temperature_c=float(np.mean(temperatures_c)) if known else None)
-    repeats = repeatability_note(fit)
+    solution = solve_stand(readings, attitudes, gravity_mps2, max_rms_deg,
+                           [p.temperature_c for p in positions], max_temperature_difference_c)
+    if solution.refusal:
+        raise StandFitRefused(solution.refusal)
+    stand = solution.stage
+    repeats = repeatability_note(solution.fit)
     without = [number for number, p in enumerate(positions, start=1) if p.field_nT is None]
     if reference is None:
         return stand, None, 'magnetometer not fitted: no reference field', repeats
@@ -162,13 +135,3 @@ def solve_positions(positions, gravity_mps2, max_rms_deg, reference=None,
     fields = np.array([p.field_nT for p in positions])
     return (stand, fit_field_stand(fields, attitudes, *reference, stand, max_field_rms_deg),
             None, repeats)
-
-
-def repeatability_note(fit):
-    """Return what a stand fit's repeats showed, in words (``stand.repeatability``)."""
-    repeated = np.flatnonzero(np.isfinite(fit.repeatability_deg))
-    if not repeated.size:
-        return f'{fit.attitudes} distinct attitudes, none repeated'
-    return (f'{fit.attitudes} distinct attitudes, {repeated.size} repeated: repeatability '
-            f'{fit.rms_repeatability_deg:.4f} deg RMS (per repeated attitude: '
-            + ', '.join(f'{a + 1}: {fit.repeatability_deg[a]:.4f}' for a in repeated) + ')')

@@ -3,13 +3,26 @@ The calibration file: read and validated, written atomically, matched to its sen
 
 The file is JSON (``schema``), written atomically (temporary file, fsync,
 rename, ``io.files``) and validated on load and before every write; any
-defect raises ``CalibrationFileError`` naming the file.
+defect raises ``CalibrationFileError`` naming the file (a FIFO or a device
+too, never waited on).  ``save_model`` is the one door of every write (node
+services, ``inclino fit-*``, ``msa``, ``calibration restore``): it keeps
+every version in the file's history (``calibration.history``) and refuses to
+write over a file that changed since the writer read it
+(``CalibrationChanged``).
 """
 
+import json
 import os
 
+from inclino_ros.calibration import history
+from inclino_ros.calibration.provenance import utc_now_iso
 from inclino_ros.calibration.schema import model_from_dict
-from inclino_ros.io.files import read_json, write_json
+from inclino_ros.io.files import loads_strict, Outputs, read_json, write_text
+
+#: ``save_model``'s ``based_on`` when the file on disk is not compared.
+UNCHECKED = object()
+#: Writer recorded for a version written from Python (scripts, tests) rather than a command.
+PYTHON_WRITER = 'python (inclino_ros.calibration.model.save_model)'
 
 
 class CalibrationFileError(Exception):
@@ -21,28 +34,87 @@ class CalibrationFileError(Exception):
         self.reason = reason
 
 
-def save_model(path, model):
-    """Write ``model`` to ``path`` atomically: a reader sees old or new, whole."""
+class CalibrationChanged(Exception):
+    """The file changed on disk since its writer read it: nothing written, the file kept."""
+
+    def __init__(self, path):
+        """Name the file that changed."""
+        super().__init__(
+            f'{path} changed on disk since it was read (another writer, e.g. an inclino fit-* '
+            'command, replaced it): not written over, so the stages it holds are kept; read it '
+            'again (restart the node) and redo this calibration on top of it')
+
+
+def model_text(model):
+    """Return the text of the calibration file of ``model``."""
+    return json.dumps(model.to_dict(), indent=2) + '\n'
+
+
+def save_model(path, model, writer=PYTHON_WRITER, outputs=None, based_on=UNCHECKED):
+    """
+    Write ``model`` to ``path`` atomically, its new version kept in the history; return its digest.
+
+    The one door of every calibration write: a reader sees old or new,
+    whole; the file's history (``calibration.history``) receives the new
+    version, and the one on disk first if it lacks it, in the same commit,
+    as written by ``writer`` (e.g. ``'node /inclinometer/calibrate_level'``).
+    With ``outputs`` (an open ``io.files.Outputs``) the file is one output of
+    that command, renamed into place with its others.  ``based_on``: the
+    digest of the file the writer read (``history.file_digest``; None: there
+    was none); when the file on disk is another one at the commit,
+    CalibrationChanged and nothing is written.  ValueError for a model
+    load_model would refuse.
+    """
+    path = os.path.abspath(os.path.expanduser(path))
     model_from_dict(model.to_dict())  # never write what load_model would refuse
-    write_json(os.path.expanduser(path), model.to_dict())
+    if outputs is None:
+        with Outputs(force=True) as own:
+            return save_model(path, model, writer, own, based_on)
+    text = model_text(model)
+
+    def unchanged():
+        if based_on is not UNCHECKED and history.file_digest(path) != based_on:
+            raise CalibrationChanged(path)
+
+    unchanged()
+    outputs.require(unchanged)
+    history.record(path, text, writer, model.sensor_id, utc_now_iso(), outputs)
+    write_text(path, text, outputs=outputs, update=True)
+    return history.digest(text)
 
 
-def load_model(path):
+def load_model(path, with_digest=False):
     """
     Read and validate a calibration file.
 
     Raises FileNotFoundError when there is no file, CalibrationFileError when
-    there is one that cannot be trusted.
+    there is one that cannot be trusted (a FIFO or a device too, never
+    waited on).  ``with_digest``: return (model, the digest of the bytes it
+    was read from), the ``based_on`` of a later ``save_model``.
     """
     path = os.path.expanduser(path)
     try:
-        doc = read_json(path)
+        doc, sha256 = read_json(path, with_digest=True)
     except ValueError as err:
         raise CalibrationFileError(path, str(err)) from None
     try:
-        return model_from_dict(doc)
+        model = model_from_dict(doc)
     except (KeyError, TypeError, ValueError, OverflowError) as err:
         raise CalibrationFileError(path, str(err)) from None
+    return (model, sha256) if with_digest else model
+
+
+def _check_text(text):
+    """Raise ValueError unless ``text`` is a valid calibration file's text."""
+    try:
+        model_from_dict(loads_strict(text))
+    except (KeyError, TypeError, ValueError, OverflowError, RecursionError) as err:
+        raise ValueError(f'not a valid calibration ({err})') from None
+
+
+def read_model_history(path):
+    """Return (versions, problems) of the history of ``path``, each version validated."""
+    return history.read_history(path, _check_text)
 
 
 def check_sensor(model, sensor_id, path):

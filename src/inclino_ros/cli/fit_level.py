@@ -157,7 +157,7 @@ def fit(args, lines, outputs):
     plot_level(outputs.path(png), level, installation,
                args.gravity_mps2 if axes == 2 else None)
     # The level bench measures the whole mount: a tool axis on top would count twice.
-    save(args.calibration, replace(existing, installation=installation, tool_axis=None))
+    save(args, replace(existing, installation=installation, tool_axis=None), outputs)
     lines += [f'wrote {args.calibration}: installation stage'
               + (f', {" and ".join(applied)} stage kept' if applied else ''),
               f'report: {png}, {txt}']

@@ -46,7 +46,7 @@ from inclino_ros.cli.fitting import NODE_DEFAULTS
 from inclino_ros.cli.options import between, node_parameter, positive
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core import magnetics
-from inclino_ros.core.attitude import angle_between
+from inclino_ros.core import stillness
 from inclino_ros.core.shots import ShotFitRefused, ShotLimits
 from inclino_ros.io import tables
 from inclino_ros.io.timing import pair_nearest
@@ -107,58 +107,6 @@ def run(args):
     return run_fit('fit-magnetometer', args, fit)
 
 
-def read_shots(path):
-    """Return (accel (N, 3), field (N, 3), group labels (N,) or None, temperature or None)."""
-    try:
-        table = tables.read_csv(path, ACCEL_COLUMNS + FIELD_COLUMNS, optional=('temperature_c',),
-                                text=(GROUP_COLUMN,))
-    except tables.TableError as err:
-        raise Refused(str(err)) from None
-    accel = np.column_stack([table[name] for name in ACCEL_COLUMNS])
-    field = np.column_stack([table[name] for name in FIELD_COLUMNS])
-    bad = np.flatnonzero(~(np.isfinite(accel).all(axis=1) & np.isfinite(field).all(axis=1)))
-    if bad.size:
-        raise Refused(f'non-finite values in row(s) {(bad + 1).tolist()} of {path} (data rows, '
-                      'counted from 1 after the header): drop or retake those shots')
-    groups = table.get(GROUP_COLUMN)
-    labels = None
-    if groups is not None and any(groups):
-        names = list(dict.fromkeys(name for name in groups if name))
-        labels = np.array([names.index(name) if name else -1 for name in groups])
-    return accel, field, labels, table.get('temperature_c')
-
-
-def still_segments(stamps_ns, accel, field, window_s, max_deg, min_s):
-    """
-    Return [(start, end)] index ranges of the still segments of a stream.
-
-    Windows of ``window_s`` whose accelerometer and magnetometer directions
-    both spread less than ``max_deg`` (RMS angle about their mean) are still;
-    consecutive still windows join, and a joined run of at least ``min_s`` is
-    a segment.
-    """
-    seconds = (stamps_ns - stamps_ns[0]) / 1e9
-    window = np.floor(seconds / window_s).astype(int)
-    edges = np.flatnonzero(np.diff(window)) + 1
-    starts, ends = np.append(0, edges), np.append(edges, len(window))
-    still = []
-    for start, end in zip(starts, ends):
-        spreads = [np.degrees(np.sqrt(np.mean(angle_between(v[start:end],
-                                                            v[start:end].mean(axis=0)) ** 2)))
-                   for v in (accel, field)]
-        still.append(end - start >= 2 and max(spreads) < max_deg)
-    segments, run_start = [], None
-    for k, is_still in enumerate(still + [False]):
-        if is_still and run_start is None:
-            run_start = k
-        elif not is_still and run_start is not None:
-            first, last = starts[run_start], ends[k - 1]
-            if seconds[last - 1] - seconds[first] >= min_s - window_s:
-                segments.append((first, last))
-            run_start = None
-    return segments
-
-
 def read_bag_shots(args, lines):
     """Return the shots of the still segments of a bag (no roll groups)."""
     imu = read_topic(args.input, args.raw_topic)
@@ -172,8 +120,8 @@ def read_bag_shots(args, lines):
     if stamps.size < 2:
         raise Refused(f'{args.input}: fewer than two {args.raw_topic} samples with a paired '
                       f'{args.mag_topic} reading')
-    segments = still_segments(stamps, accel, field, args.still_window_s, args.max_still_deg,
-                              args.min_still_s)
+    segments = stillness.still_segments(stamps, accel, field, args.still_window_s,
+                                        args.max_still_deg, args.min_still_s)
     lines.append(f'{len(segments)} still segment(s) found in {args.input} '
                  f'({stamps.size} paired samples)')
     shots_a = np.array([accel[a:b].mean(axis=0) for a, b in segments]).reshape(-1, 3)
@@ -191,7 +139,11 @@ def fit(args, lines, outputs):
     if is_bag(args.input):
         accel, field, labels, temperature_c = read_bag_shots(args, lines)
     else:
-        accel, field, labels, temperature_c = read_shots(args.input)
+        try:
+            accel, field, labels, temperature_c = tables.read_shots(
+                args.input, ACCEL_COLUMNS, FIELD_COLUMNS, GROUP_COLUMN)
+        except tables.TableError as err:
+            raise Refused(str(err)) from None
     if accel.shape[0]:
         problem = magnetics.field_unit_problem(np.median(np.linalg.norm(field, axis=1)))
         if problem:
@@ -203,31 +155,21 @@ def fit(args, lines, outputs):
                                       args.gravity_mps2, total_nT, limits)
     except ShotFitRefused as err:
         raise Refused(err.reason) from None
-    before = survey_of(existing, accel, field, temperature_c, args.gravity_mps2)
-    after = survey_of(result.model, accel, field, temperature_c, args.gravity_mps2)
+    before, after = (magnetics.survey_of(model.apply(accel, temperature_c),
+                                         model.apply_magnetic(field, before='magnetic'))
+                     for model in (existing, result.model))
     lines += summary_lines(result, labels, before, after, total_nT, dip_ref, source)
     png, txt = report_paths(args, REPORT_NAME)
     if args.plot:
         plot_report(outputs.path(png), labels, before, after, result.fit.field_nT,
                     args.gravity_mps2)
-    save(args.calibration, result.model)
+    save(args, result.model, outputs)
     written = ['magnetometer', 'magnetometer_alignment'] + (
         ['tool_axis'] if result.fit.tool_axis is not None else []) + (
         ['stand (method sphere)'] if result.fit.accel_matrix is not None else [])
     lines += [f'wrote the stages {", ".join(written)} to {args.calibration}',
               f'report: {txt}' + (f', {png}' if args.plot else '')]
     write_text(outputs.path(txt), lines)
-
-
-def survey_of(model, accel, field, temperature_c, g):
-    """Return per-shot |g|, |B|, dip, inclination, azimuth of ``model`` (up to seed 002)."""
-    f = model.apply(accel, temperature_c)
-    b = model.apply_magnetic(field, before='magnetic')
-    gravity, b_iscwsa = magnetics.gravity_from_specific_force(f), magnetics.iscwsa_from_tool(b)
-    return {'g_total_mps2': magnetics.g_total(gravity), 'b_total_nT': magnetics.b_total_nT(b),
-            'dip_deg': magnetics.dip_deg(gravity, b_iscwsa),
-            'inclination_deg': magnetics.inclination_deg(gravity),
-            'azimuth_deg': magnetics.azimuth_deg(gravity, b_iscwsa)}
 
 
 def circular_spread_deg(angles_deg):

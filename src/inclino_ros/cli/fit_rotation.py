@@ -11,9 +11,11 @@ ellipse that ``cross_axial.fit_cross_axial`` fits (hard iron c, symmetric
 soft-iron correction W of ``B_xy = W (m_xy - c)``).
 
 The magnetic stage of the calibration file gets ``hard_iron_nT``,
-``soft_iron`` and ``rotation_fitted_at`` (a file without one starts from
-``model.NO_MAGNETIC_CORRECTION``); its interference and every other stage
-are kept.  Report: the readings before and after with the fitted ellipse and
+``soft_iron``, ``rotation_fitted_at`` and ``rotation_temperature_c`` (a CSV's
+optional ``temperature_c`` column, a bag's ``--temperature-topic``), as
+``~/capture_rotation`` does (one rule: ``rotation.solve_rotation``); its
+interference is reset, as it was solved on the old cross-axial correction;
+every other stage is kept.  Report: the readings before and after with the fitted ellipse and
 circle (seed 002 Fig. 4) in ``fit_rotation.png`` and the summary in
 ``fit_rotation.txt``.
 
@@ -26,18 +28,16 @@ short an arc or too large a radial RMSE
 (``cross_axial.RotationLimits``).
 """
 
-from dataclasses import replace
-
-from inclino_ros.calibration.model import NO_MAGNETIC_CORRECTION, utc_now_iso
-from inclino_ros.calibration.plausibility import check_field_readings
+from inclino_ros.calibration.rotation import solve_rotation
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
-    add_file_arguments, finish_figure, is_bag, load_existing, new_figure, read_csv, read_topic,
-    Refused, report_paths, run_fit, save, tool_axes, write_text)
+    add_file_arguments, finish_figure, has_topic, is_bag, load_existing, new_figure, read_csv,
+    read_topic, Refused, report_paths, run_fit, sample_temperatures, save, TEMPERATURE_TOPIC,
+    tool_axes, write_text)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.mounting import add_axes_map_arguments
 from inclino_ros.cli.options import finite
-from inclino_ros.core.cross_axial import apply_cross_axial, fit_cross_axial, RotationFitRefused
+from inclino_ros.core.cross_axial import apply_cross_axial, RotationFitRefused
 import numpy as np
 
 MAG_TOPIC = '/imu/mag'
@@ -60,10 +60,12 @@ def register(subparsers):
         '--start-s to --end-s seconds after its first message (inclino simulate --magnetic '
         '--rotation-s records one; its window is in OUT.truth.json), or a CSV with the '
         'columns bx, by, bz (nT). Readings without a value (NaN) are left out and counted.',
-        'The drill-string interference of a multi-station analysis and every other stage are '
-        'kept. The report, fit_rotation.png (the readings, and the distance of each from the '
-        'circle before and after the correction) and fit_rotation.txt, goes beside the file '
-        'or to --report-dir.',
+        'The drill-string interference of a multi-station analysis is reset (it was solved on '
+        'the old cross-axial correction: run inclino msa again); every other stage is kept, '
+        'and the stage records the temperature the readings stood for (a CSV column '
+        'temperature_c, or --temperature-topic). The report, fit_rotation.png (the readings, '
+        'and the distance of each from the circle before and after the correction) and '
+        'fit_rotation.txt, goes beside the file or to --report-dir.',
         'Refused (exit 1, the file untouched): less than 270 deg of the turn covered, too flat '
         'or too noisy an ellipse, too few readings. Exit 2: unusable input.')
     add_file_arguments(parser, 'CSV file with bx, by, bz [nT]')
@@ -74,6 +76,9 @@ def register(subparsers):
     parser.add_argument('--end-s', type=finite,
                         help='bag: last reading, seconds after the first message '
                              '(default: the last message)')
+    parser.add_argument('--temperature-topic', default=TEMPERATURE_TOPIC,
+                        help='bag: sensor_msgs/Temperature topic, used when the bag has it '
+                             '(default: %(default)s)')
     add_axes_map_arguments(parser, 'accelerometer', 'magnetometer')
     parser.set_defaults(func=run)
 
@@ -84,10 +89,17 @@ def run(args):
 
 
 def load_readings(args):
-    """Return the rotation's readings (N, 3) [nT, tool frame]; CommandError if unusable."""
+    """
+    Return the rotation's readings (N, 3) [nT, tool frame] and temperatures (N,) or None.
+
+    The temperatures: a CSV's optional ``temperature_c`` column, a bag's
+    ``--temperature-topic`` interpolated to each reading when the bag has it
+    (readings outside its span left out).  CommandError if unusable.
+    """
     if not is_bag(args.input):
-        table = read_csv(args.input, FIELD_COLUMNS)
-        return np.column_stack([table[name] for name in FIELD_COLUMNS])
+        table = read_csv(args.input, FIELD_COLUMNS, optional=('temperature_c',))
+        return (np.column_stack([table[name] for name in FIELD_COLUMNS]),
+                table.get('temperature_c'))
     series = read_topic(args.input, args.mag_topic)
     seconds = (series.stamps_ns - series.stamps_ns.min()) / 1e9
     start_s = 0.0 if args.start_s is None else args.start_s
@@ -96,34 +108,40 @@ def load_readings(args):
     if not window.any():
         raise CommandError(f'no {args.mag_topic} message between {start_s} and {end_s} s '
                            f'(the topic spans 0 .. {seconds.max():.3f} s)')
-    return series.field_nT[window]
+    if not has_topic(args.input, args.temperature_topic):
+        return series.field_nT[window], None
+    temperature_c, inside = sample_temperatures(series, args.input, args.temperature_topic)
+    window &= inside
+    if not window.any():
+        raise CommandError(f'no {args.mag_topic} message of the window lies within the time '
+                           f'span of {args.temperature_topic}')
+    return series.field_nT[window], temperature_c[window]
 
 
 def fit(args, lines, outputs):
     """Fit the rotation of ``args.input`` into ``args.calibration``; see ``run_fit``."""
     existing = load_existing(args.calibration, args.sensor_id)
-    readings = tool_axes(args, load_readings(args), 'magnetometer')
-    valued = np.isfinite(readings).all(axis=1)
-    if valued.any() and not valued.all():  # a driver's NaN between two measurements
-        lines.append(f'left out {np.count_nonzero(~valued)} readings without a value (NaN)')
-        readings = readings[valued]
-    check_field_readings(readings)
-    # Fitted in the tool frame: after the magnetometer's own stages and the shared mount.
-    readings = existing.apply_magnetic(readings, before='magnetic')
+    field_nT, temperature_c = load_readings(args)
     try:
-        result = fit_cross_axial(readings)
+        solution = solve_rotation(existing, tool_axes(args, field_nT, 'magnetometer'),
+                                  temperature_c, 'the magnetometer readings')
     except RotationFitRefused as err:
         raise Refused(str(err)) from None
+    if solution.left_out:  # a driver's NaN between two measurements
+        lines.append(f'left out {solution.left_out} readings without a value (NaN)')
+    result, readings = solution.fit, solution.readings_nT
     corrected = apply_cross_axial(readings, result)
     lines += summary_lines(result, readings)
-    stage = replace(existing.magnetic or NO_MAGNETIC_CORRECTION,
-                    hard_iron_nT=tuple(result.offset_nT.tolist()),
-                    soft_iron=tuple(map(tuple, result.correction.tolist())),
-                    rotation_fitted_at=utc_now_iso())
     png, txt = report_paths(args, REPORT_NAME)
     plot_rotation(outputs.path(png), readings, corrected, result)
-    save(args.calibration, replace(existing, magnetic=stage))
-    lines += [f'wrote the magnetic stage (hard and soft iron) to {args.calibration}',
+    save(args, solution.model, outputs)
+    stood_for_c = solution.model.magnetic.rotation_temperature_c
+    lines += [f'wrote the magnetic stage (hard and soft iron) to {args.calibration}'
+              + ('' if existing.magnetic is None or existing.magnetic.msa_method is None else
+                 '; MSA interference reset: it was solved on the old cross-axial correction '
+                 '(run inclino msa again)'),
+              'the readings stood for ' + ('an unknown temperature' if stood_for_c is None
+                                           else f'{stood_for_c:.2f} C'),
               f'report: {png}, {txt}']
     write_text(outputs.path(txt), lines)
 

@@ -9,11 +9,18 @@ bz`` [nT, tool frame]; or a bag with the raw sensor on ``/imu/data_raw``,
 the stand attitude on ``/stand/attitude`` (Vector3Stamped: x
 inclination_deg, y seed-000 toolface_deg, z azimuth_deg; each Imu sample
 takes the latest attitude at or before its stamp), optionally
-``/imu/temperature`` and ``--mag-topic``.  Samples of one attitude are
-averaged into one position; a later visit of an attitude (its rows
-after another attitude's, or less than 1 deg from it) is a repeat: weighed
-in the fit like any position, and the scatter of the visits is reported as
-the stand's repeatability (deg, per attitude and overall).
+``/imu/temperature`` and ``--mag-topic``.  Consecutive samples of one
+attitude are averaged into one position; a later visit of an attitude (its
+rows after another attitude's, or less than 1 deg from it) is a repeat:
+weighed in the fit like any position, and the scatter of the visits is
+reported as the stand's repeatability (deg, per attitude and overall).
+
+A CSV with ``time_s`` and no attitude columns is a continuous log
+(optionally with the gyro, ``wx, wy, wz`` rad/s): its still segments
+(``continuous_log.log_segments``) are the readings of a sphere fit, one a
+segment, the samples between them left out.  Every still sample of such a
+log, in turn and without times, is grouped by pose
+(``continuous_log.sphere_readings``).
 
 With a reference field (``--reference-total-nT`` and
 ``--reference-dip-deg``, or ``--site``) and magnetometer readings, the
@@ -48,17 +55,17 @@ records the temperature its readings stood for (the temperature stage's
 reference, else their mean temperature).
 """
 
-from dataclasses import replace
 from functools import partial
 
 from inclino_ros.calibration.continuous_log import (
-    GYRO_COLUMNS, log_segments, segment_limits, TIME_COLUMN)
+    GYRO_COLUMNS, log_segments, segment_limits, sphere_readings, TIME_COLUMN)
 from inclino_ros.calibration.magnetometer import fit_field_stand
-from inclino_ros.calibration.model import (
-    CalibrationModel, readings_temperature_c, Stand, utc_now_iso)
+from inclino_ros.calibration.model import CalibrationModel, readings_temperature_c
 from inclino_ros.calibration.plausibility import check_accelerometer_readings
-from inclino_ros.calibration.stand_capture import repeatability_note
-from inclino_ros.calibration.still_capture import CaptureRefused, require_still_vectors
+from inclino_ros.calibration.stand_fit import (
+    check_temperature_span, group_positions, position_noise_deg, repeatability_note,
+    solve_sphere, solve_stand, stood_for_c, with_stand)
+from inclino_ros.calibration.still_capture import CaptureRefused
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_common_arguments, add_still_options, AXIS_COLUMNS, finish_figure, has_topic, is_bag,
@@ -68,9 +75,7 @@ from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.options import between, node_parameter
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core.attitude import inclination
-from inclino_ros.core.stand import (
-    consecutive_poses, fit_sphere, fit_stand, stand_specific_force, StandFitRefused)
-from inclino_ros.core.stillness import MIN_SAMPLES, StillLimits
+from inclino_ros.core.stand import StandFitRefused
 from inclino_ros.io.timing import pair_nearest
 import numpy as np
 
@@ -98,7 +103,9 @@ def register(subparsers):
         "the scatter of its visits reported as the stand's repeatability.",
         '--method sphere needs no attitudes: it fits |G| = g over readings in many '
         'orientations. It cannot see how the sensor is turned in the tool: calibrate the '
-        'level bench afterwards.',
+        'level bench afterwards. A CSV with time_s and no attitude columns is a continuous log '
+        '(optional gyro wx, wy, wz in rad/s): its still segments are found and the mean of '
+        'each is a reading of a sphere fit.',
         'A temperature stage already in the file is applied to the readings first. The stand '
         'stage replaces the old one and drops the level-bench stage (K holds the mounting '
         'error). The report, fit_stand.png and fit_stand.txt, goes beside the file or to '
@@ -149,30 +156,26 @@ def fit(args, lines, outputs):
         segment, readings, temperature_c, times_s = still_samples(
             args, readings, gyro, temperature_c, times_s, lines)
     check_accelerometer_readings(readings, args.gravity_mps2)
-    stood_for_c = readings_temperature_c(
-        existing.temperature, None if temperature_c is None else float(np.mean(temperature_c)))
-    if existing.temperature is None and temperature_c is not None \
-            and np.ptp(temperature_c) > args.max_temperature_difference_c:
-        raise Refused(
-            f'the readings span {np.min(temperature_c):.1f} .. {np.max(temperature_c):.1f} C '
-            f'(more than --max-temperature-difference-c {args.max_temperature_difference_c:g} '
-            'C) and the file has no temperature stage: the drift would be taken for K; fit '
-            'the temperature stage first or capture at one temperature')
+    # What each reading stood for: the temperature stage's reference, else its own.
+    stood_c = (None if existing.temperature is None and temperature_c is None else
+               np.broadcast_to(readings_temperature_c(existing.temperature, temperature_c),
+                               readings.shape[:1]).astype(float))
     if existing.temperature is not None:
         readings = CalibrationModel(3, temperature=existing.temperature).apply(
             readings, temperature_c)
         lines.append('temperature stage of the file applied to the readings first ('
                      + ('at their temperatures)' if temperature_c is not None else
                         'no temperatures in the input: at its reference temperature)'))
-    magnetometer = {}
+    field = None
     if args.method == 'stand':
-        stage, refusal, draw = fit_positions(args, readings, attitude_deg, times_s, lines)
+        stage, refusal, draw = fit_positions(args, readings, attitude_deg, times_s, stood_c,
+                                             lines)
         if not refusal:
-            magnetometer = fit_magnetometer(args, existing, fields, attitude_deg, times_s,
-                                            temperature_c, stage, lines)
+            field = fit_magnetometer(args, existing, fields, attitude_deg, times_s,
+                                     temperature_c, stage, lines)
     else:
-        stage, refusal, draw = fit_readings(args, readings, lines, segment)
-    stage = replace(stage, temperature_c=stood_for_c)
+        stage, refusal, draw = fit_readings(args, readings, stood_c, lines, segment)
+    stood_for_c = stage.temperature_c
     lines.append('the readings stood for ' + ('an unknown temperature' if stood_for_c is None
                                               else f'{stood_for_c:.2f} C'))
     # A refused fit reports beside, not over, the report of the fit in the file.
@@ -183,8 +186,7 @@ def fit(args, lines, outputs):
     if refusal:
         raise Refused(refusal)
     dropped = existing.installation is not None
-    save(args.calibration, replace(existing, stand=stage, installation=None, tool_axis=None,
-                                   **magnetometer))
+    save(args, with_stand(existing, stage, field), outputs)
     lines.append(f'wrote {args.calibration}: stand stage ({args.method}, {stage.positions} '
                  f'{"positions" if args.method == "stand" else "readings"})'
                  + (', temperature stage kept' if existing.temperature else ''))
@@ -285,63 +287,31 @@ def still_samples(args, readings, gyro, temperature_c, times_s, lines):
             None if temperature_c is None else temperature_c[still], times_s[still])
 
 
-def group_positions(readings, attitude_deg):
-    """
-    Return the positions: (attitudes (P, k), mean readings (P, 3), samples, position (N,)).
-
-    Consecutive samples of equal attitude form one position (one visit of
-    the stand: a later visit of the same attitude is a position of its own, a
-    repeat ``fit_stand`` weighs and reports); ``position`` is the number of
-    each sample's position.
-    """
-    attitude_deg = np.asarray(attitude_deg, dtype=float)
-    changed = np.any(attitude_deg[1:] != attitude_deg[:-1], axis=1)
-    position = np.concatenate([[0], np.cumsum(changed)]).astype(int)
-    first = np.flatnonzero(np.concatenate([[True], changed]))
-    unique = attitude_deg[first]
-    counts = np.bincount(position)
-    means = np.stack([np.bincount(position, weights=readings[:, axis]) for axis in range(3)],
-                     axis=1) / counts[:, None]
-    return unique, means, counts, position
+def still_limits(args):
+    """Return the still test of a position from --max-drift-deg-per-s and --max-sem-deg."""
+    return segment_limits(args.max_drift_deg_per_s, args.max_sem_deg).still
 
 
-def position_noise_deg(args, readings, times_s, position, count, what=''):
-    """
-    Return each position's per-sample noise [deg] (NaN: too few samples to test).
-
-    Refused (``Refused``) at the first position that moved or misses
-    ``--max-sem-deg`` (``still_capture.require_still_vectors``); ``what``
-    names the triad in the reason.
-    """
-    limits = StillLimits(max_drift_deg_per_s=args.max_drift_deg_per_s,
-                         max_sem_deg=args.max_sem_deg, drift_name='--max-drift-deg-per-s',
-                         sem_name='--max-sem-deg')
-    noise_deg = np.full(count, np.nan)
-    for number in range(count):
-        mine = position == number
-        if mine.sum() < MIN_SAMPLES:
-            continue
-        try:
-            noise_deg[number] = require_still_vectors(
-                readings[mine], None if times_s is None else times_s[mine], limits).noise_deg
-        except CaptureRefused as err:
-            raise Refused(f'position {number + 1}{what}: {err}') from None
-    return noise_deg
-
-
-def fit_positions(args, readings, attitude_deg, times_s, lines):
+def fit_positions(args, readings, attitude_deg, times_s, stood_c, lines):
     """
     Return (Stand stage, refusal reason or None, draw) of a known-attitude stand fit.
 
-    ``draw(path)`` plots the report.
+    ``stand_fit.solve_stand``, as ``~/solve_stand_calibration`` fits the
+    node's positions; ``stood_c``: the temperature each reading stood for
+    (None: unknown).  ``draw(path)`` plots the report.
     """
     attitudes, means, counts, position = group_positions(readings, attitude_deg)
-    spread_deg = position_noise_deg(args, readings, times_s, position, len(means))
-    truth = stand_specific_force(attitudes[:, 0], attitudes[:, 1], args.gravity_mps2)
+    temperatures_c = (None if stood_c is None else
+                      np.bincount(position, weights=stood_c) / counts)
     try:
-        result = fit_stand(means, truth)
-    except StandFitRefused as err:
-        raise Refused(err.reason) from None
+        spread_deg = position_noise_deg(readings, times_s, position, len(means),
+                                        still_limits(args))
+        solution = solve_stand(means, attitudes, args.gravity_mps2, args.max_rms_deg,
+                               temperatures_c, args.max_temperature_difference_c,
+                               ('--max-rms-deg', '--max-temperature-difference-c'))
+    except (CaptureRefused, StandFitRefused) as err:
+        raise Refused(str(err)) from None
+    result, means = solution.fit, solution.readings
     raw_deg = np.degrees(inclination(means)) - attitudes[:, 0]
     after_deg = result.inclination_residual_deg
     lines += geometry_lines(result)
@@ -355,10 +325,7 @@ def fit_positions(args, readings, attitude_deg, times_s, lines):
     lines.append(f'RMS inclination residual: {result.rms_inclination_deg:.6f} deg (raw '
                  f'{np.sqrt(np.mean(raw_deg ** 2)):.4f} deg); RMS residual '
                  f'{result.rms_residual_mps2:.3g} m/s^2')
-    refusal = (None if result.rms_inclination_deg <= args.max_rms_deg else
-               f'RMS inclination residual {result.rms_inclination_deg:.4f} deg exceeds '
-               f'--max-rms-deg {args.max_rms_deg} deg (a wrong attitude, or the tool moved)')
-    return (stand_stage(result, 'stand', result.rms_inclination_deg, len(means)), refusal,
+    return (solution.stage, solution.refusal,
             partial(plot_positions, raw_deg=raw_deg, after_deg=after_deg,
                     rms_deg=result.rms_inclination_deg))
 
@@ -366,7 +333,7 @@ def fit_positions(args, readings, attitude_deg, times_s, lines):
 def fit_magnetometer(args, existing, fields, attitude_deg, times_s, temperature_c, stand,
                      lines):
     """
-    Return the magnetometer stages (a dict for ``replace``) of the stand positions, or {}.
+    Return the magnetometer fit (``FieldStandFit``) of the stand positions, or None.
 
     Fitted when the input has magnetometer readings and a reference field is
     given (seed 001 Eq. 12, ``magnetometer.fit_field_stand``); Refused as it
@@ -380,19 +347,19 @@ def fit_magnetometer(args, existing, fields, attitude_deg, times_s, temperature_
         lines.append('magnetometer not fitted: ' + (
             'no bx, by, bz (or magnetometer topic) in the input' if fields is None else
             'no reference field (--reference-total-nT and --reference-dip-deg, or --site)'))
-        return {}
+        return None
     paired = np.isfinite(fields).all(axis=1)
     fields = existing.apply_magnetic(
         fields[paired], None if temperature_c is None else temperature_c[paired],
         before='magnetometer')
     positions, means, _, position = group_positions(fields, attitude_deg[paired])
-    position_noise_deg(args, fields, None if times_s is None else times_s[paired], position,
-                       len(means), ' (magnetometer)')
     try:
+        position_noise_deg(fields, None if times_s is None else times_s[paired], position,
+                           len(means), still_limits(args), ' (magnetometer)')
         fit = fit_field_stand(means, positions, total_nT, dip_deg, stand,
                               args.max_field_rms_deg)
-    except StandFitRefused as err:
-        raise Refused(err.reason) from None
+    except (CaptureRefused, StandFitRefused) as err:
+        raise Refused(str(err)) from None
     lines.append(f'magnetometer (seed 001 Eq. 12) against {total_nT:.1f} nT, dip '
                  f'{dip_deg:.3f} deg ({source}): {len(means)} positions, field residual '
                  f'{fit.rms_residual_deg:.4f} deg RMS (worst {fit.residual_deg.max():.4f})')
@@ -400,49 +367,34 @@ def fit_magnetometer(args, existing, fields, attitude_deg, times_s, temperature_
                           fit.magnetometer.scale_matrix, '10.6f')
     lines.append('bias_nT: ' + ' '.join(f'{v:.1f}' for v in fit.magnetometer.bias_nT)
                  + f"; axes turned {fit.alignment.angle_deg:.4f} deg into the accelerometer's")
-    return {'magnetometer': fit.magnetometer, 'magnetometer_alignment': fit.alignment}
+    return fit
 
 
-def fit_readings(args, readings, lines, segment=None):
+def fit_readings(args, readings, stood_c, lines, segment=None):
     """
     Return (Stand stage, refusal reason or None, draw) of a sphere fit of every reading.
 
-    ``segment`` (N,): the still segment of each reading of a continuous log,
-    whose means are the readings fitted; None: every reading is one.
+    ``segment`` (N,): each reading's still segment of a continuous log, or
+    None; one reading a pose (``continuous_log.sphere_readings``).
     """
-    if segment is None:
-        segment = consecutive_poses(readings)
-        if segment is not None:
-            lines.append(f'the {readings.shape[0]} readings are samples of '
-                         f'{segment.max() + 1} still poses in turn (their direction jumps '
-                         "between poses): each pose's mean is one reading (a single sample's "
-                         'noise is no residual of the model)')
-    if segment is not None:
-        readings = np.array([readings[segment == k].mean(axis=0)
-                             for k in np.unique(segment[segment >= 0])]).reshape(-1, 3)
+    readings, stood_c, note = sphere_readings(readings, segment, stood_c)
+    if note:
+        lines.append(note)
     try:
-        result = fit_sphere(readings, args.gravity_mps2)
+        check_temperature_span(stood_c, args.max_temperature_difference_c,
+                               '--max-temperature-difference-c')
+        solution = solve_sphere(readings, args.gravity_mps2, args.max_rms_deg,
+                                stood_for_c(stood_c))
     except StandFitRefused as err:
         raise Refused(err.reason) from None
+    result = solution.fit
     rms_deg = np.degrees(result.rms_residual_mps2 / args.gravity_mps2)
     lines += geometry_lines(result)
     lines.append(f'RMS |G| - g: {result.rms_residual_mps2:.3g} m/s^2 ({rms_deg:.6f} deg as an '
                  f'angle) over {readings.shape[0]} readings')
-    refusal = (None if rms_deg <= args.max_rms_deg else
-               f'RMS |G| - g of {rms_deg:.4f} deg (as an angle) exceeds --max-rms-deg '
-               f'{args.max_rms_deg} deg (the tool moved, or the sensor is not linear)')
-    return (stand_stage(result, 'sphere', None, readings.shape[0]), refusal,
+    return (solution.stage, solution.refusal,
             partial(plot_readings, raw_mps2=np.linalg.norm(readings, axis=1) - args.gravity_mps2,
                     after_mps2=result.residual_mps2))
-
-
-def stand_stage(result, method, rms_inclination_deg, positions):
-    """Return the model.Stand of a stand or sphere fit."""
-    return Stand(scale_matrix=tuple(map(tuple, result.scale_matrix.tolist())),
-                 bias_mps2=tuple(result.bias_mps2.tolist()), method=method,
-                 condition_number=result.condition_number,
-                 rms_inclination_deg=rms_inclination_deg, positions=int(positions),
-                 fitted_at=utc_now_iso())
 
 
 def geometry_lines(result):

@@ -42,11 +42,10 @@ from dataclasses import replace
 import sys
 
 from inclino_ros.calibration.continuous_log import GYRO_COLUMNS, log_segments, TIME_COLUMN
-from inclino_ros.calibration.model import (
-    common_stage_temperature, MagnetometerTemperature, Temperature, utc_now_iso)
 from inclino_ros.calibration.plausibility import (
     check_accelerometer_readings, check_field_readings, check_temperatures,
     STANDARD_GRAVITY_MPS2)
+from inclino_ros.calibration.temperature_fit import solve_temperature
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_common_arguments, AXIS_COLUMNS, finish_figure, is_bag, load_existing, matrix_lines,
@@ -55,10 +54,8 @@ from inclino_ros.cli.fitting import (
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.options import between
 from inclino_ros.core.attitude import angle_between, inclination
-from inclino_ros.core.stillness import SegmentLimits
-from inclino_ros.core.temperature import (
-    AXES, fit_temperature, fit_temperature_drift, REFERENCE_TEMPERATURE_C,
-    TemperatureFitRefused)
+from inclino_ros.core.stillness import label_attitudes, SegmentLimits
+from inclino_ros.core.temperature import AXES, TemperatureFitRefused
 import numpy as np
 
 #: Still segments of a heating log: slow (5 s windows, 10 s at least), and the readings drift
@@ -138,24 +135,13 @@ def fit(args, lines, outputs):
     else:
         check_field_readings(readings)
     check_temperatures(temperature_c)
-    heated = heated_attitudes(temperature_c, attitude, args.order)
     try:
-        if reference is None and heated >= 2:
-            result = fit_temperature_drift(temperature_c, readings, attitude, args.order)
-            lines.append(f'{result.attitudes} attitudes heated: bias and scale drift per axis '
-                         '(A_T = K_T(T) A + B_T(T))')
-        else:
-            result = one_attitude_fit(args, temperature_c, readings, reference, lines)
-        target_c = later_stages_temperature(args, existing, later, result)
+        stage, result, notes = solve_temperature(
+            existing, args.triad, temperature_c, readings, attitude, args.order, reference,
+            args.reference_window_c, args.max_temperature_difference_c)
     except TemperatureFitRefused as err:
         raise Refused(err.reason) from None
-    if target_c is not None:
-        result = result.referenced_to(target_c)
-    elif any(getattr(existing, name) is not None for name in later):
-        lines.append(f'WARNING: the {" and ".join(n for n in later if getattr(existing, n))} '
-                     'stage(s) record no temperature: compensating to '
-                     f'{result.reference_temperature_c:g} C assumes they were captured there')
-    stage = stage_of(args.triad, result, temperature_c.size)
+    lines += notes
     model = replace(existing, **{section: stage})
     previous = replace(existing, **{section: None})
     lines += fit_lines(result, unit)
@@ -171,74 +157,13 @@ def fit(args, lines, outputs):
                  'compensated')
     plot(outputs.path(png), temperature_c, result, before, after, what)
     lines.append(f'report: {png}')
-    save(args.calibration, model)
+    save(args, model, outputs)
     kept = [name for name in later if getattr(model, name) is not None]
     lines.append(f'wrote {args.calibration}: {section} stage (order {args.order}, '
                  f'{result.attitudes} attitude(s), compensating to '
                  f'{result.reference_temperature_c:g} C)'
                  + (f', {" and ".join(kept)} stage kept' if kept else ''))
     write_text(outputs.path(txt), lines)
-
-
-def heated_attitudes(temperature_c, attitude, order):
-    """Return how many attitudes were heated through ``order + 1`` distinct temperatures."""
-    return sum(np.unique(np.round(temperature_c[attitude == a], 1)).size >= order + 1
-               for a in np.unique(attitude))
-
-
-def one_attitude_fit(args, temperature_c, readings, reference, lines):
-    """Return seed 001's scale-only fit (reference: ref columns or the 25 deg C reading)."""
-    if reference is None:
-        near = np.abs(temperature_c - REFERENCE_TEMPERATURE_C) <= args.reference_window_c
-        if not near.any():
-            raise Refused(
-                f'no reading within {args.reference_window_c} deg C of '
-                f'{REFERENCE_TEMPERATURE_C} deg C (data {temperature_c.min():.2f} .. '
-                f'{temperature_c.max():.2f} deg C) to take the reference from; heat through '
-                '25 deg C or give the ref columns')
-        reference = readings[near].mean(axis=0)
-        lines.append(f'reference: mean of {near.sum()} readings within '
-                     f'{args.reference_window_c} deg C of {REFERENCE_TEMPERATURE_C} deg C: '
-                     + ' '.join(f'{v:.6f}' for v in reference))
-    lines.append('ONE attitude (or given references): scale factor K_T(T) only (seed 001). A '
-                 'bias drift cannot be seen here: it is absorbed into K_T, exactly at this '
-                 'attitude (the residual stays at the noise) and wrongly at every other; heat '
-                 'the tool at a second attitude where each axis reads differently to fit it')
-    return fit_temperature(temperature_c, readings, reference, args.order)
-
-
-def later_stages_temperature(args, model, later, result):
-    """
-    Return the temperature the stage must compensate to, None for its reference.
-
-    The later stages' common temperature (``model.common_stage_temperature``)
-    when they record one; TemperatureFitRefused when they disagree or it lies
-    outside the heated range.
-    """
-    try:
-        target_c = common_stage_temperature(model, args.max_temperature_difference_c, later)
-    except ValueError as err:
-        raise TemperatureFitRefused(str(err)) from None
-    if target_c is not None and not result.t_min_c <= target_c <= result.t_max_c:
-        raise TemperatureFitRefused(
-            f'the later stages stand for {target_c:.1f} C, outside the heated range '
-            f'{result.t_min_c:.1f} .. {result.t_max_c:.1f} C: heat through it')
-    return target_c
-
-
-def stage_of(triad, result, samples):
-    """Return the Temperature or MagnetometerTemperature stage of a fit."""
-    bias = (None if result.bias_coefficients is None
-            else tuple(map(tuple, result.bias_coefficients.tolist())))
-    common = {'coefficients': tuple(map(tuple, result.coefficients.tolist())),
-              't_min_c': result.t_min_c, 't_max_c': result.t_max_c,
-              'reference_temperature_c': result.reference_temperature_c,
-              'samples': int(samples), 'fitted_at': utc_now_iso(),
-              'attitudes': result.attitudes}
-    rms = tuple(result.rms_residual.tolist())
-    if triad == 'accelerometer':
-        return Temperature(**common, rms_residual_mps2=rms, bias_coefficients_mps2=bias)
-    return MagnetometerTemperature(**common, rms_residual_nT=rms, bias_coefficients_nT=bias)
 
 
 def fit_lines(result, unit):
@@ -351,23 +276,6 @@ def log_still_samples(args, table, readings):
           'out', file=sys.stderr)
     return (table['temperature_c'][still], readings[still], None,
             label_attitudes(readings[still], args.attitude_separation_deg))
-
-
-def label_attitudes(readings, separation_deg):
-    """
-    Return an attitude label per reading: directions within ``separation_deg`` share one.
-
-    Greedy: the first unlabelled reading opens an attitude that takes every
-    unlabelled reading within ``separation_deg`` of its direction.
-    """
-    labels = np.full(readings.shape[0], -1)
-    label = 0
-    while (labels < 0).any():
-        first = np.flatnonzero(labels < 0)[0]
-        near = np.degrees(angle_between(readings, readings[first])) <= separation_deg
-        labels[(labels < 0) & near] = label
-        label += 1
-    return labels
 
 
 def plot(path, temperature_c, result, before, after, what):

@@ -3,8 +3,11 @@ What ``inclino fit-stand`` and ``inclino fit-temperature`` share.
 
 Input is a bag (a directory, mcap or sqlite3) or a CSV file (any other path)
 with a header row naming its columns; the calibration file is read if it
-exists, changed in one stage and written atomically with ``model.save_model``;
-each fit leaves a PNG and a text summary in the report folder.
+exists, changed in one stage and written atomically with ``model.save_model``
+(its history keeps the version replaced; a file that another writer changed
+while the fit ran is not written over); each fit leaves a PNG and a text
+summary in the report folder, in the same commit as the calibration file:
+all land together or none does.
 
 Exit codes: 0 written, 1 refused (the reason printed, the file untouched),
 2 an input that cannot be used (``CommandError``).
@@ -14,8 +17,10 @@ from dataclasses import replace
 import os
 import sys
 
+from inclino_ros.calibration.history import file_digest
 from inclino_ros.calibration.model import (
-    CalibrationFileError, CalibrationModel, check_sensor, load_model, save_model)
+    CalibrationChanged, CalibrationFileError, CalibrationModel, check_sensor, load_model,
+    save_model)
 from inclino_ros.calibration.plausibility import Implausible
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.mounting import add_axes_map_arguments, axes_matrix
@@ -159,19 +164,34 @@ def load_existing(path, sensor_id=None, axes=3):
     return model
 
 
-def save(path, model):
+def begin_update(args, command):
     """
-    Write ``model`` to ``path`` atomically.
+    Note what ``save`` needs before the calibration file is read: its digest now, the writer.
+
+    A file another writer replaces while the command runs is then not written
+    over (``model.CalibrationChanged``).
+    """
+    args.writer = f'inclino {command}'
+    try:
+        args.calibration_sha256 = file_digest(args.calibration)
+    except OSError as err:
+        raise CommandError(f'cannot read {args.calibration}: {err}') from None
+
+
+def save(args, model, outputs):
+    """
+    Write ``model`` to ``args.calibration`` as one of ``outputs`` (``model.save_model``).
 
     Refused when the fitted model is one load_model would refuse (an
-    implausible result), CommandError when the file cannot be written.
+    implausible result) or the file changed since ``begin_update``,
+    CommandError when the file cannot be written.
     """
     try:
-        save_model(path, model)
+        save_model(args.calibration, model, args.writer, outputs, args.calibration_sha256)
     except ValueError as err:
         raise Refused(f'the result is not a plausible calibration: {err}') from None
     except OSError as err:
-        raise CommandError(f'cannot write {path}: {err}') from None
+        raise CommandError(f'cannot write {args.calibration}: {err}') from None
 
 
 def report_paths(args, name):
@@ -209,20 +229,24 @@ def run_fit(command, args, fit):
 
     ``fit`` appends the summary lines to ``lines`` (printed as they are, and
     written to the text report by the fit) and writes its report files to
-    ``outputs.path(final)`` (``io.files.Outputs``): they replace the report
-    of the previous fit whole, never the input or the calibration file, and
-    are kept when the fit is refused (the refusal's report) but not when the
-    command fails.  Refused and Implausible (readings no sensor gives,
+    ``outputs.path(final)`` (``io.files.Outputs``), the calibration file too
+    (``save``): they replace the report of the previous fit whole, never the
+    input, and land together with the calibration file or not at all; the
+    report is kept when the fit is refused (the refusal's report) but not
+    when the command fails.  Refused and Implausible (readings no sensor gives,
     ``calibration.plausibility``) give 1; other errors propagate to ``main``.
     """
     lines = []
-    with Outputs(inputs=[args.input, args.calibration], force=True) as outputs:
-        try:
-            fit(args, lines, outputs)
-        except (Refused, Implausible) as err:
-            refusal = err
-        else:
-            refusal = None
+    begin_update(args, command)
+    refusal = None
+    try:
+        with Outputs(inputs=[args.input, args.calibration], force=True) as outputs:
+            try:
+                fit(args, lines, outputs)
+            except (Refused, Implausible) as err:
+                refusal = err
+    except CalibrationChanged as err:  # at the commit: nothing of this command was written
+        refusal, lines = f'{err}; nothing written', []
     if refusal is not None:
         if lines:
             print('\n'.join(lines))

@@ -66,11 +66,12 @@ import json
 import sys
 
 from inclino_ros.calibration.model import (
-    NO_MAGNETIC_CORRECTION, STAGES, STANDARD_GRAVITY_MPS2, utc_now_iso)
+    CalibrationChanged, NO_MAGNETIC_CORRECTION, STAGES, STANDARD_GRAVITY_MPS2, utc_now_iso)
 from inclino_ros.calibration.plausibility import check_field_readings, Implausible
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
-    add_sensor_argument, finish_figure, load_existing, new_figure, read_csv, Refused, save)
+    add_sensor_argument, begin_update, finish_figure, load_existing, new_figure, read_csv,
+    Refused, save)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.options import add_force_argument, between, non_negative, report_path
 from inclino_ros.cli.process import add_limit_arguments
@@ -153,6 +154,8 @@ def run(args):
     for path in (args.output, f'{args.output}.msa.json', args.report):
         if path is not None:
             outputs.check(path)
+    if args.calibration is not None:
+        begin_update(args, 'msa')
     try:
         with outputs:
             table = load_stations(args)
@@ -161,8 +164,8 @@ def run(args):
             output = correct(args, table, lines)
             write_outputs(args, table, output, lines, outputs)
             if model is not None:
-                store(args, model, output[0], lines)
-    except (MsaRefused, Refused, Implausible) as err:
+                store(args, model, output[0], lines, outputs)
+    except (MsaRefused, Refused, Implausible, CalibrationChanged) as err:
         print('\n'.join(lines + [f'inclino msa: refused: {err}; nothing written']),
               file=sys.stderr)
         return 1
@@ -233,7 +236,7 @@ def calibrated_field(args, table, lines):
     return model
 
 
-def store(args, model, result, lines):
+def store(args, model, result, lines, outputs):
     """Write the solved eps into the magnetic stage of ``args.calibration`` (tool frame)."""
     eps_tool_nT = magnetics.iscwsa_from_tool(result.eps_nT)
     stage = replace(model.magnetic or NO_MAGNETIC_CORRECTION,
@@ -244,7 +247,7 @@ def store(args, model, result, lines):
                     msa_reference_total_nT=float(args.reference_total_nT),
                     msa_reference_dip_deg=float(args.reference_dip_deg),
                     msa_fitted_at=utc_now_iso())
-    save(args.calibration, replace(model, magnetic=stage))
+    save(args, replace(model, magnetic=stage), outputs)
     lines.append('wrote the interference (tool x, y, z: '
                  + ', '.join(f'{v:.1f}' for v in eps_tool_nT) + f' nT) to {args.calibration}')
 

@@ -299,3 +299,18 @@ def survey_qc(G, B, reference_total_nT, reference_dip_deg, g_expected, limits=Qc
         b_total_ok=np.abs(b_delta) <= limits.b_total_tolerance_nT,
         dip_ok=np.abs(dip_delta) <= limits.dip_tolerance_deg,
         g_total_ok=np.abs(g_delta) <= limits.g_total_tolerance)
+
+
+def survey_of(f_tool, b_tool_nT):
+    """
+    Return per-shot |g|, |B|, dip, inclination and azimuth of corrected readings.
+
+    ``f_tool`` (N, 3) specific force [m/s^2] and ``b_tool_nT`` (N, 3) the
+    field, both in the z-up tool frame (seed 002's input): a dict of arrays
+    ``g_total_mps2``, ``b_total_nT``, ``dip_deg``, ``inclination_deg``,
+    ``azimuth_deg``.
+    """
+    gravity, b_iscwsa = gravity_from_specific_force(f_tool), iscwsa_from_tool(b_tool_nT)
+    return {'g_total_mps2': g_total(gravity), 'b_total_nT': b_total_nT(b_tool_nT),
+            'dip_deg': dip_deg(gravity, b_iscwsa), 'inclination_deg': inclination_deg(gravity),
+            'azimuth_deg': azimuth_deg(gravity, b_iscwsa)}

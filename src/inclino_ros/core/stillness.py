@@ -36,6 +36,7 @@ Angles are in radians in, degrees in the result.
 from dataclasses import dataclass
 import math
 
+from inclino_ros.core.attitude import angle_between
 import numpy as np
 from scipy.stats import f as fisher_f
 
@@ -216,7 +217,7 @@ def judge(stillness, limits):
 @dataclass(frozen=True)
 class SegmentLimits:
     """
-    How still segments are found in a continuous log (``still_segments``).
+    How still segments are found in a continuous log (``find_still_segments``).
 
     ``window_s``: the log is judged in windows of this length; a window is
     still when its accelerometer direction does not move (``motion`` with
@@ -238,7 +239,7 @@ class SegmentLimits:
     whole: bool = True
 
 
-def still_segments(times_s, vectors, gyro_radps=None, limits=SegmentLimits()):
+def find_still_segments(times_s, vectors, gyro_radps=None, limits=SegmentLimits()):
     """
     Return [(start, end)] sample ranges of the still segments of a continuous log.
 
@@ -281,4 +282,53 @@ def still_segments(times_s, vectors, gyro_radps=None, limits=SegmentLimits()):
                 assess(tangent_angles(vectors[start:end]), times_s[start:end]),
                 limits.still) is None):
             segments.append((int(start), int(end)))
+    return segments
+
+
+def label_attitudes(readings, separation_deg):
+    """
+    Return an attitude label per reading (N, 3): directions within ``separation_deg`` share one.
+
+    Greedy: the first unlabelled reading opens an attitude that takes every
+    unlabelled reading within ``separation_deg`` of its direction.
+    """
+    readings = np.asarray(readings, dtype=float)
+    labels = np.full(readings.shape[0], -1)
+    label = 0
+    while (labels < 0).any():
+        first = np.flatnonzero(labels < 0)[0]
+        near = np.degrees(angle_between(readings, readings[first])) <= separation_deg
+        labels[(labels < 0) & near] = label
+        label += 1
+    return labels
+
+
+def still_segments(stamps_ns, accel, field, window_s, max_deg, min_s):
+    """
+    Return [(start, end)] index ranges of the still segments of a stream.
+
+    Windows of ``window_s`` whose accelerometer and magnetometer directions
+    both spread less than ``max_deg`` (RMS angle about their mean) are still;
+    consecutive still windows join, and a joined run of at least ``min_s`` is
+    a segment.
+    """
+    seconds = (stamps_ns - stamps_ns[0]) / 1e9
+    window = np.floor(seconds / window_s).astype(int)
+    edges = np.flatnonzero(np.diff(window)) + 1
+    starts, ends = np.append(0, edges), np.append(edges, len(window))
+    still = []
+    for start, end in zip(starts, ends):
+        spreads = [np.degrees(np.sqrt(np.mean(angle_between(v[start:end],
+                                                            v[start:end].mean(axis=0)) ** 2)))
+                   for v in (accel, field)]
+        still.append(end - start >= 2 and max(spreads) < max_deg)
+    segments, run_start = [], None
+    for k, is_still in enumerate(still + [False]):
+        if is_still and run_start is None:
+            run_start = k
+        elif not is_still and run_start is not None:
+            first, last = starts[run_start], ends[k - 1]
+            if seconds[last - 1] - seconds[first] >= min_s - window_s:
+                segments.append((first, last))
+            run_start = None
     return segments

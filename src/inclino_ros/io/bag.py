@@ -21,7 +21,10 @@ changed inside a value cannot be told from a reading.)
 from contextlib import contextmanager
 from dataclasses import dataclass, fields
 from functools import lru_cache
+import os
+import stat
 
+from inclino_ros.io.files import file_kind
 import numpy as np
 from rosbags.rosbag2 import Reader, ReaderError, StoragePlugin, Writer, WriterError
 from rosbags.typesys import get_typestore, Stores
@@ -357,6 +360,7 @@ def concatenate(chunks):
 @contextmanager
 def _open(path):
     """Open the bag at ``path`` for reading; BagError if it is not a readable bag."""
+    _check_regular_files(path)
     try:
         reader = Reader(path)
         reader.open()
@@ -369,6 +373,20 @@ def _open(path):
             reader.close()
         except Exception:  # a damaged file may fail to close too; the reason is given already
             pass
+
+
+def _check_regular_files(path):
+    """Raise BagError when the bag ``path`` or a file in its folder is not a regular file."""
+    try:
+        entries = [path] if not os.path.isdir(path) else [
+            os.path.join(path, name) for name in os.listdir(path)]
+        kinds = {entry: os.stat(entry).st_mode for entry in entries}
+    except OSError:
+        return  # the reader says why it cannot read it
+    for entry, kind in kinds.items():
+        if not (stat.S_ISREG(kind) or stat.S_ISDIR(kind)):
+            raise BagError(f'cannot read the bag {path}: {entry} is {file_kind(kind)}, not a '
+                           'regular file: refused, nothing read')
 
 
 def _reason(err):

@@ -10,6 +10,8 @@ garbage included, is a TableError with the reason and the line.
 
 import csv
 
+from inclino_ros.io.files import open_regular
+
 import numpy as np
 
 #: Most data rows of a table (an 80-minute stand at 1 kHz).
@@ -41,7 +43,7 @@ def _lines(stream, path):
 def _open_reader(path, read):
     """Return ``read(csv reader)`` of the CSV file ``path``; TableError if it is no table."""
     try:
-        stream = open(path, newline='', encoding='utf-8-sig')
+        stream = open_regular(path, 'r', newline='', encoding='utf-8-sig')
     except OSError as err:
         raise TableError(f'cannot read {path}: {err}') from None
     try:
@@ -129,3 +131,29 @@ def _read_table(reader, path, required, optional, text):
     columns = {name: values[:, k] for k, name in enumerate(names)}
     columns.update(words)
     return columns
+
+
+def read_shots(path, accel_columns=('ax', 'ay', 'az'), field_columns=('bx', 'by', 'bz'),
+               group_column='roll_group'):
+    """
+    Return the still shots of a CSV: (accel (N, 3), field (N, 3), group labels or None, T or None).
+
+    One row per shot; rows with the same non-empty ``group_column`` value
+    are one roll group (labels 0, 1, ... in order of appearance, -1 for none);
+    ``temperature_c`` optional.  TableError for a row with a non-finite value
+    (named) or a table ``read_csv`` refuses.
+    """
+    table = read_csv(path, tuple(accel_columns) + tuple(field_columns),
+                     optional=('temperature_c',), text=(group_column,))
+    accel = np.column_stack([table[name] for name in accel_columns])
+    field = np.column_stack([table[name] for name in field_columns])
+    bad = np.flatnonzero(~(np.isfinite(accel).all(axis=1) & np.isfinite(field).all(axis=1)))
+    if bad.size:
+        raise TableError(f'non-finite values in row(s) {(bad + 1).tolist()} of {path} (data '
+                         'rows, counted from 1 after the header): drop or retake those shots')
+    groups = table.get(group_column)
+    labels = None
+    if groups is not None and any(groups):
+        names = list(dict.fromkeys(name for name in groups if name))
+        labels = np.array([names.index(name) if name else -1 for name in groups])
+    return accel, field, labels, table.get('temperature_c')

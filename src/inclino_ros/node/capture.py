@@ -8,6 +8,17 @@ services share: commit a model (write atomically, then apply), succeed,
 refuse (nothing changed), and ``guarded``, which turns any failure of a
 service into a refusal with the reason: no request crashes the node.
 
+Who may change the calibration is one rule, ``change_refusal``: every
+service that changes it (created with ``changes=True``), every commit and the
+node's parameter callback ask it.  In field mode (the read-only parameter
+``field_mode``) it refuses them all; everything else goes on.  A commit
+writes through ``model.save_model`` (its history keeps the version replaced)
+and never over a file another writer changed since the node read it: it is
+refused (``CalibrationChanged``) rather than merged, as every stage is
+measured through the stages before it (a level capture through the stand
+and temperature stages the node held): a merge would join stages measured
+against different predecessors.
+
 A capture's memory is bounded: a counted one holds its ``count`` samples in
 one array (at most the parameters' 1 000 000), a timed one (the rotation) at
 most MAX_TIMED_ROWS, every other sample dropped whenever it is full, so what
@@ -25,7 +36,7 @@ import json
 import math
 import traceback
 
-from inclino_ros.calibration.model import save_model
+from inclino_ros.calibration.model import CalibrationChanged, save_model
 from inclino_ros.calibration.plausibility import check_for_sensor, Implausible
 from inclino_ros.calibration.still_capture import CaptureRefused
 from inclino_ros.core.screening import REASONS
@@ -42,6 +53,17 @@ PROGRESS_PERIOD_S = 0.2
 MAX_TIMED_ROWS = 65536
 #: Columns of a captured row: raw (3), temperature, field (3), stamp.
 COLUMNS = 8
+#: Why a request that would change the calibration is refused in field mode.
+FIELD_MODE_REFUSAL = 'the calibration is locked (field mode)'
+
+
+def change_refusal(node):
+    """
+    Return why a request may not change ``node``'s calibration now; None when it may.
+
+    The one rule every changing service, commit and parameter change asks.
+    """
+    return FIELD_MODE_REFUSAL if node.field_mode else None
 
 
 @dataclass(frozen=True)
@@ -160,11 +182,19 @@ class Collector:
         self.service = None      # the service whose callback runs (set by create_service)
         self.progress_pub = node.create_publisher(String, '~/capture_progress', latched_qos())
 
-    def create_service(self, name, callback, group):
-        """Create the Trigger service ``~/<name>``; its answers go to ``~/capture_progress``."""
+    def create_service(self, name, callback, group, changes=False):
+        """
+        Create the Trigger service ``~/<name>``; its answers go to ``~/capture_progress``.
+
+        ``changes``: it changes the calibration, so ``change_refusal`` is asked first.
+        """
         async def reported(request, response):
             self.service = name
-            response = guarded(self, callback)(request, response)
+            reason = change_refusal(self.node) if changes else None
+            if reason is not None:
+                response = self.refuse(response, reason)
+            else:
+                response = guarded(self, callback)(request, response)
             if inspect.isawaitable(response):
                 response = await response
             self.publish_progress(name, 'succeeded' if response.success else 'refused',
@@ -248,16 +278,30 @@ class Collector:
                         times_s=rows[:, 7])
 
     def commit(self, model):
-        """Write ``model`` atomically, then apply it; CaptureRefused if it is not written."""
-        model = replace(model, sensor_id=self.node.sensor_id or model.sensor_id)
+        """
+        Write ``model`` atomically, then apply it; CaptureRefused if it is not written.
+
+        Refused when the calibration may not change (``change_refusal``) and
+        when the file changed on disk since the node read it.
+        """
+        node = self.node
+        reason = change_refusal(node)
+        if reason is not None:
+            raise CaptureRefused(reason)
+        model = replace(model, sensor_id=node.sensor_id or model.sensor_id)
         try:
-            check_for_sensor(model, self.node.settings.accelerometer_range_mps2)
-            save_model(self.node.calibration_file, model)
+            check_for_sensor(model, node.settings.accelerometer_range_mps2)
+            digest = save_model(node.calibration_file, model,
+                                f'node {node.get_fully_qualified_name()}/{self.service}',
+                                based_on=node.calibration_sha256)
+        except CalibrationChanged as err:
+            raise CaptureRefused(str(err)) from None
         except OSError as err:
             raise CaptureRefused(f'cannot write {self.node.calibration_file}: {err}') from None
         except (ValueError, Implausible) as err:  # what load_model would refuse
             raise CaptureRefused(f'the result is not a plausible calibration: {err}') from None
-        self.node.apply_model(model)
+        node.calibration_sha256 = digest
+        node.apply_model(model)
 
     def answer(self, response, message, saved=True):
         """Fill a successful response (and log it)."""

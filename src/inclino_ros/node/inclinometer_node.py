@@ -22,14 +22,14 @@ import sys
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Vector3Stamped
 from inclino_ros.calibration.model import (
-    CalibrationFileError, CalibrationModel, check_sensor, load_model, stage_ages_s, stale_stages,
-    utc_now_iso)
+    CalibrationFileError, CalibrationModel, check_sensor, load_model, read_model_history,
+    stage_ages_s, stale_stages, utc_now_iso)
 from inclino_ros.calibration.plausibility import check_for_sensor, Implausible
 from inclino_ros.calibration.stations import load_stations, StationsFileError
 from inclino_ros.core.averaging import Averager
 from inclino_ros.core.magnetics import QcLimits
 from inclino_ros.io.bag import encode, encode_float64, IMU, MAGNETIC_FIELD
-from inclino_ros.node.capture import Collector, latched_qos
+from inclino_ros.node.capture import change_refusal, Collector, latched_qos
 from inclino_ros.node.executor import run_node
 from inclino_ros.node.magnetic_services import MagneticServices
 from inclino_ros.node.outputs import averaged_outputs, outputs
@@ -76,7 +76,10 @@ class InclinometerNode(Node):
         self.frame_id = self.param('frame_id')
         self.calibration_file = os.path.expanduser(self.param('calibration_file'))
         self.sensor_id = self.param('sensor_id') or None
-        self.model = self._load_model()
+        self.field_mode = self.param('field_mode')
+        self.get_logger().info(f'calibration mode: {self.calibration_mode()}')
+        self.model, self.calibration_sha256 = self._load_model()
+        self.history_problems = self._check_history()
         self.stations_file = os.path.expanduser(self.param('stations_file'))
         stations = load_stations(self.stations_file)
         self.magnetic_settings = self._magnetic_settings()
@@ -145,20 +148,33 @@ class InclinometerNode(Node):
         """Return the current value of parameter ``name``."""
         return self.get_parameter(name).value
 
+    def calibration_mode(self):
+        """Return the mode the calibration is in, as the startup log and diagnostics say it."""
+        return ('field (locked: no service or parameter may change the calibration)'
+                if self.field_mode else 'bench (writable: the calibration services may change it)')
+
+    def _check_history(self):
+        """Return what is wrong with the calibration file's history (logged); never raises."""
+        _, problems = read_model_history(self.calibration_file)
+        for problem in problems:
+            self.get_logger().warning(f'calibration history: {problem} (the calibration file '
+                                      'itself is used as it is)')
+        return problems
+
     def _load_model(self):
         """
-        Return the stored model, an empty one if there is no file.
+        Return the stored model and the digest of the file read, an empty one and None without.
 
         Raises CalibrationFileError for a file that exists but is not valid.
         """
         axes = self.settings.accelerometer_axes
         try:
-            model = load_model(self.calibration_file)
+            model, sha256 = load_model(self.calibration_file, with_digest=True)
         except FileNotFoundError:
             self.get_logger().warning(
                 f'no calibration file at {self.calibration_file}: running UNCALIBRATED '
                 '(raw angles); call ~/calibrate_level with the tool on a level bench')
-            return CalibrationModel(accelerometer_axes=axes, sensor_id=self.sensor_id)
+            return CalibrationModel(accelerometer_axes=axes, sensor_id=self.sensor_id), None
         check_sensor(model, self.sensor_id, self.calibration_file)
         if model.sensor_id is None and self.sensor_id is not None:
             self.get_logger().warning(
@@ -175,7 +191,7 @@ class InclinometerNode(Node):
             raise CalibrationFileError(self.calibration_file, err.reason) from None
         self.get_logger().info(
             f'loaded {self.calibration_file}: stages {", ".join(model.stages) or "none"}')
-        return model
+        return model, sha256
 
     def _on_incompatible_qos(self, event):
         self.get_logger().warning(
@@ -198,6 +214,9 @@ class InclinometerNode(Node):
                 g_total_tolerance=self.param('magnetic.g_total_tolerance_mps2')))
 
     def _check_parameters(self, parameters):
+        locked = change_refusal(self)
+        if locked is not None:  # field mode: no parameter of the job changes
+            return SetParametersResult(successful=False, reason=f'refused: {locked}')
         reasons = [r for r in (refusal(p.name, p.value) for p in parameters) if r]
         return SetParametersResult(successful=not reasons, reason='; '.join(reasons))
 
@@ -285,6 +304,8 @@ class InclinometerNode(Node):
                                   hardware_id=self.calibration_file)
         model = self.model
         values = {'calibration_file': self.calibration_file,
+                  'calibration_mode': self.calibration_mode(),
+                  'history_problems': '; '.join(self.history_problems) or 'none',
                   'sensor_id': str(model.sensor_id),
                   'capture_running': str(self.collector.capture is not None),
                   'stand_positions_held': str(len(self.calibration.positions)),

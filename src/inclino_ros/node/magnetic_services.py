@@ -19,13 +19,13 @@ The node's magnetometer services (seed 002): rotation fit, survey stations, MSA.
 
 from dataclasses import replace
 
-from inclino_ros.calibration.model import (
-    NO_MAGNETIC_CORRECTION, readings_temperature_c, utc_now_iso)
+from inclino_ros.calibration.model import NO_MAGNETIC_CORRECTION, utc_now_iso
 from inclino_ros.calibration.plausibility import check_field_readings, Implausible
+from inclino_ros.calibration.rotation import solve_rotation
 from inclino_ros.calibration.stations import msa_inputs, save_stations, Station
 from inclino_ros.calibration.still_capture import (
     CaptureRefused, require_axis_still, require_still_vectors)
-from inclino_ros.core.cross_axial import fit_cross_axial, RotationFitRefused
+from inclino_ros.core.cross_axial import RotationFitRefused
 from inclino_ros.core.magnetics import iscwsa_from_tool
 from inclino_ros.core.msa import (
     azimuth_difference_deg, improved_cross_axial, MsaRefused, solve_msa_axial, solve_msa_classic,
@@ -35,6 +35,10 @@ import numpy as np
 from rclpy.callback_groups import ReentrantCallbackGroup
 
 SOLVERS = {'classic': solve_msa_classic, 'axial': solve_msa_axial}
+
+
+#: The services that change the calibration (refused in field mode: ``capture.change_refusal``).
+CHANGING = ('capture_rotation', 'solve_msa')
 
 
 class MagneticServices:
@@ -50,7 +54,7 @@ class MagneticServices:
                                ('take_survey', self.take_survey),
                                ('solve_msa', self.solve_msa),
                                ('clear_surveys', self.clear_surveys)):
-            collector.create_service(name, callback, group)
+            collector.create_service(name, callback, group, changes=name in CHANGING)
 
     def _stage(self):
         return self.node.model.magnetic or NO_MAGNETIC_CORRECTION
@@ -63,22 +67,9 @@ class MagneticServices:
                 'rotation', duration_s=node.param('rotation.duration_s'))
             require_axis_still(node.model.apply(captured.raw, captured.temperatures_c),
                                captured.times_s, node.calibration.still_limits('survey'))
-            paired = np.isfinite(captured.field_nT).all(axis=1)
-            check_field_readings(captured.field_nT[paired],
-                                 "the rotation's magnetometer readings")
-            temperatures_c = (None if captured.temperatures_c is None
-                              else captured.temperatures_c[paired])
-            # The ellipse is fitted in the tool frame: after the magnetometer's own stages
-            # and the shared mount, before seed 002's.
-            fit = fit_cross_axial(node.model.apply_magnetic(
-                captured.field_nT[paired], temperatures_c, before='magnetic'))
-            stage = replace(self._stage(), hard_iron_nT=tuple(fit.offset_nT.tolist()),
-                            soft_iron=tuple(map(tuple, fit.correction.tolist())),
-                            interference_nT=(0.0, 0.0, 0.0), interference_std_nT=None,
-                            rotation_fitted_at=utc_now_iso(), msa_method=None, msa_stations=0,
-                            msa_fitted_at=None, rotation_temperature_c=readings_temperature_c(
-                                node.model.magnetometer_temperature, captured.temperature_c))
-            self.collector.commit(replace(node.model, magnetic=stage))
+            solution = solve_rotation(node.model, captured.field_nT, captured.temperatures_c)
+            fit = solution.fit
+            self.collector.commit(solution.model)
         except (CaptureRefused, RotationFitRefused, Implausible) as err:
             return self.collector.refuse(response, str(err))
         return self.collector.answer(response, (

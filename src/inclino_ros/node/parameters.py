@@ -52,6 +52,11 @@ PARAMETERS = (
     Parameter('sensor_id', '',
               'The sensor this node reads (e.g. its serial number): written into the '
               'calibration file; a file of another sensor stops the node.'),
+    Parameter('field_mode', False,
+              'true: the calibration is locked for the job: every service that would change it '
+              'and every parameter change is refused ("the calibration is locked (field '
+              'mode)"); correction, outputs and read-only services go on. Read-only: set at '
+              'start only, so it cannot be switched off remotely.'),
     Parameter('calibration.max_age_days', 180.0,
               'Diagnostics WARN when a calibration stage is older than this [days].',
               0.01, 36500.0, read_only=False),

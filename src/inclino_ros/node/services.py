@@ -14,10 +14,15 @@ from inclino_ros.calibration.model import readings_temperature_c, temperature_co
 from inclino_ros.calibration.plausibility import Implausible
 from inclino_ros.calibration.stand_capture import (
     average_position, repeated_position, solve_positions)
+from inclino_ros.calibration.stand_fit import with_stand
 from inclino_ros.core.stand import StandFitRefused
 from inclino_ros.core.stillness import StillLimits
 import numpy as np
 from rclpy.callback_groups import ReentrantCallbackGroup
+
+
+#: The services that change the calibration (refused in field mode: ``capture.change_refusal``).
+CHANGING = ('calibrate_level', 'solve_stand_calibration')
 
 
 class CalibrationServices:
@@ -35,7 +40,7 @@ class CalibrationServices:
                                ('capture_position', self.capture_position),
                                ('solve_stand_calibration', self.solve_stand_calibration),
                                ('clear_positions', self.clear_positions)):
-            collector.create_service(name, callback, group)
+            collector.create_service(name, callback, group, changes=name in CHANGING)
 
     def still_limits(self, prefix):
         """Return the StillLimits of the captures of ``prefix`` (its max_sem_deg)."""
@@ -143,13 +148,7 @@ class CalibrationServices:
                 self.positions, node.settings.gravity_mps2, node.param('stand.max_rms_deg'),
                 self.reference(), node.param('stand.max_field_rms_deg'),
                 node.param('temperature.max_stage_difference_c'))
-            # K is fitted against the tool's attitude on the stand, so it already
-            # holds the mounting misalignment: a kept gamma/beta would count it twice.
-            model = replace(node.model, stand=stand, installation=None, tool_axis=None)
-            if field is not None:
-                model = replace(model, magnetometer=field.magnetometer,
-                                magnetometer_alignment=field.alignment)
-            self.collector.commit(model)
+            self.collector.commit(with_stand(node.model, stand, field))
         except (StandFitRefused, CaptureRefused) as err:
             return self.collector.refuse(response, str(err))
         k = np.array(stand.scale_matrix)
