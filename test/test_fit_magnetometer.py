@@ -188,8 +188,17 @@ BAD = {
     'one plane': ({'count_free': 0, 'per_group': 16, 'edit': one_plane}, 'one plane'),
     'microtesla': ({'scale_field': 1e-3}, 'uT'),
     'too few rows': ({'count_free': 3, 'per_group': 4}, 'only 11 shot(s)'),
-    'outlier': ({'edit': outlier}, 'outlier shot(s) 6'),
 }
+
+
+def test_an_outlier_is_named_and_the_fit_goes_on(tmp_path):
+    """Iron near shot 6: named and left out; the other 23 shots calibrate (issue 18)."""
+    calibration = tmp_path / 'cal.json'
+    code, out, err = quiet(['fit-magnetometer', shots_csv(tmp_path, edit=outlier),
+                            '--calibration', calibration])
+    assert code == 0, err
+    assert 'outlier shot 6:' in out and 'left out of the fit' in out
+    assert load_model(calibration).magnetometer.positions == 23
 
 
 @pytest.mark.parametrize('name', sorted(BAD) + ['missing column'])
@@ -212,11 +221,8 @@ def test_bad_input_is_refused_and_the_file_is_untouched(tmp_path, name):
     assert calibration.read_bytes() == before
 
 
-def test_shots_from_a_bag(tmp_path):
-    """Still segments of /imu/data_raw + /imu/mag become shots; a fit comes out of them."""
-    rng = np.random.default_rng(9)
-    tool = shots_sim.tool(sensor_model.QUARTZ_FLUXGATE)
-    incl, tf, azim, _ = shots_sim.shot_attitudes(rng, free=16, per_group=0, axes_deg=())
+def write_shots_bag(path, tool, incl, tf, azim, rng):
+    """Write a bag of the tool held 1.5 s at each attitude, 0.5 s turning to the next."""
     rate_hz, still, moving = 100, 150, 50
     parts = []
     for k in range(len(incl)):   # held 1.5 s, then 0.5 s turning to the next attitude
@@ -228,13 +234,21 @@ def test_shots_from_a_bag(tmp_path):
     readings = sensor_model.read(tool, *attitude, field=shots_sim.FIELD,
                                  interference_nT=shots_sim.INTERFERENCE_NT, rng=rng)
     stamps = np.arange(attitude.shape[1], dtype=np.int64) * (10 ** 9 // rate_hz)
-    path = str(tmp_path / 'shots_bag')
     with bag.BagWriter(path, 'mcap') as out:
         out.add_topic('/imu/data_raw', bag.IMU)
         out.add_topic('/imu/mag', bag.MAGNETIC_FIELD)
         out.write_series({
             '/imu/data_raw': bag.raw_imu(stamps, 'tool', readings.accel_mps2, 1e-3),
             '/imu/mag': bag.magnetometer(stamps, 'tool', readings.mag_nT, 5.0)})
+    return path
+
+
+def test_shots_from_a_bag(tmp_path):
+    """Still segments of /imu/data_raw + /imu/mag become shots; a fit comes out of them."""
+    rng = np.random.default_rng(9)
+    tool = shots_sim.tool(sensor_model.QUARTZ_FLUXGATE)
+    incl, tf, azim, _ = shots_sim.shot_attitudes(rng, free=16, per_group=0, axes_deg=())
+    path = write_shots_bag(str(tmp_path / 'shots_bag'), tool, incl, tf, azim, rng)
     calibration = tmp_path / 'cal.json'
     code, out, err = quiet(['fit-magnetometer', path, '--calibration', calibration])
     assert code == 0, err

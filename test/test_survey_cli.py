@@ -103,3 +103,70 @@ def test_microtesla_input_is_named(tmp_path):
     code, _, err = quiet(['survey', tmp_path / 'in.csv', '-o', tmp_path / 'out.csv',
                           '--calibration', tmp_path / 'cal.json'])
     assert code == 2 and 'uT' in err
+
+
+def coverage(error, sigma):
+    """Return the fractions of finite errors within 1 and 2 sigma."""
+    ratio = np.abs(error) / sigma
+    ratio = ratio[np.isfinite(ratio)]
+    return np.mean(ratio <= 1.0), np.mean(ratio <= 2.0), ratio.size
+
+
+def test_survey_sigma_covers_its_error(tmp_path):
+    """
+    Survey writes each angle's 1 sigma, and a row's ``samples`` makes it a station mean's.
+
+    Physical simulator, white noise, no calibration error (an ideal tool, an empty
+    calibration), rows the means of 1 to 60 readings.  3000 rows: the binomial 1 sigma of
+    a coverage is 0.0085 at 1 sigma (0.683) and 0.0038 at 2 sigma (0.954), so the bands
+    0.60-0.76 and 0.93-0.98 are 6 to 9 of them away from the Gaussian values: a right
+    sigma passes, one wrong by the count (1 vs n readings) is far out (coverage ~1).
+    """
+    rng = np.random.default_rng(19)
+    noise_mps2, noise_nT = 2e-3 * 9.80665, 100.0
+    tool = sensor_model.Tool(accelerometer=sensor_model.Triad(noise_std=noise_mps2),
+                             magnetometer=sensor_model.Triad(noise_std=noise_nT))
+    count = 3000
+    incl, tf, azim = shots_sim.random_attitudes(rng, count, min_inclination_deg=2.0)
+    samples = rng.integers(1, 61, count)
+    index = np.repeat(np.arange(count), samples)
+    readings = sensor_model.read(tool, incl[index], tf[index], azim[index], field=shots_sim.FIELD,
+                                 rng=rng)
+    accel = np.stack([np.bincount(index, readings.accel_mps2[:, j]) for j in range(3)], 1)
+    field = np.stack([np.bincount(index, readings.mag_nT[:, j]) for j in range(3)], 1)
+    accel, field = accel / samples[:, None], field / samples[:, None]
+    write_rows(tmp_path / 'in.csv', ['ax', 'ay', 'az', 'bx', 'by', 'bz', 'samples'],
+               [[*a, *b, n] for a, b, n in zip(accel, field, samples)])
+    (tmp_path / 'cal.json').write_text(
+        '{"format": "inclino_ros.calibration", "schema_version": 3, "accelerometer_axes": 3}')
+    code, _, err = quiet(['survey', tmp_path / 'in.csv', '-o', tmp_path / 'out.csv',
+                          '--calibration', tmp_path / 'cal.json', '--noise-mps2', str(noise_mps2),
+                          '--mag-noise-nT', str(noise_nT)])
+    assert code == 0, err
+    out = read_rows(tmp_path / 'out.csv')
+
+    def column(name):
+        return np.array([float(r[name]) for r in out])
+    for name, truth in (('inclination', incl), ('toolface', tf), ('azimuth', azim)):
+        one, two, finite = coverage(angle_error_deg(column(f'{name}_deg'), truth),
+                                    column(f'{name}_std_deg'))
+        assert finite > 0.9 * count, (name, finite)
+        assert 0.60 <= one <= 0.76 and 0.93 <= two <= 0.98, (name, one, two)
+    # The QC figures' sigma: G-total and B-total against their truths, dip likewise.
+    for name, unit, truth in (('g_total', 'mps2', 9.80665), ('b_total', 'nT', 50000.0),
+                              ('dip', 'deg', 60.0)):
+        one, two, _ = coverage(column(f'{name}_{unit}') - truth, column(f'{name}_std_{unit}'))
+        assert 0.60 <= one <= 0.76 and 0.93 <= two <= 0.98, (name, one, two)
+
+
+def test_samples_column_must_be_a_count(tmp_path):
+    """A ``samples`` cell that is no whole count >= 1 is refused naming the row (exit 2)."""
+    write_rows(tmp_path / 'in.csv', ['ax', 'ay', 'az', 'bx', 'by', 'bz', 'samples'],
+               [[0.0, 0.0, 9.8, 25000.0, 0.0, 43300.0, 10],
+                [0.0, 0.0, 9.8, 25000.0, 0.0, 43300.0, 0.5]])
+    (tmp_path / 'cal.json').write_text(
+        '{"format": "inclino_ros.calibration", "schema_version": 3, "accelerometer_axes": 3}')
+    code, _, err = quiet(['survey', tmp_path / 'in.csv', '-o', tmp_path / 'out.csv',
+                          '--calibration', tmp_path / 'cal.json'])
+    assert code == 2 and 'samples' in err and 'row 2' in err
+    assert not (tmp_path / 'out.csv').exists()

@@ -129,6 +129,9 @@ class AzimuthSurvey:
     azimuth_std_deg: np.ndarray   # (M,) 1 sigma of the azimuth (NaN where undefined)
     precise: np.ndarray           # (M,) azimuth_std_deg within the limit
     defined_azimuth_deg: np.ndarray = None  # (M,) wherever defined, QC or not
+    b_total_std_nT: np.ndarray = None    # (M,) 1 sigma of b_total_nT (the QC widening's)
+    dip_std_deg: np.ndarray = None       # (M,) 1 sigma of dip_deg
+    g_total_std_mps2: np.ndarray = None  # (M,) 1 sigma of the G-total
 
     @property
     def imprecise(self):
@@ -211,13 +214,17 @@ def resolve_azimuth(corrected_mps2, field_nT, model, settings, magnetic_settings
     defined = np.isfinite(azimuth) & (field_total_nT >= MIN_FIELD_NT) & precise
     trusted = defined.copy()
     qc = None
+    # The QC figures' own 1 sigma: |B| and |G| move by the per-axis noise along their
+    # direction, the dip by ``uncertainty.dip_std_rad``.
+    count = gravity.shape[0]
+    g_std = np.broadcast_to(settings.noise_std_mps2 / np.sqrt(averaged), (count,))
+    b_std = np.broadcast_to(noise_nT, (count,))
+    dip_std = np.degrees(dip_std_rad(gravity, field, g_std, b_std))
     if magnetic_settings.reference_total_nT > 0:
-        g_std = settings.noise_std_mps2 / np.sqrt(averaged)
         limits = magnetic_settings.limits
         widened = QcLimits(
             b_total_tolerance_nT=np.hypot(limits.b_total_tolerance_nT, QC_SIGMA * noise_nT),
-            dip_tolerance_deg=np.hypot(limits.dip_tolerance_deg, QC_SIGMA * np.degrees(
-                dip_std_rad(gravity, field, g_std, noise_nT))),
+            dip_tolerance_deg=np.hypot(limits.dip_tolerance_deg, QC_SIGMA * dip_std),
             g_total_tolerance=np.hypot(limits.g_total_tolerance, QC_SIGMA * g_std))
         qc = survey_qc(gravity, field, magnetic_settings.reference_total_nT,
                        magnetic_settings.reference_dip_deg, settings.gravity_mps2, widened)
@@ -228,7 +235,8 @@ def resolve_azimuth(corrected_mps2, field_nT, model, settings, magnetic_settings
         uncorrected_nT=field_nT, azimuth_deg=azimuth, defined_azimuth_deg=defined_azimuth,
         true_azimuth_deg=true_azimuth_deg(azimuth, magnetic_settings.declination_deg),
         b_total_nT=field_total_nT, dip_deg=dip_deg(gravity, field), qc=qc,
-        trusted=trusted, azimuth_std_deg=std_deg, precise=precise)
+        trusted=trusted, azimuth_std_deg=std_deg, precise=precise, b_total_std_nT=b_std,
+        dip_std_deg=dip_std, g_total_std_mps2=g_std)
 
 
 def run(raw, model, settings, temperature_c=None, field_nT=None,
@@ -239,8 +247,9 @@ def run(raw, model, settings, temperature_c=None, field_nT=None,
     ``temperature_c`` (scalar or (N,)) feeds the model's temperature stages;
     None compensates at the reference temperature.  ``field_nT`` (N x 3,
     magnetometer axes, NaN rows where no reading is paired) adds the azimuth.
-    ``averaged``: each row is the mean of that many samples (a station): its
-    noise is the per-sample noise / sqrt(averaged).  Screening looks at the
+    ``averaged``: each row is the mean of that many samples (a station), one
+    count or one per row (N,): its noise is the per-sample noise /
+    sqrt(averaged).  Screening looks at the
     sensor's own axes (its range is per axis, ``screening.screen``); the axes
     maps of ``settings`` then turn both sensors into the tool axes, and
     ``correct`` drops what cannot be gravity after the correction.
@@ -251,6 +260,8 @@ def run(raw, model, settings, temperature_c=None, field_nT=None,
     kept = codes == ACCEPTED
     if np.ndim(temperature_c) == 1:
         temperature_c = np.asarray(temperature_c)[kept]
+    if np.ndim(averaged) == 1:
+        averaged = np.asarray(averaged)[kept]
     if field_nT is not None:
         field_nT = to_tool_axes(np.asarray(field_nT, dtype=float).reshape(-1, 3)[kept],
                                 settings.magnetometer_matrix)
@@ -282,14 +293,18 @@ def correct(tool_mps2, model, settings, temperature_c=None, field_nT=None,
                             settings.two_axis_max_inclination_deg)
     codes[kept] = late
     good = late == ACCEPTED
-    tool_mps2, sensor, corrected = tool_mps2[good], sensor[good], corrected[good]
-    if np.ndim(temperature_c) == 1:
-        temperature_c = np.asarray(temperature_c)[good]
-    if field_nT is not None:
-        field_nT = np.asarray(field_nT, dtype=float).reshape(-1, 3)[good]
-    if np.ndim(averaged):   # one count per row (averaged windows)
-        averaged = np.asarray(averaged)[good]
-        field_averaged = None if field_averaged is None else np.asarray(field_averaged)[good]
+    if not good.all():   # (all kept, the usual case: no copies)
+        tool_mps2, sensor, corrected = tool_mps2[good], sensor[good], corrected[good]
+        if np.ndim(temperature_c) == 1:
+            temperature_c = np.asarray(temperature_c)[good]
+        if field_nT is not None:
+            field_nT = np.asarray(field_nT, dtype=float).reshape(-1, 3)[good]
+        if np.ndim(averaged):   # one count per row (averaged windows)
+            averaged = np.asarray(averaged)[good]
+            field_averaged = (None if field_averaged is None
+                              else np.asarray(field_averaged)[good])
+    elif field_nT is not None:
+        field_nT = np.asarray(field_nT, dtype=float).reshape(-1, 3)
     noise_mps2 = settings.noise_std_mps2 / np.sqrt(averaged)
     covariance = specific_force_covariance(sensor, np.reshape(noise_mps2, (-1, 1, 1)),
                                            settings.accelerometer_axes, model.linear_map)

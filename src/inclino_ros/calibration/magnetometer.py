@@ -16,9 +16,9 @@ import math
 from inclino_ros.calibration.model import (
     Magnetometer, MagnetometerAlignment, Stand, ToolAxis, utc_now_iso)
 from inclino_ros.core.attitude import angle_between
-from inclino_ros.core.installation import to_tool_frame
+from inclino_ros.core.installation import installation_matrix, to_tool_frame
 from inclino_ros.core.magnetics import expected_field_tool_nT
-from inclino_ros.core.shots import fit_shots, ShotLimits, tilt_angles
+from inclino_ros.core.shots import find_roll_groups, fit_shots, ShotLimits, tilt_angles
 from inclino_ros.core.stand import fit_stand, rotation_part, StandFitRefused
 import numpy as np
 
@@ -106,13 +106,44 @@ def fit_field_stand(fields_nT, attitudes_deg, reference_total_nT, reference_dip_
         residual_deg=residual_deg, rms_residual_deg=rms_deg)
 
 
+#: What a shot calibration says when nothing measured the mount (issue 18).
+MOUNT_WARNING = (
+    'WARNING: the mount is NOT calibrated: no roll groups and no installation (level-bench) '
+    'stage; the tool axis is taken as the accelerometer z sensing axis, and a mount tilt of '
+    '1 deg gives up to 1.2 deg inclination and several deg azimuth error that no sigma '
+    'shows: give roll groups (roll_group column) or run inclino fit-level')
+
+
+def installation_in_new_frame(installation, accel_matrix, accel_bias_mps2):
+    """
+    Return ``installation`` in the frame of a new accelerometer correction ``K^-1 (a - b)``.
+
+    The installation is the level-bench reading of a vertical tool (seed 000
+    Eqs. 11-14), taken with the previous correction (none: the raw triad):
+    ``v = |v| C e_z``.  Corrected by the new stage it reads ``K^-1 (v - b)``,
+    whose direction is the tool axis in the new frame: its gamma, beta.
+    """
+    reading = installation.g_total_mps2 * installation_matrix(
+        math.radians(installation.gamma_deg), math.radians(installation.beta_deg))[:, 2]
+    corrected = np.linalg.solve(accel_matrix, reading - np.asarray(accel_bias_mps2))
+    gamma, beta = (math.degrees(float(v)) for v in
+                   tilt_angles(corrected / np.linalg.norm(corrected)))
+    return replace(installation, gamma_deg=gamma, beta_deg=beta,
+                   g_total_mps2=float(np.linalg.norm(corrected)))
+
+
 @dataclass(frozen=True)
 class ShotCalibration:
-    """A reference-free calibration: the new model, the fit, and what changed (text lines)."""
+    """
+    A reference-free calibration: the new model, the fit, and what changed (text lines).
+
+    ``roll_group``: the labels the fit used (given, or found; None: none).
+    """
 
     model: object
     fit: object
     notes: tuple
+    roll_group: object = None
 
 
 def calibrate_from_shots(existing, accel_mps2, field_nT, roll_group=None, temperature_c=None,
@@ -122,34 +153,55 @@ def calibrate_from_shots(existing, accel_mps2, field_nT, roll_group=None, temper
 
     The accelerometer is fitted too unless ``existing`` has a stand stage (then
     its readings are corrected by it and its frame kept, with the
-    installation).  A new accelerometer frame drops the installation, which
-    was measured in the old one (as ``fit-stand --method sphere`` does).  With
-    roll groups the tool axis is measured after the installation stage and
-    becomes the ``tool_axis`` stage.  Every other stage is kept.  Raises
-    ShotFitRefused with the reason.
+    installation).  With roll groups the tool axis is measured (after the
+    installation stage) and becomes the ``tool_axis`` stage; a new
+    accelerometer frame then drops the installation.  Without roll groups an
+    installation is kept, carried into a new accelerometer frame
+    (``installation_in_new_frame``), and a model with no mount stage at all
+    gets MOUNT_WARNING in its notes.  Every other stage is kept.  Raises
+    ShotFitRefused with the reason.  Without ``roll_group`` the roll sets among
+    shots taken in order are found (``core.shots.find_roll_groups``) and the
+    fit repeated with them.
     """
     fit_accel = existing.stand is None
     accel = existing.apply(accel_mps2, temperature_c,
                            before='stand' if fit_accel else 'installation')
     field = existing.apply_magnetic(field_nT, before='magnetometer')
     fit = fit_shots(accel, field, roll_group, gravity_mps2, reference_total_nT, fit_accel, limits)
-    now = utc_now_iso()
     notes = []
+    if roll_group is None:   # a bag, or a file without the column: roll sets in the shots?
+        found = find_roll_groups(fit.accel_corrected_mps2, fit.field_corrected_nT, limits)
+        if found.max(initial=-1) >= 0:
+            fit = fit_shots(accel, field, found, gravity_mps2, reference_total_nT, fit_accel,
+                            limits)
+            roll_group = found
+            notes.append(f'{found.max() + 1} roll group(s) found in the order of the shots '
+                         '(consecutive shots pointing within '
+                         f'{limits.max_pointing_deg:g} deg, turned about that axis): '
+                         + ', '.join(f'shots {np.flatnonzero(found == k)[0] + 1}-'
+                                     f'{np.flatnonzero(found == k)[-1] + 1}'
+                                     for k in range(found.max() + 1)))
+    now = utc_now_iso()
     stand = existing.stand
     installation = existing.installation
     if fit_accel:
         stand = Stand(scale_matrix=_matrix(fit.accel_matrix),
                       bias_mps2=tuple(fit.accel_bias_mps2.tolist()), method='sphere',
                       condition_number=float(fit.condition_number), rms_inclination_deg=None,
-                      positions=int(accel.shape[0]), fitted_at=now)
+                      positions=int(fit.used.sum()), fitted_at=now)
         notes.append('accelerometer fitted too (no stand stage in the file): stand stage, '
                      'method sphere')
-        if installation is not None:
+        if installation is not None and fit.tool_axis is not None:
             installation = None
-            notes.append("installation stage dropped: it was measured in the accelerometer's "
-                         'previous frame' + ('' if fit.tool_axis is not None else
-                                             '; calibrate the level bench again or give '
-                                             'roll groups'))
+            notes.append("installation stage dropped: the roll groups' tool axis replaces it "
+                         "(it was measured in the accelerometer's previous frame)")
+        elif installation is not None:
+            installation = installation_in_new_frame(installation, fit.accel_matrix,
+                                                     fit.accel_bias_mps2)
+            notes.append('installation stage kept (no roll groups to measure the mount): its '
+                         "level-bench reading carried into the accelerometer's new frame, "
+                         f'gamma_deg={installation.gamma_deg:.4f} '
+                         f'beta_deg={installation.beta_deg:.4f}')
     else:
         notes.append("accelerometer stand stage of the file kept (its frame is the tool's)")
     k_m, rotation = split_correction(fit.alignment @ np.linalg.inv(fit.mag_matrix),
@@ -157,27 +209,31 @@ def calibrate_from_shots(existing, accel_mps2, field_nT, roll_group=None, temper
     magnetometer = Magnetometer(
         scale_matrix=_matrix(k_m), bias_nT=tuple(fit.mag_bias_nT.tolist()), method='ellipsoid',
         condition_number=float(fit.condition_number),
-        rms_residual_nT=float(np.sqrt(np.mean((fit.b_total_nT - fit.field_nT) ** 2))),
-        field_nT=float(fit.field_nT), positions=int(accel.shape[0]), fitted_at=now)
+        rms_residual_nT=float(np.sqrt(np.mean((fit.b_total_nT[fit.used] - fit.field_nT) ** 2))),
+        field_nT=float(fit.field_nT), positions=int(fit.used.sum()), fitted_at=now)
     alignment = MagnetometerAlignment(
         rotation=_matrix(rotation), method='dip', dip_deg=float(fit.dip_deg),
-        dip_rms_deg=float(fit.dip_rms_deg), shots=int(accel.shape[0]), fitted_at=now)
+        dip_rms_deg=float(fit.dip_rms_deg), shots=int(fit.used.sum()), fitted_at=now)
     tool_axis = existing.tool_axis
     if fit.tool_axis is not None:
         axis = fit.tool_axis if installation is None else to_tool_frame(
             fit.tool_axis, installation.inverse_matrix)
         gamma, beta = (math.degrees(float(v)) for v in tilt_angles(axis))
+        in_groups = np.isin(np.asarray(roll_group), fit.groups) & fit.used
         tool_axis = ToolAxis(gamma_deg=gamma, beta_deg=beta, roll_groups=len(fit.groups),
-                             shots=int(np.sum(np.asarray(roll_group) >= 0)),
-                             axial_rms_deg=float(np.sqrt(np.mean(fit.axial_rms_deg ** 2))),
+                             shots=int(np.sum(in_groups)),
+                             axial_rms_deg=float(np.sqrt(np.mean(
+                                 fit.axial_rms_deg[list(fit.groups)] ** 2))),
                              fitted_at=now)
     elif fit_accel and tool_axis is not None:
         tool_axis = None
         notes.append("tool_axis stage dropped: it was measured in the accelerometer's "
                      'previous frame')
+    if installation is None and tool_axis is None:
+        notes.append(MOUNT_WARNING)
     if existing.magnetic is not None:
         notes.append('magnetic (seed 002) stage kept: it was fitted on the previous '
                      'magnetometer correction; fit the rotation and MSA again')
     model = replace(existing, stand=stand, installation=installation, tool_axis=tool_axis,
                     magnetometer=magnetometer, magnetometer_alignment=alignment)
-    return ShotCalibration(model=model, fit=fit, notes=tuple(notes))
+    return ShotCalibration(model=model, fit=fit, notes=tuple(notes), roll_group=roll_group)

@@ -9,7 +9,8 @@ it) and ``temperature_c``; one row per still shot.  Or a bag: the still
 segments of ``--raw-topic`` and ``--mag-topic`` are found (every window of
 ``--still-window-s`` whose directions spread less than ``--max-still-deg``
 on both triads, joined into segments of at least ``--min-still-s``) and each
-becomes a shot (no roll groups).
+becomes a shot; roll sets among them are found as in a CSV without
+``roll_group`` (consecutive shots pointing one way while the tool turns).
 
 One joint fit (``core.shots``) finds the magnetometer ellipsoid (hard iron,
 full soft iron), the accelerometer's when the file has no stand stage, the
@@ -17,8 +18,10 @@ rotation between the triads (the dip is constant) and, from the roll
 groups, the tool axis (seed 000's installation without a level bench).  The
 file gets the stages ``magnetometer``, ``magnetometer_alignment``,
 ``tool_axis`` (with roll groups) and ``stand`` (method sphere, when fitted);
-its other stages are kept, but a new accelerometer frame drops the
-installation measured in the old one.  The field is scaled to
+its other stages are kept; the installation (level bench) too, carried
+into a new accelerometer frame, unless roll groups measure the tool axis.
+Nothing measuring the mount (a bag has no roll groups) is said loudly, on
+stderr too.  The field is scaled to
 ``--reference-total-nT`` (or ``--site``) if given, else to the sensor's own
 mean scale.
 
@@ -31,11 +34,17 @@ Refused, exit 1 with the reason and the calibration file byte-identical: a
 missing column, non-finite rows (named), too few shots, readings in uT (or
 another unit) where nT are expected, a field that never changes (no
 rotation), all shots in one plane, a fit that does not make |B|, |g| and
-the dip constant, a roll group not held on its axis, outlier shots (named).
+the dip constant, a roll group not turned about its axis, outliers beyond
+what the shots left can spare; every failed check at once, and the figures
+of the refused fit in ``fit_magnetometer_refused.txt``.  Robust: an outlier
+shot is named and left out while enough good shots remain; a roll group is
+weighted by its own pointing wander (reported), and one that wandered beyond
+2 deg RMS is taken as free shots (named).
 """
 
 from dataclasses import replace
 import math
+import sys
 
 from inclino_ros.calibration.magnetometer import calibrate_from_shots
 from inclino_ros.cli.errors import CommandError
@@ -74,6 +83,10 @@ def register(subparsers):
                         default=ShotLimits.max_dip_rms_deg,
                         help='largest RMS of the dip the fit may leave [deg] (default: '
                              '%(default)s)')
+    parser.add_argument('--max-g-rms-fraction', type=between(1e-9, 1.0),
+                        default=ShotLimits.max_g_rms_fraction,
+                        help='largest RMS of |g| the fit may leave, a fraction of g (default: '
+                             '%(default)s)')
     parser.add_argument('--max-b-rms-fraction', type=between(1e-9, 1.0),
                         default=ShotLimits.max_b_rms_fraction,
                         help='largest RMS of |B| the fit may leave, a fraction of the field '
@@ -108,7 +121,7 @@ def run(args):
 
 
 def read_bag_shots(args, lines):
-    """Return the shots of the still segments of a bag (no roll groups)."""
+    """Return the shots of the still segments of a bag (roll groups: found by the fit)."""
     imu = read_topic(args.input, args.raw_topic)
     mag = read_topic(args.input, args.mag_topic)
     field, paired = pair_nearest(imu.stamps_ns, mag.stamps_ns, mag.field_nT,
@@ -149,12 +162,22 @@ def fit(args, lines, outputs):
         if problem:
             raise Refused(f'bx, by, bz must be in nT: {problem}')
     limits = replace(ShotLimits(), max_dip_rms_deg=args.max_dip_rms_deg,
-                     max_b_rms_fraction=args.max_b_rms_fraction)
+                     max_b_rms_fraction=args.max_b_rms_fraction,
+                     max_g_rms_fraction=args.max_g_rms_fraction)
     try:
         result = calibrate_from_shots(existing, accel, field, labels, temperature_c,
                                       args.gravity_mps2, total_nT, limits)
     except ShotFitRefused as err:
+        if err.fit is not None:
+            # A refused fit reports beside, not over, the report of the fit in the file.
+            lines += robust_lines(err.fit, labels) + fit_table_lines(err.fit, labels)
+            lines += [f'REFUSED: {reason}' for reason in err.reasons]
+            write_text(outputs.path(report_paths(args, REPORT_NAME + '_refused')[1]), lines)
         raise Refused(err.reason) from None
+    labels = result.roll_group
+    for note in result.notes:
+        if note.startswith('WARNING'):
+            print(f'inclino fit-magnetometer: {note}', file=sys.stderr)
     before, after = (magnetics.survey_of(model.apply(accel, temperature_c),
                                          model.apply_magnetic(field, before='magnetic'))
                      for model in (existing, result.model))
@@ -179,13 +202,37 @@ def circular_spread_deg(angles_deg):
     return float(np.sqrt(np.mean(((np.asarray(angles_deg) - mean + 180.0) % 360.0 - 180.0) ** 2)))
 
 
-def group_spreads(labels, survey):
-    """Return [(azimuth spread, inclination spread)] [deg] per roll group."""
+def group_spreads(labels, survey, used):
+    """Return [(azimuth spread, inclination spread)] [deg] per roll group, ``used`` shots."""
     if labels is None:
         return []
-    return [(circular_spread_deg(survey['azimuth_deg'][labels == k]),
-             float(np.std(survey['inclination_deg'][labels == k])))
+    return [(circular_spread_deg(survey['azimuth_deg'][(labels == k) & used]),
+             float(np.std(survey['inclination_deg'][(labels == k) & used])))
             for k in range(int(labels.max()) + 1)]
+
+
+def robust_lines(fit, labels):
+    """Return the lines naming the outlier shots left out and the roll groups taken as free."""
+    lines = [f'outlier shot {shot + 1}'
+             + ('' if labels is None or labels[shot] < 0 else f' (roll group {labels[shot] + 1})')
+             + f': {sigma:.1f} robust sigma from the others, left out of the fit (the tool '
+             'moved, or iron was near)' for shot, sigma in fit.outliers]
+    lines += [f'roll group {group + 1} taken as free shots (no tool axis from it): {why}'
+              for group, why in fit.freed_groups]
+    lines += [f'roll group {k + 1}: pointing wander {fit.axial_rms_deg[k]:.3f} deg RMS along '
+              'the tool axis (its weight in the fit)' for k in fit.groups]
+    return lines
+
+
+def fit_table_lines(fit, labels):
+    """Return the per-shot |g|, |B| and dip the fit leaves (a refused fit's figures)."""
+    lines = [f'{"shot":>4} {"group":>5} {"|g| [m/s^2]":>12} {"|B| [nT]":>10} {"dip [deg]":>10}']
+    for i in range(len(fit.b_total_nT)):
+        group = '' if labels is None or labels[i] < 0 else str(labels[i] + 1)
+        lines.append(f'{i + 1:>4} {group:>5} {fit.g_total_mps2[i]:12.5f} '
+                     f'{fit.b_total_nT[i]:10.1f} {fit.dip_per_shot_deg[i]:10.4f}'
+                     + ('' if fit.used[i] else '  outlier, left out'))
+    return lines
 
 
 def summary_lines(result, labels, before, after, total_nT, dip_ref, source):
@@ -195,7 +242,7 @@ def summary_lines(result, labels, before, after, total_nT, dip_ref, source):
     lines = [f'{len(fit.b_total_nT)} shots, {len(fit.groups)} roll group(s); joint fit in '
              f'{fit.evaluations} evaluations; noise found: {fit.noise_mps2:.3g} m/s^2, '
              f'{fit.noise_nT:.3g} nT per shot']
-    lines += list(result.notes)
+    lines += list(result.notes) + robust_lines(fit, labels)
     lines.append(f'field scaled to {fit.field_nT:.1f} nT '
                  + (f'(reference, {source})' if total_nT is not None
                     else "(the magnetometer's own mean scale: no reference given)"))
@@ -219,16 +266,18 @@ def summary_lines(result, labels, before, after, total_nT, dip_ref, source):
         lines.append(f'{i + 1:>4} {group:>5} {before["g_total_mps2"][i]:11.5f} '
                      f'{after["g_total_mps2"][i]:9.5f} {before["b_total_nT"][i]:11.1f} '
                      f'{after["b_total_nT"][i]:9.1f} {before["dip_deg"][i]:10.4f} '
-                     f'{after["dip_deg"][i]:8.4f}')
+                     f'{after["dip_deg"][i]:8.4f}' + ('' if fit.used[i] else '  outlier'))
     for what, key in (('|g| [m/s^2]', 'g_total_mps2'), ('|B| [nT]', 'b_total_nT'),
                       ('dip [deg]', 'dip_deg')):
-        lines.append(f'spread (std) of {what}: before {np.std(before[key]):.5g}, after '
-                     f'{np.std(after[key]):.5g}')
-    for k, ((az0, inc0), (az1, inc1)) in enumerate(zip(group_spreads(labels, before),
-                                                       group_spreads(labels, after))):
+        lines.append(f'spread (std) of {what} over the shots used: before '
+                     f'{np.std(before[key][fit.used]):.5g}, '
+                     f'after {np.std(after[key][fit.used]):.5g}')
+    for k, ((az0, inc0), (az1, inc1)) in enumerate(zip(group_spreads(labels, before, fit.used),
+                                                       group_spreads(labels, after, fit.used))):
         lines.append(f'roll group {k + 1}: azimuth spread {az0:.4f} -> {az1:.4f} deg RMS, '
-                     f'inclination spread {inc0:.4f} -> {inc1:.4f} deg, turned over '
-                     f'{fit.roll_deg[k]:.0f} deg')
+                     f'inclination spread {inc0:.4f} -> {inc1:.4f} deg'
+                     + (f', turned over {fit.roll_deg[k]:.0f} deg' if k in fit.groups
+                        else ' (free shots)'))
     return lines
 
 

@@ -2,16 +2,21 @@
 ``inclino survey``: inclination, toolface and azimuth of each shot of a CSV file.
 
 Input: a CSV with ``ax, ay, az`` (m/s^2, REP 145 specific force, tool frame)
-and optionally ``bx, by, bz`` (nT, same frame) and ``temperature_c``; any
-other columns are carried through.  Every row goes through ``pipeline.run``
-with the calibration file, as in the node and ``inclino process``; without
-``--calibration`` the raw readings give the raw angles.  Without ``bx, by,
-bz`` (an accelerometer-only tool) the output has inclination and toolface,
-no azimuth columns, and says so once.
+and optionally ``bx, by, bz`` (nT, same frame), ``temperature_c`` and
+``samples``: the count of readings a row is the mean of (a station), whose
+noise is then the per-sample noise / sqrt(samples) (default 1: each row one
+reading); any other columns are carried through.  Every row goes through
+``pipeline.run`` with the calibration file, as in the node and ``inclino
+process``; without ``--calibration`` the raw readings give the raw angles.
+Without ``bx, by, bz`` (an accelerometer-only tool) the output has
+inclination and toolface, no azimuth columns, and says so once.
 
 Output: the input columns (one whose name the output uses is kept as
 ``input_<name>``) plus ``inclination_deg``, ``toolface_deg``, ``azimuth_deg``,
-``g_total_mps2``, ``b_total_nT``, ``dip_deg`` and ``status`` (``ok`` or why
+``g_total_mps2``, ``b_total_nT``, ``dip_deg``, the 1 sigma of each
+(``inclination_std_deg``, ``toolface_std_deg``, ``azimuth_std_deg``,
+``g_total_std_mps2``, ``b_total_std_nT``, ``dip_std_deg``: the sensor noise
+and the calibration's tilt, as ``pipeline.run`` propagates them) and ``status`` (``ok`` or why
 the row gave no angles: ``non_finite``, ``saturated``, ``zero``).  The
 azimuth is written wherever it is defined (a field of at least 1000 nT, a
 1 sigma within ``--azimuth-max-std-deg``: not near vertical): QC is a column
@@ -46,7 +51,10 @@ import numpy as np
 ACCEL_COLUMNS = ('ax', 'ay', 'az')
 FIELD_COLUMNS = ('bx', 'by', 'bz')
 ANGLE_COLUMNS = ('inclination_deg', 'toolface_deg', 'azimuth_deg', 'g_total_mps2',
-                 'b_total_nT', 'dip_deg')
+                 'b_total_nT', 'dip_deg', 'inclination_std_deg', 'toolface_std_deg',
+                 'azimuth_std_deg', 'g_total_std_mps2', 'b_total_std_nT', 'dip_std_deg')
+#: The column of a row's count of averaged readings.
+SAMPLES_COLUMN = 'samples'
 QC_COLUMNS = ('b_total_delta_nT', 'dip_delta_deg', 'g_total_delta_mps2', 'qc_b_total',
               'qc_dip', 'qc_g_total', 'qc_ok')
 
@@ -102,6 +110,19 @@ def _numbers(rows, header, name):
     return np.array([number(row[index]) if index < len(row) else math.nan for row in rows])
 
 
+def _samples(path, rows, header):
+    """Return the per-row count of averaged readings (1 without the column); CommandError."""
+    if SAMPLES_COLUMN not in header:
+        return 1
+    counts = _numbers(rows, header, SAMPLES_COLUMN)
+    bad = np.flatnonzero(~((counts >= 1) & (np.mod(counts, 1.0) == 0.0)))
+    if bad.size:
+        given = rows[bad[0]][header.index(SAMPLES_COLUMN)]
+        raise CommandError(f'{path}: column {SAMPLES_COLUMN} must be a whole count >= 1 '
+                           f'(row {bad[0] + 1} has {given!r})')
+    return counts
+
+
 def _model(path):
     """
     Return the calibration model of ``path``; CommandError if there is none or it is bad.
@@ -139,6 +160,7 @@ def survey(args, outputs):
              if any(has_field) else None)
     temperature_c = (_numbers(rows, header, 'temperature_c') if 'temperature_c' in header
                      else None)
+    averaged = _samples(args.input, rows, header)
     if field is None:
         print(f'inclino survey: no bx, by, bz in {args.input}: inclination and toolface '
               'only (an accelerometer-only tool: no azimuth columns)', file=sys.stderr)
@@ -171,7 +193,7 @@ def survey(args, outputs):
                                 declination_deg=declination_deg or 0.0, limits=QcLimits(),
                                 noise_std_nT=args.mag_noise_nT,
                                 azimuth_max_std_deg=args.azimuth_max_std_deg)
-    result = run_pipeline(raw, model, settings, temperature_c, field, magnetic)
+    result = run_pipeline(raw, model, settings, temperature_c, field, magnetic, averaged)
     columns = output_columns(result, declination_deg, total_nT is not None)
     write(outputs.path(args.output), header, rows, result.codes, columns)
     if field is None:
@@ -183,12 +205,20 @@ def output_columns(result, declination_deg, with_qc):
     """Return ``{name: (accepted mask, values of the accepted rows)}`` of the output."""
     accepted = result.accepted
     azimuth = result.magnetic
-    values = {'inclination_deg': result.inclination_deg, 'toolface_deg': result.toolface_deg}
     if azimuth is None:    # no magnetometer: no azimuth, no field QC
-        values['g_total_mps2'] = result.g_total_mps2
+        values = {'inclination_deg': result.inclination_deg,
+                  'toolface_deg': result.toolface_deg, 'g_total_mps2': result.g_total_mps2,
+                  'inclination_std_deg': result.inclination_std_deg,
+                  'toolface_std_deg': result.toolface_std_deg}
         return {name: (accepted, value) for name, value in values.items()}
-    values.update(azimuth_deg=azimuth.defined_azimuth_deg, g_total_mps2=result.g_total_mps2,
-                  b_total_nT=azimuth.b_total_nT, dip_deg=azimuth.dip_deg)
+    values = {'inclination_deg': result.inclination_deg, 'toolface_deg': result.toolface_deg,
+              'azimuth_deg': azimuth.defined_azimuth_deg, 'g_total_mps2': result.g_total_mps2,
+              'b_total_nT': azimuth.b_total_nT, 'dip_deg': azimuth.dip_deg,
+              'inclination_std_deg': result.inclination_std_deg,
+              'toolface_std_deg': result.toolface_std_deg,
+              'azimuth_std_deg': azimuth.azimuth_std_deg,
+              'g_total_std_mps2': azimuth.g_total_std_mps2,
+              'b_total_std_nT': azimuth.b_total_std_nT, 'dip_std_deg': azimuth.dip_std_deg}
     if declination_deg is not None:
         values['true_azimuth_deg'] = true_azimuth_deg(azimuth.defined_azimuth_deg,
                                                       declination_deg)

@@ -48,14 +48,26 @@ from scipy.spatial.transform import Rotation
 
 #: Upper-triangular (accelerometer) and symmetric (magnetometer) entries of a 3x3 matrix.
 _UPPER = np.triu_indices(3)
+#: The tool axis of a fit without roll groups: the accelerometer's z sensing axis.
+_Z = np.array([0.0, 0.0, 1.0])
+#: Most refits of the robust loop (outliers left out, wandering groups freed); each settles in 2-4.
+_MAX_ROUNDS = 20
 
 
 class ShotFitRefused(Exception):
-    """Shots that cannot give a trustworthy reference-free calibration, with the reason."""
+    """
+    Shots that cannot give a trustworthy reference-free calibration, with the reason.
 
-    def __init__(self, reason):
+    ``reasons``: every failed check (``reason`` joins them); ``fit``: the
+    ShotFit that failed them (its figures for the refusal's report), or None
+    when the shots could not be fitted at all.
+    """
+
+    def __init__(self, reason, fit=None, reasons=None):
         super().__init__(reason)
         self.reason = reason
+        self.reasons = tuple(reasons or (reason,))
+        self.fit = fit
 
 
 @dataclass(frozen=True)
@@ -70,14 +82,22 @@ class ShotLimits:
     directions must leave their best plane by this fraction of their spread
     (sqrt of the smallest over the largest eigenvalue of their scatter);
     below it they lie on one circle: the tool was turned about one axis only.
-    ``max_b_rms_fraction``, ``max_g_rms_fraction``, ``max_dip_rms_deg``,
-    ``max_axial_rms_deg``: what the fitted model may leave in |B|, |g|, the
-    dip and the axial components of a roll group; beyond, the field was not
-    constant (iron near some shots) or the sensor is not linear.  MEMS noise
-    (2 mg, 100 nT per shot) leaves ~0.2 %, ~0.15 deg.  ``outlier_sigma``: a
-    shot with a residual this many robust standard deviations out is named.
-    ``min_group_shots``, ``min_roll_deg``: a roll group needs three shots
-    spread over this arc about its axis.
+    ``max_b_rms_fraction``, ``max_g_rms_fraction``, ``max_dip_rms_deg``:
+    what the fitted model may leave in |B|, |g| and the dip; beyond, the
+    field was not constant (iron near some shots) or the sensor is not
+    linear.  MEMS noise (2 mg, 100 nT per shot) leaves ~0.2 %, ~0.15 deg.
+    ``outlier_sigma``: a shot with a residual this many robust standard
+    deviations out is an outlier: named, left out of the fit (weight 0) and
+    the fit repeated, while ``min_shots`` and ``min_group_shots`` remain.
+    ``max_axial_rms_deg``: a roll group whose components along the tool axis
+    vary more than this (the hand let the pointing wander) no longer holds
+    one direction: its shots count as free shots (named), it measures no tool
+    axis.  Below it a group is weighted by its own spread (a hand-held real
+    set wanders 0.1-0.7 deg RMS).  ``min_group_shots``, ``min_roll_deg``: a
+    roll group needs three shots spread over this arc about its axis.
+    ``max_pointing_deg``: consecutive shots whose tool axes point within this
+    angle of their mean are one roll set (``find_roll_groups``): twice a
+    mount tilt of a few degrees, which a fit without roll sets leaves.
     """
 
     min_shots: int = 12
@@ -86,10 +106,11 @@ class ShotLimits:
     max_b_rms_fraction: float = 0.01
     max_g_rms_fraction: float = 0.01
     max_dip_rms_deg: float = 0.5
-    max_axial_rms_deg: float = 0.5
+    max_axial_rms_deg: float = 2.0
     outlier_sigma: float = 6.0
     min_group_shots: int = 3
     min_roll_deg: float = 90.0
+    max_pointing_deg: float = 5.0
 
 
 @dataclass(frozen=True)
@@ -103,7 +124,12 @@ class ShotFit:
     ``alignment`` R turns that into the accelerometer frame.  ``tool_axis``
     (unit, accelerometer frame) with ``gamma_deg``, ``beta_deg`` is None
     without roll groups.  Per shot (N,): the corrected ``g_total_mps2``,
-    ``b_total_nT``, ``dip_deg``; per group: ``axial_rms_deg``, ``roll_deg``.
+    ``b_total_nT``, ``dip_deg`` (outliers too) and ``used`` (False: an
+    outlier, left out); per group of the input: ``axial_rms_deg`` (the
+    pointing's wander), ``roll_deg`` (NaN for a group not fitted).
+    ``groups``: the input groups fitted as roll groups; ``outliers``:
+    (shot index, robust sigma) left out, in order; ``freed_groups``:
+    (group index, why) taken as free shots.
     """
 
     accel_matrix: np.ndarray
@@ -129,6 +155,9 @@ class ShotFit:
     noise_mps2: float
     noise_nT: float
     evaluations: int
+    used: np.ndarray
+    outliers: tuple
+    freed_groups: tuple
 
 
 def _directions_problem(vectors, name, limits):
@@ -223,6 +252,62 @@ def tilt_angles(axis):
     return installation_angles(*level_axis_angles(axis, 1.0))
 
 
+def pointing(accel, field):
+    """
+    Return the tool's z axis in NED (N, 3) of shots in the tool frame (unit vectors).
+
+    Down is against the specific force, east ``down x B``, north ``east x
+    down``; the tool axis's components on them are the third components.
+    """
+    down = -accel / np.linalg.norm(accel, axis=1)[:, None]
+    east = np.cross(down, field)
+    east /= np.linalg.norm(east, axis=1)[:, None]
+    north = np.cross(east, down)
+    return np.column_stack([north[:, 2], east[:, 2], down[:, 2]])
+
+
+def find_roll_groups(accel, field, limits=ShotLimits()):
+    """
+    Return roll-group labels (N,) of shots taken in order: -1 for a free shot.
+
+    Consecutive shots whose tool axes (``pointing``) lie within
+    ``limits.max_pointing_deg`` of their running mean are one run; a run of
+    ``limits.min_group_shots`` or more turned over ``limits.min_roll_deg`` or
+    more about the axis (``_roll_span_of``, as the fit checks it) is a roll
+    group.  ``accel``, ``field``: corrected, in one frame whose z is near the
+    tool axis (a fit without roll groups).
+    """
+    axes = pointing(accel, field)
+    labels = np.full(len(axes), -1)
+    start, group = 0, 0
+    for end in range(1, len(axes) + 1):
+        if end < len(axes):
+            mean = axes[start:end].sum(axis=0)
+            if math.degrees(float(angle_between(axes[end], mean))) <= limits.max_pointing_deg:
+                continue
+        if (end - start >= limits.min_group_shots and _roll_span_of(
+                accel[start:end], field[start:end], _Z) >= limits.min_roll_deg):
+            labels[start:end] = group
+            group += 1
+        start = end
+    return labels
+
+
+def _roll_span_of(accel, field, axis):
+    """
+    Return the roll span [deg] of shots about ``axis``: ``_roll_span_deg`` of one triad.
+
+    The triad whose vectors lie further from the axis (their cross-axial part,
+    relative to its largest) tells the roll: gravity unless the axis is near
+    vertical, the field unless it is near the field's direction.
+    """
+    across = [v - np.outer(v @ axis, axis) for v in (accel, field)]
+    triad = max(across, key=lambda v: np.mean(np.linalg.norm(v, axis=1)
+                                              / np.linalg.norm(v, axis=1).max()
+                                              if v.size else 0.0))
+    return _roll_span_deg(triad, axis)
+
+
 def _roll_span_deg(vectors, axis):
     """Return 360 deg minus the largest gap of the roll angles of ``vectors`` about ``axis``."""
     reference = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
@@ -240,6 +325,8 @@ class _Model:
         self.accel, self.field, self.labels = accel, field, labels
         self.groups, self.g, self.field_nT, self.fit_accel = group_count, g, field_nT, fit_accel
         self.sigma_a, self.sigma_m = 1e-3, 1e-3  # relative noise, set from the data
+        # Each roll group's own spread along the axis (hand-held wander), set from the data.
+        self.group_a, self.group_m = np.full(group_count, 1e-3), np.full(group_count, 1e-3)
 
     def pack(self, t_a, b_a, t_m, o_m, rotation, sin_dip, tilt, c_a, c_m):
         parts = ([t_a[_UPPER], b_a / self.g] if self.fit_accel else []) + [
@@ -294,9 +381,26 @@ class _Model:
         return families
 
     def weights(self, cos_dip):
-        return {'g': self.sigma_a, 'b': self.sigma_m, 'axial_g': self.sigma_a,
-                'axial_b': self.sigma_m,
+        label = self.labels[self.labels >= 0]
+        return {'g': self.sigma_a, 'b': self.sigma_m, 'axial_g': self.group_a[label],
+                'axial_b': self.group_m[label],
                 'dip': max(cos_dip, 0.05) * math.hypot(self.sigma_a, self.sigma_m)}
+
+    def set_noise(self, families):
+        """
+        Set the noise of each residual family from what a fit left (``errors``).
+
+        The shot noise from |g| and |B|; a roll group's axial weight from its own
+        spread, never below the shot noise: a group whose pointing wandered
+        counts for what it holds.
+        """
+        self.sigma_a = max(_rms(families['g']) if self.fit_accel else
+                           _rms(families.get('axial_g', [])) or 1e-4, 1e-9)
+        self.sigma_m = max(_rms(families['b']), 1e-9)
+        label = self.labels[self.labels >= 0]
+        for k in range(self.groups):
+            self.group_a[k] = max(self.sigma_a, _rms(families['axial_g'][label == k]))
+            self.group_m[k] = max(self.sigma_m, _rms(families['axial_b'][label == k]))
 
     def residuals(self, x, cos_dip):
         weights = self.weights(cos_dip)
@@ -315,11 +419,17 @@ def fit_shots(accel_mps2, field_nT, roll_group=None, g=9.80665, reference_total_
     accelerometer readings; ``field_nT``: (N, 3) raw magnetometer readings;
     ``roll_group``: (N,) integer labels, -1 for a shot in no group (None:
     no groups); ``reference_total_nT``: the field to scale the magnetometer
-    to (None: its own mean scale, det K_m = 1).  Refused, with the reason:
-    too few shots, non-finite ones, a triad not turned or turned about one
-    axis only, a roll group too small or not turned about its axis, a fit
-    that leaves |B|, |g|, the dip or a group's axial components varying
-    beyond ``limits``, and outlier shots (named, 1-based).
+    to (None: its own mean scale, det K_m = 1).
+
+    Robust: the shots beyond ``limits.outlier_sigma`` of a fit are left out
+    and the fit repeated until the shots left out no longer change (a shot a
+    worse one had pushed out comes back); a roll group whose
+    pointing wandered beyond ``limits.max_axial_rms_deg`` is taken as free
+    shots; both are named in the ShotFit.  Refused, with the reason: too few
+    shots, non-finite ones, a triad not turned or turned about one axis
+    only, a roll group too small; and, every failed check at once with the
+    fit that failed them: too few good shots left, a group not turned about
+    its axis, |B|, |g| or the dip left varying beyond ``limits``.
     """
     accel = as_vectors(accel_mps2, 'accel_mps2')
     field = as_vectors(field_nT, 'field_nT')
@@ -335,8 +445,53 @@ def fit_shots(accel_mps2, field_nT, roll_group=None, g=9.80665, reference_total_
         if size < limits.min_group_shots:
             raise ShotFitRefused(f'roll group {k + 1} has {size} shot(s), need at least '
                                  f'{limits.min_group_shots}')
+    used = np.ones(count, dtype=bool)
+    kept = list(range(group_count))
+    freed, evaluations = [], 0
+    for _ in range(_MAX_ROUNDS):
+        fitted = _joint_fit(accel[used], field[used], _renumber(labels[used], kept), g,
+                            reference_total_nT, fit_accel)
+        evaluations += fitted[-1]
+        model, x = fitted[0], fitted[1]
+        # Every shot against this fit, in robust sigma of the shots used: an outlier is out,
+        # a shot a worse one had pushed out comes back.
+        whole = _Model(accel, field, _renumber(labels, kept), len(kept), g, model.field_nT,
+                       fit_accel)
+        sigma = _shot_sigma(whole.errors(x), whole.labels, used)
+        good = sigma <= limits.outlier_sigma
+        if good.sum() < limits.min_shots:   # keep the best min_shots: the checks will say
+            good[np.argsort(sigma)[:limits.min_shots]] = True
+        if not np.array_equal(good, used):
+            used = good
+            for k in [k for k in kept if np.sum(used & (labels == k)) < limits.min_group_shots]:
+                kept.remove(k)
+                freed.append((k, f'fewer than {limits.min_group_shots} good shots left'))
+            continue
+        wander = _group_wander_deg(model, x)
+        if wander.size and wander.max() > limits.max_axial_rms_deg:
+            group = kept[int(np.argmax(wander))]
+            freed.append((group, f'its pointing wandered {wander.max():.3f} deg RMS (more than '
+                                 f'{limits.max_axial_rms_deg:g}): not held in one direction'))
+            kept.remove(group)
+            continue
+        break
+    bad = np.flatnonzero(~used)
+    outliers = [(int(i), float(sigma[i])) for i in bad[np.argsort(-sigma[bad])]]
+    return _result(fitted, accel, field, labels, (kept, used, outliers, freed), limits,
+                   evaluations)
 
-    # Closed-form start: both ellipsoids, the rotation between them, the tool axis.
+
+def _renumber(labels, kept):
+    """Return ``labels`` with the groups of ``kept`` numbered 0, 1, ... and every other -1."""
+    out = np.full(labels.shape, -1)
+    for new, old in enumerate(kept):
+        out[labels == old] = new
+    return out
+
+
+def _joint_fit(accel, field, labels, g, reference_total_nT, fit_accel):
+    """Return (model, x, sphere_m, evaluations): closed-form start, then the joint fit."""
+    group_count = int(labels.max()) + 1 if labels.size and labels.max() >= 0 else 0
     if fit_accel:
         sphere_a = _sphere(accel, g, 'accelerometer')
         t_a, b_a = np.linalg.inv(sphere_a.scale_matrix), sphere_a.bias_mps2
@@ -361,26 +516,19 @@ def fit_shots(accel_mps2, field_nT, roll_group=None, g=9.80665, reference_total_
         tilt = np.array(tilt_angles(axis))
         c_a = np.array([np.mean(corrected_a[labels == k] @ axis) for k in range(group_count)])
         c_m = np.array([np.mean(aligned_m[labels == k] @ axis) for k in range(group_count)])
-    x0 = model.pack(t_a, b_a, t_m, sphere_m.bias_mps2, rotation, sin_dip, tilt, c_a, c_m)
+    x = model.pack(t_a, b_a, t_m, sphere_m.bias_mps2, rotation, sin_dip, tilt, c_a, c_m)
     model.sigma_a = max(sphere_a.rms_residual_mps2 / g if fit_accel else 1e-4, 1e-9)
     model.sigma_m = max(sphere_m.rms_residual_mps2 / first, 1e-9)
-
-    # Joint fit, twice: the second with the noise the first one leaves.
+    model.group_a[:], model.group_m[:] = model.sigma_a, model.sigma_m
+    # Joint fit, three times: each with the noise (and group spread) the one before left.
     evaluations = 0
-    x = x0
-    for _ in range(2):
+    for _ in range(3):
         cos_dip = math.sqrt(max(1.0 - model.unpack(x)['sin_dip'] ** 2, 0.0))
         result = least_squares(model.residuals, x, args=(cos_dip,), method='lm',
                                x_scale='jac')
         x, evaluations = result.x, evaluations + result.nfev
-        families = model.errors(x)
-        model.sigma_a = max(_rms(np.concatenate(
-            [families.get('g', []), families.get('axial_g', [])])) or 1e-4, 1e-9)
-        model.sigma_m = max(_rms(np.concatenate(
-            [families['b'], families.get('axial_b', [])])), 1e-9)
-    values = model.unpack(x)
-    _refuse_outliers(model.errors(x), labels, limits)
-    return _result(model, values, families, labels, group_count, sphere_m, limits, evaluations)
+        model.set_noise(model.errors(x))
+    return model, x, sphere_m, evaluations
 
 
 def _rms(values):
@@ -389,74 +537,102 @@ def _rms(values):
     return float(np.sqrt(np.mean(values ** 2))) if values.size else 0.0
 
 
-def _refuse_outliers(families, labels, limits):
-    """Raise ShotFitRefused naming the shots whose residual is an outlier in any family."""
+def _shot_sigma(families, labels, used):
+    """
+    Return per shot its largest residual in robust standard deviations of any family.
+
+    The robust standard deviation of a family is 1.4826 times the median
+    absolute residual (MAD) of the ``used`` shots.
+    """
     grouped = np.flatnonzero(labels >= 0)
     worst = np.zeros(labels.size)
     for name, values in families.items():
-        scale = max(1.4826 * float(np.median(np.abs(values))), 1e-7)
         shots = grouped if name.startswith('axial') else np.arange(labels.size)
+        scale = max(1.4826 * float(np.median(np.abs(values[used[shots]]))), 1e-7)
         np.maximum.at(worst, shots, np.abs(values) / scale)
-    outliers = np.flatnonzero(worst > limits.outlier_sigma)
-    if outliers.size:
-        named = ', '.join(f'{i + 1} ({worst[i]:.0f} sigma)' for i in outliers)
-        raise ShotFitRefused(f'outlier shot(s) {named}: their readings disagree with the '
-                             f'others beyond {limits.outlier_sigma:g} robust sigma (the tool '
-                             'moved, or iron was near); retake or drop them')
+    return worst
 
 
-def _result(model, values, families, labels, group_count, sphere_m, limits, evaluations):
-    """Check the fit's quality against ``limits``; return the ShotFit."""
-    accel, field = model.vectors(values)
+def _group_wander_deg(model, x):
+    """Return per roll group of ``model`` the RMS of its axial components [deg] (the wander)."""
+    if not model.groups:
+        return np.zeros(0)
+    families = model.errors(x)
+    label = model.labels[model.labels >= 0]
+    return np.array([math.degrees(_rms(np.concatenate(
+        [families['axial_g'][label == k], families['axial_b'][label == k]])))
+        for k in range(model.groups)])
+
+
+def _result(fitted, accel_all, field_all, labels, robust, limits, evaluations):
+    """
+    Check the fit's quality against ``limits``; return the ShotFit or refuse, every check.
+
+    ``robust``: (kept groups, used shots, outliers, freed groups) of ``fit_shots``.
+    """
+    model, x, sphere_m, _ = fitted
+    kept, used, outliers, freed = robust
+    values = model.unpack(x)
+    families = model.errors(x)
+    # Every shot through the fitted model (the outliers too, for the report).
+    whole = _Model(accel_all, field_all, _renumber(labels, kept), len(kept), model.g,
+                   model.field_nT, model.fit_accel)
+    accel, field = whole.vectors(values)
     g_total, b_total = np.linalg.norm(accel, axis=1), np.linalg.norm(field, axis=1)
     dip = np.degrees(np.arcsin(np.clip(-np.einsum('ij,ij->i', accel, field)
                                        / (g_total * b_total), -1.0, 1.0)))
     dip_deg = math.degrees(math.asin(float(np.clip(values['sin_dip'], -1.0, 1.0))))
+    problems = []
+    sigma = _shot_sigma(families, model.labels, np.ones(model.labels.size, dtype=bool))
+    if np.any(sigma > limits.outlier_sigma):
+        named = ', '.join(f'{i + 1} ({s:.0f} sigma)' for i, s in
+                          zip(np.flatnonzero(used)[sigma > limits.outlier_sigma],
+                              sigma[sigma > limits.outlier_sigma]))
+        problems.append(f'outlier shot(s) {named} beyond {limits.outlier_sigma:g} robust sigma '
+                        f'remain after {len(outliers)} left out: only {int(used.sum())} shots '
+                        f'left, the fit needs {limits.min_shots}')
     checks = [('|B|', _rms(families['b']), limits.max_b_rms_fraction, 'fraction'),
-              ('the dip', _rms(dip - dip_deg), limits.max_dip_rms_deg, 'deg')]
+              ('the dip', _rms(dip[used] - dip_deg), limits.max_dip_rms_deg, 'deg')]
     if model.fit_accel:
         checks.append(('|g|', _rms(families['g']), limits.max_g_rms_fraction, 'fraction'))
     for what, rms, limit, unit in checks:
         if rms > limit:
-            raise ShotFitRefused(
-                f'the fit does not make {what} constant: RMS {rms:.4g} {unit} left, limit '
-                f'{limit:g} (the field changed between shots, e.g. iron nearby, or a triad '
-                'is not linear)')
+            problems.append(f'the fit does not make {what} constant: RMS {rms:.4g} {unit} '
+                            f'left, limit {limit:g}')
     axis, gamma, beta = None, None, None
-    axial_rms, roll = np.zeros(0), np.zeros(0)
-    if group_count:
+    group_count = int(labels.max()) + 1 if labels.size and labels.max() >= 0 else 0
+    axial_rms, roll = np.full(group_count, np.nan), np.full(group_count, np.nan)
+    if kept:
         gamma, beta = (float(v) for v in values['tilt'])
         axis = installation_matrix(gamma, beta)[:, 2]
-        axial_rms = np.zeros(group_count)
-        roll = np.zeros(group_count)
-        grouped = labels[labels >= 0]
-        for k in range(group_count):
-            members = labels == k
-            axial_rms[k] = math.degrees(_rms(np.concatenate(
-                [families['axial_g'][grouped == k], families['axial_b'][grouped == k]])))
-            across = [v[members] - np.outer(v[members] @ axis, axis) for v in (accel, field)]
-            triad = max(across, key=lambda v: np.mean(np.linalg.norm(v, axis=1)
-                                                      / np.linalg.norm(v, axis=1).max()
-                                                      if v.size else 0.0))
-            roll[k] = _roll_span_deg(triad, axis)
-            if roll[k] < limits.min_roll_deg:
-                raise ShotFitRefused(
-                    f'roll group {k + 1} turns the tool over {roll[k]:.0f} deg about its axis, '
-                    f'need {limits.min_roll_deg:g}: spread its shots around the axis')
-            if axial_rms[k] > limits.max_axial_rms_deg:
-                raise ShotFitRefused(
-                    f'roll group {k + 1}: the components along the tool axis vary by '
-                    f'{axial_rms[k]:.3f} deg RMS (limit {limits.max_axial_rms_deg:g}): the tool '
-                    'axis was not held in one direction')
         gamma, beta = math.degrees(gamma), math.degrees(beta)
-    accel_matrix = np.linalg.inv(values['t_a']) if model.fit_accel else None
-    return ShotFit(
-        accel_matrix=accel_matrix, accel_bias_mps2=values['b_a'] if model.fit_accel else None,
+    for k in range(group_count):
+        members = (labels == k) & used
+        if axis is not None:
+            axial_rms[k] = math.degrees(_rms(np.concatenate(
+                [(v[members] @ axis - np.mean(v[members] @ axis)) / scale
+                 for v, scale in ((accel, model.g), (field, model.field_nT))])))
+        if k not in kept:
+            continue
+        roll[k] = _roll_span_of(accel[members], field[members], axis)
+        if roll[k] < limits.min_roll_deg:
+            problems.append(f'roll group {k + 1} turns the tool over {roll[k]:.0f} deg about '
+                            f'its axis, need {limits.min_roll_deg:g}: spread its shots around '
+                            'the axis')
+    fit = ShotFit(
+        accel_matrix=np.linalg.inv(values['t_a']) if model.fit_accel else None,
+        accel_bias_mps2=values['b_a'] if model.fit_accel else None,
         mag_matrix=np.linalg.inv(values['t_m']), mag_bias_nT=values['o_m'],
         alignment=values['rotation'], dip_deg=dip_deg, field_nT=model.field_nT,
         tool_axis=axis, gamma_deg=gamma, beta_deg=beta, accel_corrected_mps2=accel,
         field_corrected_nT=field, g_total_mps2=g_total, b_total_nT=b_total,
-        dip_per_shot_deg=dip, dip_rms_deg=_rms(dip - dip_deg),
-        groups=tuple(range(group_count)), axial_rms_deg=axial_rms, roll_deg=roll,
+        dip_per_shot_deg=dip, dip_rms_deg=_rms(dip[used] - dip_deg),
+        groups=tuple(kept), axial_rms_deg=axial_rms, roll_deg=roll,
         condition_number=sphere_m.condition_number, noise_mps2=model.sigma_a * model.g,
-        noise_nT=model.sigma_m * model.field_nT, evaluations=evaluations)
+        noise_nT=model.sigma_m * model.field_nT, evaluations=evaluations,
+        used=used, outliers=tuple(outliers), freed_groups=tuple(freed))
+    if problems:
+        raise ShotFitRefused('; '.join(problems) + ' (the field changed between shots, e.g. '
+                             'iron nearby, the tool moved during shots, or a triad is not '
+                             'linear)', fit=fit, reasons=problems)
+    return fit

@@ -35,13 +35,6 @@ def _outer_sum(grad, covariance):
     return np.einsum('mi,mij,mj->m', grad, covariance, grad)
 
 
-def _quadratic(a, b, c, covariance):
-    """Return ``g^T C g`` per sample for g = (a, b, c), written out (C symmetric, (M, 3, 3))."""
-    cov = covariance
-    return (a * a * cov[:, 0, 0] + b * b * cov[:, 1, 1] + c * c * cov[:, 2, 2]
-            + 2.0 * (a * b * cov[:, 0, 1] + a * c * cov[:, 0, 2] + b * c * cov[:, 1, 2]))
-
-
 def specific_force_covariance(f_sensor, noise_std, axes, linear_map=None):
     """
     Return the covariance (M, 3, 3) of corrected specific force from per-axis white noise.
@@ -84,9 +77,11 @@ def toolface_std_rad(f, covariance, tilt_var=0.0):
     f = np.asarray(f, dtype=float)
     fx, fy = f[:, 0], f[:, 1]
     h2 = fx * fx + fy * fy
+    c = covariance
     with np.errstate(all='ignore'):   # h -> 0: the sigma grows without bound (inf)
-        variance = (_quadratic(-fy / h2, fx / h2, 0.0, covariance)
-                    + tilt_var * (h2 + f[:, 2] * f[:, 2]) / h2)
+        # g^T C g for the gradient g = (-f_y, f_x, 0) / h^2, written out.
+        variance = ((fy * fy * c[:, 0, 0] - 2.0 * fx * fy * c[:, 0, 1] + fx * fx * c[:, 1, 1])
+                    / (h2 * h2) + tilt_var * (h2 + f[:, 2] * f[:, 2]) / h2)
     return np.where(h2 > 0.0, np.sqrt(variance), np.inf)
 
 

@@ -6,9 +6,12 @@ which).  All four message types are a ``std_msgs/Header`` followed by float64s
 only, so their CDR is encoded and decoded here for a whole batch at once with
 numpy structured arrays instead of message by message: byte-for-byte what
 rosbags' ``serialize_cdr`` gives (the tests check it), at a fraction of the
-cost.  Reading goes chunk by chunk (at most CHUNK_SIZE messages and
-CHUNK_BYTES bytes), so a bag of any size, or of huge frame_ids, streams in
-bounded memory; frame_ids are kept as one Python string per distinct name.
+cost; a batch of a few messages (at most SMALL_BATCH: the node's usual batch
+at low rates) goes through ``struct`` instead, whose cost has no fixed part
+(the same bytes and the same errors, tested).  Reading goes chunk by chunk
+(at most CHUNK_SIZE messages and CHUNK_BYTES bytes), so a bag of any size,
+or of huge frame_ids, streams in bounded memory; frame_ids are kept as one
+Python string per distinct name.
 
 A damaged bag is an error, never a silent gap: every failure of the
 reader (rosbags, mcap, sqlite3, a truncated or overwritten record) is a
@@ -23,6 +26,7 @@ from dataclasses import dataclass, fields
 from functools import lru_cache
 import os
 import stat
+import struct
 
 from inclino_ros.io.files import file_kind
 import numpy as np
@@ -44,6 +48,12 @@ CHUNK_BYTES = 32 * 1024 * 1024
 _CDR_LE = (0, 1, 0, 0)
 #: Bytes before the header's frame_id characters: encapsulation, sec, nanosec, length.
 _FRAME_OFFSET = 16
+#: Batches of at most this many messages are encoded and decoded message by message with
+#: ``struct`` (a few us each) rather than with numpy (~0.1 ms a batch, whatever its size).
+SMALL_BATCH = 8
+#: The CDR header before the frame_id: encapsulation, sec (as the uint32 of its bits), nanosec,
+#: string length (with the NUL).
+_HEADER = struct.Struct('<4BIII')
 
 
 class BagError(Exception):
@@ -149,9 +159,8 @@ class ImuSeries:
     @classmethod
     def from_values(cls, stamps_ns, frame_ids, values):
         """Return the series whose post-header float64 fields are ``values`` (N x 37)."""
-        widths = (4, 9, 3, 9, 3, 9)
-        columns = np.split(values, np.cumsum(widths)[:-1], axis=1)
-        return cls(stamps_ns, frame_ids, *columns)
+        return cls(stamps_ns, frame_ids, values[:, :4], values[:, 4:13], values[:, 13:16],
+                   values[:, 16:25], values[:, 25:28], values[:, 28:])
 
 
 #: Float64 count after the header, and the array type, of each supported message.
@@ -260,6 +269,8 @@ def encode(series):
     """Return the little-endian CDR of every message of ``series`` (list of bytes)."""
     values = np.asarray(series.values(), dtype=float)
     stamps_ns = np.asarray(series.stamps_ns, dtype=np.int64)
+    if stamps_ns.size <= SMALL_BATCH:
+        return _encode_small(stamps_ns, series.frame_ids, values)
     messages = [None] * stamps_ns.size
     for name, index in _groups(series.frame_ids):
         frame = str(name).encode()
@@ -281,8 +292,24 @@ def encode(series):
     return messages
 
 
+def _encode_small(stamps_ns, frame_ids, values):
+    """Return ``encode``'s bytes message by message (``struct``; padding zero as there)."""
+    row = struct.Struct(f'<{values.shape[1]}d')
+    messages = []
+    for stamp_ns, name, value in zip(stamps_ns.tolist(), np.asarray(frame_ids).tolist(),
+                                     values.tolist()):
+        frame = str(name).encode()
+        sec, nanosec = divmod(stamp_ns, 1_000_000_000)
+        messages.append(_HEADER.pack(*_CDR_LE, sec & 0xFFFFFFFF, nanosec, len(frame) + 1)
+                        + frame + bytes(_values_offset(len(frame)) - _FRAME_OFFSET - len(frame))
+                        + row.pack(*value))
+    return messages
+
+
 def encode_float64(values):
     """Return the little-endian CDR of std_msgs/Float64 messages of ``values`` (list of bytes)."""
+    if np.size(values) <= SMALL_BATCH:
+        return [_FLOAT64.pack(*_CDR_LE, value) for value in np.reshape(values, -1).tolist()]
     records = np.zeros(np.size(values), dtype=np.dtype(
         {'names': ['encapsulation', 'data'], 'formats': [('u1', 4), '<f8'], 'offsets': [0, 4],
          'itemsize': 12}))
@@ -290,6 +317,10 @@ def encode_float64(values):
     records['data'] = np.reshape(values, -1)
     blob = records.tobytes()
     return [blob[i:i + 12] for i in range(0, len(blob), 12)]
+
+
+#: std_msgs/Float64: the encapsulation and the value.
+_FLOAT64 = struct.Struct('<4Bd')
 
 
 def _frame_ids(frame_bytes, lengths):
@@ -321,6 +352,8 @@ def decode(messages, msgtype):
     Raises BagError for a message that is not little-endian CDR of that type.
     """
     n_values, series_type = _LAYOUTS[msgtype]
+    if 0 < len(messages) <= SMALL_BATCH:
+        return series_type.from_values(*_decode_small(messages, msgtype, n_values))
     sizes = np.fromiter(map(len, messages), dtype=np.int64, count=len(messages))
     stamps, frame_ids, values = [], [], []
     for size, index in _groups(sizes):
@@ -343,6 +376,32 @@ def decode(messages, msgtype):
                _gather(values, n, float)) if n else
               (np.empty(0, np.int64), np.empty(0, object), np.empty((0, n_values))))
     return series_type.from_values(*series)
+
+
+def _decode_small(messages, msgtype, n_values):
+    """Return ``decode``'s (stamps, frame_ids, values) message by message (``struct``)."""
+    row = struct.Struct(f'<{n_values}d')
+    stamps_ns, frame_ids, values = [], [], []
+    for data in messages:
+        offset = len(data) - 8 * n_values
+        if offset < _values_offset(0):
+            raise BagError(f'a {msgtype} message of {len(data)} bytes is too short')
+        *encapsulation, sec, nanosec, length = _HEADER.unpack_from(data)
+        if tuple(encapsulation) != _CDR_LE or length < 1 \
+                or _values_offset(length - 1) != offset:
+            raise BagError(f'a {msgtype} message is not little-endian CDR of that type')
+        # As numpy's bytes type reads it: trailing NULs dropped (padding a sender left).
+        name = bytes(data[_FRAME_OFFSET:_FRAME_OFFSET + max(length - 1, 1)]).rstrip(b'\0')
+        try:
+            frame_ids.append(name.decode())
+        except UnicodeDecodeError as err:
+            raise BagError(f'a frame_id is not UTF-8 ({err}): a damaged message') from None
+        stamps_ns.append((sec - ((sec & 0x80000000) << 1)) * 1_000_000_000 + nanosec)
+        values.append(row.unpack_from(data, offset))
+    frame_array = np.empty(len(frame_ids), dtype=object)
+    frame_array[:] = frame_ids
+    return (np.array(stamps_ns, dtype=np.int64), frame_array,
+            np.array(values, dtype=float).reshape(-1, n_values))
 
 
 def sliced(series, start, stop):

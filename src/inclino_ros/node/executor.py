@@ -8,15 +8,21 @@ SingleThreadedExecutor, spun with a timeout.
 SIGINT and SIGTERM end the loop between two callbacks: rclpy is initialised
 without its own signal handlers (``init``), because those shut the context
 down while a message may be half taken, and rclpy then fails inside the take.
+
+A node with a ``callback_lock`` has its callbacks run holding it (the node's
+sample path runs in a thread of its own under the same lock,
+``node.sample_path``); the executor's wait is outside the lock.
 """
 
+from contextlib import nullcontext
 import os
 import signal
 import sys
 import threading
 
 import rclpy
-from rclpy.executors import SingleThreadedExecutor
+from rclpy.executors import (
+    ConditionReachedException, ShutdownException, SingleThreadedExecutor, TimeoutException)
 from rclpy.signals import SignalHandlerOptions
 
 
@@ -32,14 +38,32 @@ def spin(node, period_s=0.1):
                 for sig in (signal.SIGINT, signal.SIGTERM)}
     executor = SingleThreadedExecutor(context=node.context)
     executor.add_node(node)
+    lock = getattr(node, 'callback_lock', None) or nullcontext()
     try:
         while not stop.is_set() and rclpy.ok(context=node.context):
-            executor.spin_once(timeout_sec=period_s)
+            spin_once(executor, period_s, lock)
     finally:
         executor.remove_node(node)
         executor.shutdown()
         for sig, handler in previous.items():
             signal.signal(sig, handler)
+
+
+def spin_once(executor, timeout_s, lock):
+    """
+    Run one ready callback of ``executor`` holding ``lock``; wait at most ``timeout_s``.
+
+    ``SingleThreadedExecutor.spin_once``'s own steps, the callback inside the lock.
+    """
+    try:
+        handler, _, _ = executor.wait_for_ready_callbacks(timeout_sec=timeout_s)
+    except (ShutdownException, TimeoutException, ConditionReachedException):
+        return
+    with lock:
+        handler()
+    if handler.exception() is not None:
+        raise handler.exception()
+    handler.result()
 
 
 def run_node(make_node, args=None, refusals=()):

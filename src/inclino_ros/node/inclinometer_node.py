@@ -18,6 +18,7 @@ import json
 import math
 import os
 import sys
+import threading
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Vector3Stamped
@@ -128,8 +129,14 @@ class InclinometerNode(Node):
         self.create_timer(self.param('diagnostics_period_s'), self._publish_diagnostics)
         if self.averager is not None:
             self.stats.count_windows(0, 0)
+        # The executor runs every callback holding callback_lock (node.executor.spin), and the
+        # sample path's thread runs _on_batch holding it too (node.sample_path).
+        self.callback_lock = threading.RLock()
+        # A capture awaits samples in an executor task: woken when a batch gave it some.
+        self._capture_fed = self.create_guard_condition(lambda: None)
         self._waker = BatchWaker(self, [self._imu_subscription, self._mag_subscription],
-                                 self.param('input_batch_period_s'), self._on_batch)
+                                 self.param('input_batch_period_s'), self._on_batch,
+                                 self.callback_lock)
 
     def destroy_node(self):
         """Stop the sample path's waker, then destroy the node."""
@@ -259,8 +266,10 @@ class InclinometerNode(Node):
         field_nT = None if survey.magnetic is None else survey.magnetic.uncorrected_nT
         if field_nT is not None:
             self.magnetometer.count(survey.magnetic)
-        self.collector.add_samples(survey.uncorrected_mps2, temperature_c, field_nT,
-                                   stamps_ns * 1e-9)
+        if self.collector.capture is not None:
+            self.collector.add_samples(survey.uncorrected_mps2, temperature_c, field_nT,
+                                       stamps_ns * 1e-9)
+            self._capture_fed.trigger()
         if self.averager is None:
             self._publish(outputs(stamps_ns, frame_ids, survey))
             return

@@ -1,18 +1,20 @@
 """
-The node's sample path: samples taken serialized, in batches, one executor wake-up each.
+The node's sample path: samples taken serialized, in batches, in a thread of their own.
 
 A relay pays rclpy's executor (a new wait set over every entity of the node,
-~150 us) and a message conversion for every sample; so did the node, and its
-core ran on batches of one or two samples at 1 kHz (the fixed cost of the
-vectorised chain is ~0.2 ms).  Here the input subscriptions are not waited on
-by the executor (``ServedElsewhere``): a ``BatchWaker`` thread waits on them
-alone (a bare rcl wait set, the GIL released), lets the batch fill for
-``period_s`` after the first sample, then wakes the executor once through a
-guard condition; the node's callback takes every queued message serialized
+~150 us) and a message conversion for every sample.  Here the input
+subscriptions are not waited on by the executor (``ServedElsewhere``): a
+``BatchWaker`` thread waits on them alone (a bare rcl wait set, the GIL
+released) and, as soon as a sample waits (or ``period_s`` after it, if
+asked), runs the node's batch callback itself, holding the node's
+``callback_lock``: the callback takes every queued message serialized
 (``take_serialized``), decodes the batch at once (``io.bag.decode``) and
-publishes bytes encoded the same way.  All node state is still touched in
-the executor's thread only: the waker only waits and signals, and it waits
-for the callback to finish before it waits on the subscriptions again.
+publishes bytes encoded the same way.  No executor wake-up per batch; the
+executor runs every other callback of the node under the same lock
+(``node.executor.spin``), so node state is never touched by two threads at
+once.  Batches grow by themselves: what arrives while one is corrected waits
+in the queue and is the next batch.  A failure of the callback is raised in
+the executor's thread, as a callback's would be (the node stops).
 """
 
 from contextlib import ExitStack
@@ -43,38 +45,35 @@ class ServedElsewhere(CallbackGroup):
 
 
 class BatchWaker:
-    """Wakes the node's executor once per batch of samples on ``subscriptions``."""
+    """Runs ``callback`` once per batch of samples on ``subscriptions``, in its own thread."""
 
-    def __init__(self, node, subscriptions, period_s, callback):
+    def __init__(self, node, subscriptions, period_s, callback, lock):
         """
-        Call ``callback()`` in the executor once samples wait, ``period_s`` after the first.
+        Call ``callback()`` under ``lock`` once samples wait (``period_s`` after the first).
 
-        ``subscriptions`` must be in a ``ServedElsewhere`` group.
+        ``subscriptions`` must be in a ``ServedElsewhere`` group; ``lock`` is
+        the one the executor holds while it runs the node's other callbacks.
         """
         self._subscriptions = subscriptions
         self._period_s = period_s
         self._callback = callback
-        self._taken = threading.Event()
-        self._taken.set()
+        self._lock = lock
+        self._failure = None
         self._stop = threading.Event()
         self._context = node.context
-        self._guard = node.create_guard_condition(self._run)
+        self._guard = node.create_guard_condition(self._raise_failure)
         self._thread = threading.Thread(target=self._wait_loop, name='inclino-samples',
                                         daemon=True)
         self._thread.start()
 
-    def _run(self):
-        try:
-            self._callback()
-        finally:
-            self._taken.set()
+    def _raise_failure(self):
+        """Raise, in the executor's thread, what the batch callback raised."""
+        raise self._failure
 
     def _wait_loop(self):
         wait_set = _rclpy.WaitSet(len(self._subscriptions), 0, 0, 0, 0, 0,
                                   self._context.handle)
         while not self._stop.is_set():
-            if not self._taken.wait(WAIT_SLICE_NS * 1e-9):
-                continue
             with ExitStack() as in_use:   # no handle destroyed while waited on
                 in_use.enter_context(self._context.handle)
                 wait_set.clear_entities()
@@ -84,15 +83,21 @@ class BatchWaker:
                 wait_set.wait(WAIT_SLICE_NS)
             if not wait_set.get_ready_entities('subscription'):
                 continue
-            if self._stop.wait(self._period_s):
+            if self._period_s > 0.0 and self._stop.wait(self._period_s):
                 break
-            self._taken.clear()
-            self._guard.trigger()
+            try:
+                with self._lock:
+                    if self._stop.is_set():
+                        break
+                    self._callback()
+            except Exception as err:  # raised again in the executor's thread
+                self._failure = err
+                self._guard.trigger()
+                break
 
     def stop(self):
         """End the thread (before the subscriptions are destroyed)."""
         self._stop.set()
-        self._taken.set()
         self._thread.join()
 
 

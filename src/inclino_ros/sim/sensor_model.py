@@ -98,7 +98,39 @@ vector of sensing axis i in the sensor frame (scale factor on the
 diagonal, non-orthogonality off it).  ``1 + s_i(T)`` is seed 001's K_T(T)
 (Eqs. 6-7) normalised to 1 at T_ref, applied to the sensitivity; the bias
 drifts on its own (real-sensors.md: a scale-only model cannot absorb a
-bias drift).  n_i is white Gaussian noise, ``noise_std`` per sample.
+bias drift).  n_i is Gaussian noise of ``noise_std`` per sample (below).
+
+Noise in time (``Triad.read``)
+------------------------------
+Samples are read in order, one every ``1 / rate_hz``; the noise n_i of one
+axis is the sum of:
+
+* white or AR(1) noise w of stationary 1 sigma ``noise_std`` per sample:
+  ``w_k = rho w_(k-1) + sqrt(1 - rho^2) noise_std e_k`` with ``rho =
+  noise_rho`` (e_k independent unit Gaussians, w before the first sample
+  drawn from the stationary law): ``corr(w_k, w_(k+j)) = rho^|j|`` and the
+  mean of n samples has the variance
+  ``noise_std^2 / n^2 (n + 2 sum_(j=1)^(n-1) (n - j) rho^j)``;
+* flicker (1/f, bias instability) noise of IEEE Std 952's coefficient B
+  (``bias_instability``): one-sided power spectral density
+  ``S(f) = B^2 / (pi f)`` (IEEE's two-sided ``B^2 / (2 pi |f|)``), whose
+  Allan deviation is flat, ``B sqrt(2 ln 2 / pi) = 0.664 B`` at every
+  averaging time.  It is drawn by spectral synthesis over ``FLICKER_SPAN``
+  times the record (random Gaussian Fourier coefficients of variance from
+  S), so a capture's mean wanders with the flicker of scales up to that
+  span (slower ones are a bias a calibration takes up).
+
+A first-order low-pass filter of corner ``lowpass_hz`` below the output rate
+(an RC or the sensor's digital filter; 0: none) acts on the whole signal,
+sensed vector plus white noise: the exact discrete form of ``tau dy/dt = x -
+y``, ``tau = 1 / (2 pi lowpass_hz)``, for an input held over each sample
+interval, ``y_k = a y_(k-1) + (1 - a) x_k``, ``a = exp(-2 pi lowpass_hz /
+rate_hz)``, started at rest (y before the first sample: its sensed vector
+and stationary noise).  White noise of variance v in gives ``v (1 - a) /
+(1 + a)`` out, so the noise before the filter is scaled up to leave
+``noise_std`` per sample at the output, now correlated: lag-1 correlation a
+(an AR(1) of rho = a); a step of the input reaches ``1 - a^(k+1)`` of its
+size k samples after it.
 
 Magnetometer chain
 ------------------
@@ -122,6 +154,7 @@ from dataclasses import dataclass
 import math
 
 import numpy as np
+from scipy.signal import lfilter
 from transforms3d.axangles import axangle2mat
 from transforms3d.euler import euler2mat
 
@@ -129,6 +162,11 @@ from transforms3d.euler import euler2mat
 STANDARD_GRAVITY_MPS2 = 9.80665
 #: One milli-g [m/s^2].
 MILLI_G_MPS2 = 1e-3 * STANDARD_GRAVITY_MPS2
+
+#: Flicker noise is synthesised over this many times the record's length (``Triad``).
+FLICKER_SPAN = 16
+#: IEEE Std 952: the Allan deviation of flicker noise of bias instability B is this times B.
+FLICKER_ALLAN_FACTOR = math.sqrt(2.0 * math.log(2.0) / math.pi)
 
 _X, _Y, _Z = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)
 
@@ -224,6 +262,41 @@ def true_specific_force(inclination_deg, toolface_deg, gravity_mps2=STANDARD_GRA
     return np.einsum('nji,j->ni', rotation, np.array([0.0, 0.0, -gravity_mps2]))
 
 
+def hand_held(inclination_deg, toolface_deg, azimuth_deg, wander_deg, rng=None):
+    """
+    Return (inclination, toolface, azimuth) [deg] of shots a hand aims at the given attitudes.
+
+    A hand-held instrument held "in one direction" for a roll set points a
+    little elsewhere at every shot (real-sensors.md: 0.1-0.7 deg RMS on real
+    instruments): the tool axis leaves the aimed direction by an independent
+    Gaussian angle of ``wander_deg`` RMS in each of the two directions across
+    it (up-down: inclination; sideways: the azimuth changes by that angle
+    over sin I, never more than over sin 3 deg near vertical).  The toolface
+    is what the hand turns, kept.
+    """
+    incl, tf, az = _samples(inclination_deg, toolface_deg, azimuth_deg)
+    rng = np.random.default_rng(rng)
+    up_down, sideways = rng.normal(0.0, wander_deg, (2, incl.size))
+    across = np.maximum(np.abs(np.sin(np.radians(incl))), math.sin(math.radians(3.0)))
+    return incl + up_down, tf, az + sideways / across
+
+
+def iron_near(count, shots, magnitude_nT, rng=None):
+    """
+    Return (count, 3) fields [nT] of iron brought near some shots (an outlier shot).
+
+    Each of ``shots`` (indices) gets a field of ``magnitude_nT`` in a random
+    direction, fixed to the tool for that shot (a knife, a car, a rebar near
+    the instrument); every other shot none.  Add it to the drill string's
+    ``interference_nT`` of ``read``.
+    """
+    rng = np.random.default_rng(rng)
+    fields = np.zeros((count, 3))
+    directions = rng.normal(size=(len(shots), 3))
+    fields[list(shots)] = magnitude_nT * directions / np.linalg.norm(directions, axis=1)[:, None]
+    return fields
+
+
 @dataclass(frozen=True)
 class Field:
     """The Earth's magnetic field: total intensity [nT] and dip [deg, positive down]."""
@@ -302,7 +375,11 @@ class Triad:
     vector); ``bias`` b and ``noise_std`` (one sigma per sample, scalar or
     per axis) are in the unit of the measured vector; ``bias_drift[i, k]``
     [unit / degC^(k+1)] and ``scale_drift[i, k]`` [1 / degC^(k+1)] are the
-    coefficients of ``(T - T_ref)^(k+1)``, shape (3, k), k >= 0.
+    coefficients of ``(T - T_ref)^(k+1)``, shape (3, k), k >= 0.  The noise
+    in time (module docstring, "Noise in time"): ``noise_rho`` the AR(1)
+    coefficient per sample (0: white), ``bias_instability`` B of the flicker
+    noise [unit], ``lowpass_hz`` the corner of a first-order low-pass filter
+    (0: none) at the output rate ``rate_hz``.
     """
 
     matrix: tuple = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
@@ -311,6 +388,10 @@ class Triad:
     scale_drift: tuple = ((), (), ())
     noise_std: object = 0.0
     reference_temperature_c: float = 25.0
+    noise_rho: float = 0.0
+    bias_instability: float = 0.0
+    lowpass_hz: float = 0.0
+    rate_hz: float = 100.0
 
     def __post_init__(self):
         """Check the shapes and store every array as (nested) tuples of floats."""
@@ -323,6 +404,46 @@ class Triad:
             raise ValueError('noise_std must be one or three finite values >= 0')
         object.__setattr__(self, 'noise_std',
                            float(noise) if noise.shape == () else _vector(noise, 'noise_std'))
+        if not -1.0 < self.noise_rho < 1.0:
+            raise ValueError(f'noise_rho must lie in (-1, 1), not {self.noise_rho}')
+        if not (0.0 <= self.bias_instability < math.inf and 0.0 <= self.lowpass_hz < math.inf
+                and 0.0 < self.rate_hz < math.inf):
+            raise ValueError('bias_instability and lowpass_hz must be finite and >= 0, '
+                             'rate_hz finite and > 0')
+
+    @property
+    def lowpass_pole(self):
+        """Return a = exp(-2 pi lowpass_hz / rate_hz) of the low-pass filter (0: none)."""
+        return math.exp(-2.0 * math.pi * self.lowpass_hz / self.rate_hz)
+
+    def _white(self, shape, rng):
+        """Return white (``noise_rho`` 0) or AR(1) noise of stationary 1 sigma noise_std."""
+        rho = self.noise_rho
+        std = np.asarray(self.noise_std)
+        if rho == 0.0:
+            return rng.standard_normal(shape) * std
+        before = rng.standard_normal(shape[1:]) * std        # w before the first sample
+        innovation = rng.standard_normal(shape) * std * math.sqrt(1.0 - rho * rho)
+        return lfilter([1.0], [1.0, -rho], innovation, axis=0, zi=(rho * before)[None, :])[0]
+
+    def _flicker(self, shape, rng):
+        """Return flicker noise of one-sided PSD B^2 / (pi f) (f per sample), synthesised."""
+        count = shape[0]
+        span = max(FLICKER_SPAN * count, 2)
+        frequency = np.fft.rfftfreq(span)[1:]               # cycles per sample, no DC
+        amplitude = np.sqrt(self.bias_instability ** 2 / (math.pi * frequency) * span / 4.0)
+        draws = rng.standard_normal((2, frequency.size) + shape[1:])
+        spectrum = np.zeros((frequency.size + 1,) + shape[1:], dtype=complex)
+        spectrum[1:] = amplitude[:, None] * (draws[0] + 1j * draws[1])
+        return np.fft.irfft(spectrum, n=span, axis=0)[:count]
+
+    def _lowpass(self, signal, noise, rng):
+        """Return the low-pass filter's output of signal + white noise (module docstring)."""
+        a = self.lowpass_pole
+        gain = math.sqrt((1.0 + a) / (1.0 - a))   # leaves noise_std at the output
+        before = signal[0] + rng.standard_normal(signal.shape[1:]) * np.asarray(self.noise_std)
+        return lfilter([1.0 - a], [1.0, -a], signal + gain * noise, axis=0,
+                       zi=(a * before)[None, :])[0]
 
     @staticmethod
     def _polynomial(coefficients, dt):
@@ -351,10 +472,13 @@ class Triad:
         x = np.asarray(x_sensor, dtype=float).reshape(-1, 3)
         temperature_c = np.broadcast_to(np.asarray(temperature_c, dtype=float), x.shape[:1])
         rng = np.random.default_rng(rng)
-        noise = rng.standard_normal(x.shape) * np.asarray(self.noise_std)
+        noise = self._white(x.shape, rng)
         sensed = x @ np.array(self.matrix).T
-        return (1.0 + self.scale_change(temperature_c)) * sensed + \
-            self.bias_at(temperature_c) + noise
+        signal = (1.0 + self.scale_change(temperature_c)) * sensed + self.bias_at(temperature_c)
+        reading = self._lowpass(signal, noise, rng) if self.lowpass_hz else signal + noise
+        if self.bias_instability:
+            reading = reading + self._flicker(x.shape, rng)
+        return reading
 
     def truth(self):
         """Return the triad's parameters as a JSON-ready dict."""
@@ -363,7 +487,9 @@ class Triad:
                 'scale_drift': [list(row) for row in self.scale_drift],
                 'noise_std': (self.noise_std if isinstance(self.noise_std, float)
                               else list(self.noise_std)),
-                'reference_temperature_c': self.reference_temperature_c}
+                'reference_temperature_c': self.reference_temperature_c,
+                'noise_rho': self.noise_rho, 'bias_instability': self.bias_instability,
+                'lowpass_hz': self.lowpass_hz, 'rate_hz': self.rate_hz}
 
 
 @dataclass(frozen=True)
@@ -466,6 +592,9 @@ def truth_dict(tool):
             'magnetometer': 'magnetometer.read(S R_mag (B_tool + interference) + h, T)',
             'triad': 'reading_i = (1 + s_i(T)) (K x)_i + b_i + db_i(T) + noise, '
                      's_i, db_i polynomials in (T - T_ref) from the first power',
+            'noise': 'AR(1) of coefficient noise_rho and stationary std noise_std, plus '
+                     'flicker of one-sided PSD bias_instability^2 / (pi f); a first-order '
+                     'low-pass of corner lowpass_hz at rate_hz on signal and white noise',
             'mount': 'R_tool_from_board = Rz(roll) Ry(gamma) Rx(-beta); '
                      'R_acc = R_tool_from_board^T (seed 000 Eq. 1 C when roll = 0); '
                      'R_mag = euler2mat(magnetometer_deg, rxyz)^T R_acc',
