@@ -1,5 +1,5 @@
 """
-The five real MPU-9150 sessions through ``inclino fit-stand`` (a continuous log): ours vs published.
+The five real MPU-9150 sessions through ``inclino fit-stand`` (a continuous log) vs the paper.
 
 Reads the upstream logs (space separated, no header, 100 Hz: ax ay az [m/s^2], wx wy wz
 [rad/s]) from ``../shared/data/real/mpu9150_multiposition`` (or the folder given), writes each
@@ -68,7 +68,7 @@ def main(folder=DEFAULT):
         '# Real MPU-9150 sessions: inclino fit-stand on the continuous log vs the paper',
         '',
         'bench/bench_real_mpu9150.py; the five upstream logs at 100 Hz (mikoff/imu-calib, MIT);',
-        'g = 9.80665 m/s^2. In brackets: the largest difference from the paper\'s table.',
+        "g = 9.80665 m/s^2. In brackets: the largest difference from the paper's table.",
         '',
         '| unit | still segments | \\|G\\| - g RMS raw / ours [m/s^2] | b [m/s^2] | '
         'm_yz m_xy m_xz [deg] | s_x s_y s_z [%] |',
