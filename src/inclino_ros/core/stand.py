@@ -402,3 +402,127 @@ def _refuse_singular(scale_matrix):
 def _rms(values):
     """Return the root mean square of all elements."""
     return float(np.sqrt(np.mean(np.square(values))))
+
+
+#: Stand positions whose temperatures lie closer than this [deg C] are one plateau.
+PLATEAU_GAP_C = 2.0
+
+
+@dataclass(frozen=True)
+class TemperatureStandFit:
+    """
+    A stand calibration at two or more temperature plateaus: K(T), b(T), element by element.
+
+    Each plateau is fitted alone (``fit_stand``: its own K and b, with their
+    residual); every element of K and b is then a polynomial of T, in powers of
+    ``(T - centre_c)``, of the lowest ``order`` (at most plateaus - 1) whose
+    values at the plateaus agree with the plateau fits within their noise
+    (``fit_stand_plateaus``).  Valid over ``range_c`` only.
+    """
+
+    plateaus_c: np.ndarray           # (P,) mean temperature of each plateau
+    fits: tuple                      # the StandFit of each plateau
+    order: int
+    centre_c: float
+    scale_coefficients: np.ndarray   # (order + 1, 3, 3), powers of (T - centre_c)
+    bias_coefficients: np.ndarray    # (order + 1, 3)
+    element_sigma: np.ndarray        # (P, 12) 1 sigma of K and b of each plateau fit
+    chi_square: tuple                # per order tried: (order, chi-square, degrees of freedom)
+
+    @property
+    def range_c(self):
+        """Return (lowest, highest) plateau temperature: the range the fit holds."""
+        return float(self.plateaus_c.min()), float(self.plateaus_c.max())
+
+    def at(self, temperature_c):
+        """Return (K, b) at the temperature(s) ``temperature_c``: shapes (..., 3, 3), (..., 3)."""
+        powers = np.power.outer(np.asarray(temperature_c, dtype=float) - self.centre_c,
+                                np.arange(self.order + 1))
+        return (np.tensordot(powers, self.scale_coefficients, axes=1),
+                np.tensordot(powers, self.bias_coefficients, axes=1))
+
+    def apply(self, readings, temperature_c):
+        """Return ``K(T)^-1 (A - b(T))`` of readings (N, 3) at their temperatures (N,)."""
+        readings = as_vectors(readings, 'readings')
+        scale, bias = self.at(np.broadcast_to(temperature_c, readings.shape[:1]))
+        return np.linalg.solve(scale, (readings - bias)[..., None])[..., 0]
+
+
+def plateau_numbers(temperatures_c, gap_c=PLATEAU_GAP_C):
+    """Return the plateau number (0, 1, ... by temperature) of each position's temperature."""
+    temperatures_c = np.asarray(temperatures_c, dtype=float).reshape(-1)
+    order = np.argsort(temperatures_c, kind='stable')
+    steps = np.diff(temperatures_c[order]) > gap_c
+    number = np.empty(temperatures_c.size, dtype=int)
+    number[order] = np.concatenate([[0], np.cumsum(steps)])
+    return number
+
+
+def fit_stand_plateaus(readings, truth, temperatures_c, gap_c=PLATEAU_GAP_C,
+                       significance=1e-3):
+    """
+    Return the TemperatureStandFit of stand positions at two or more temperature plateaus.
+
+    ``readings``, ``truth`` (N, 3) as ``fit_stand``; ``temperatures_c`` (N,)
+    each position's temperature: positions closer than ``gap_c`` in
+    temperature form one plateau, each fitted by ``fit_stand`` (its
+    refusals, named with the plateau).  The 12 elements of K and b of each
+    plateau carry the least-squares 1 sigma ``s (X^T X)^-1/2`` of their fit
+    (s: its residual RMS per axis, at least 1e-9 of g so an exact fit does
+    not divide by zero).  Order k = 0, 1, ..., P - 1 of the polynomial in T
+    is tried in turn (weighted least squares over the plateaus); the first
+    whose chi-square stays below its ``1 - significance`` quantile is taken
+    (P - 1 interpolates and always passes).  Raises StandFitRefused for fewer
+    than two plateaus.
+    """
+    from scipy.stats import chi2
+
+    readings, truth = as_vectors(readings, 'readings'), as_vectors(truth, 'truth')
+    plateau = plateau_numbers(temperatures_c, gap_c)
+    temperatures_c = np.asarray(temperatures_c, dtype=float).reshape(-1)
+    count = int(plateau.max()) + 1
+    if count < 2:
+        raise StandFitRefused(
+            f'the positions stand at one temperature plateau ({temperatures_c.min():.1f} .. '
+            f'{temperatures_c.max():.1f} C): a temperature-dependent stand needs two or more '
+            f'plateaus more than {gap_c:g} C apart')
+    fits, values, sigma, centres = [], [], [], []
+    for number in range(count):
+        mine = plateau == number
+        try:
+            fit = fit_stand(readings[mine], truth[mine])
+        except StandFitRefused as err:
+            raise StandFitRefused(f'plateau {number + 1} '
+                                  f'({temperatures_c[mine].mean():.1f} C): {err.reason}') from None
+        g_scale = float(np.median(_norms(truth[mine])))
+        design = np.column_stack([truth[mine] / g_scale, np.ones(mine.sum())])
+        spread = np.sqrt(np.diag(np.linalg.inv(design.T @ design)))   # per unit residual
+        noise = np.maximum(np.sqrt(np.mean(fit.residual_mps2 ** 2, axis=0)), 1e-9 * g_scale)
+        # K row i = coefficients[:3, i] / g: its sigma noise_i * spread[:3] / g; b_i: spread[3].
+        sigma.append(np.concatenate([(noise[:, None] * spread[None, :3] / g_scale).ravel(),
+                                     noise * spread[3]]))
+        values.append(np.concatenate([fit.scale_matrix.ravel(), fit.bias_mps2]))
+        fits.append(fit)
+        centres.append(temperatures_c[mine].mean())
+    values, sigma, centres = np.array(values), np.array(sigma), np.array(centres)
+    centre = float(centres.mean())
+    tried = []
+    for order in range(count):
+        design = np.power.outer(centres - centre, np.arange(order + 1))
+        coefficients = np.empty((order + 1, 12))
+        chi_square = 0.0
+        for element in range(12):
+            weights = 1.0 / sigma[:, element]
+            solution = np.linalg.lstsq(design * weights[:, None], values[:, element] * weights,
+                                       rcond=None)[0]
+            coefficients[:, element] = solution
+            chi_square += float(np.sum(((design @ solution - values[:, element]) * weights)
+                                       ** 2))
+        freedom = 12 * (count - order - 1)
+        tried.append((order, chi_square, freedom))
+        if freedom == 0 or chi_square <= chi2.ppf(1.0 - significance, freedom):
+            break
+    return TemperatureStandFit(
+        plateaus_c=centres, fits=tuple(fits), order=order, centre_c=centre,
+        scale_coefficients=coefficients[:, :9].reshape(-1, 3, 3),
+        bias_coefficients=coefficients[:, 9:], element_sigma=sigma, chi_square=tuple(tried))
