@@ -12,7 +12,6 @@ max).  Writes ``bench/results/stand_temperatures.md``.  Run:
 """
 
 import csv
-from dataclasses import replace
 import os
 import subprocess
 import sys
@@ -20,16 +19,14 @@ import tempfile
 
 from inclino_ros.calibration.model import load_model
 from inclino_ros.core.stand import fit_stand_plateaus, stand_specific_force
-from inclino_ros.sim import sensor_model as sm
 from inclino_ros.sim.bench import (
-    drifting_mount_tool, simulate_heating, simulate_stand, StandRun,
-    TURNED_OVER_HEATING_ATTITUDES_DEG)
+    drifting_mount_tool, held_out_errors_deg, plateau_stand, simulate_heating, simulate_stand,
+    StandRun, TURNED_OVER_HEATING_ATTITUDES_DEG)
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 G = 9.80665
 TOOL = drifting_mount_tool()
-NOISE_FREE = replace(TOOL, accelerometer=replace(TOOL.accelerometer, noise_std=0.0))
 TEMPERATURES_C = (28.0, 36.0, 44.0, 52.0, 60.0)
 
 
@@ -41,16 +38,9 @@ def write_csv(path, columns):
         writer.writerows(zip(*(np.asarray(v).tolist() for v in columns.values())))
 
 
-def errors_deg(correct, temperature_c, count=400, seed=9):
-    """Return the angles [deg] between corrected and true gravity at random attitudes."""
-    rng = np.random.default_rng(seed)
-    incl = np.degrees(np.arccos(rng.uniform(-1.0, 1.0, count)))
-    tf = rng.uniform(0.0, 360.0, count)
-    readings = sm.read(NOISE_FREE, incl, tf, temperature_c=temperature_c).accel_mps2
-    corrected = correct(readings, np.full(count, temperature_c))
-    unit = corrected / np.linalg.norm(corrected, axis=1)[:, None]
-    cosine = np.clip(np.sum(unit * stand_specific_force(incl, tf, 1.0), axis=1), -1.0, 1.0)
-    return np.degrees(np.arccos(cosine))
+def errors_deg(correct, temperature_c):
+    """Return the held-out errors [deg] of a calibration (``sim.bench.held_out_errors_deg``)."""
+    return held_out_errors_deg(TOOL, correct, temperature_c)
 
 
 def per_axis_drift_model(work):
@@ -76,16 +66,9 @@ def per_axis_drift_model(work):
 
 def plateau_fit(plateaus_c):
     """Return the fit_stand_plateaus of nine positions at each plateau."""
-    means, truth, temps = [], [], []
-    for seed, temperature in enumerate(plateaus_c):
-        run = simulate_stand(StandRun(TOOL, seed=seed), temperature_c=temperature)
-        for segment in np.unique(run.segment):
-            mine = run.segment == segment
-            means.append(run.raw_mps2[mine].mean(axis=0))
-            temps.append(temperature)
-            truth.append(stand_specific_force(run.inclination_deg[mine][0],
-                                              run.toolface_deg[mine][0], G))
-    return fit_stand_plateaus(np.array(means), np.array(truth), np.array(temps))
+    means, attitudes, temperatures = plateau_stand(TOOL, plateaus_c)
+    truth = stand_specific_force(attitudes[:, 0], attitudes[:, 1], G)
+    return fit_stand_plateaus(means, truth, temperatures)
 
 
 def main():

@@ -26,8 +26,8 @@ from inclino_ros.core.stand import (
     fit_stand_plateaus, plateau_numbers, stand_specific_force, StandFitRefused)
 from inclino_ros.sim import sensor_model as sm
 from inclino_ros.sim.bench import (
-    drifting_mount_tool, simulate_heating, simulate_stand, StandRun,
-    TURNED_OVER_HEATING_ATTITUDES_DEG)
+    drifting_mount_tool, held_out_errors_deg, plateau_stand, simulate_heating, simulate_stand,
+    StandRun, TURNED_OVER_HEATING_ATTITUDES_DEG)
 import numpy as np
 import pytest
 from test_msa_cli import quiet
@@ -40,30 +40,15 @@ TOOL = drifting_mount_tool()
 NOISE_FREE = replace(TOOL, accelerometer=replace(TOOL.accelerometer, noise_std=0.0))
 
 
-def held_out_error_deg(correct, temperature_c, count=400, seed=9):
-    """Return the angles [deg] between corrected and true gravity at random attitudes."""
-    rng = np.random.default_rng(seed)
-    incl = np.degrees(np.arccos(rng.uniform(-1.0, 1.0, count)))
-    tf = rng.uniform(0.0, 360.0, count)
-    readings = sm.read(NOISE_FREE, incl, tf, temperature_c=temperature_c).accel_mps2
-    corrected = correct(readings, np.full(count, temperature_c))
-    unit = corrected / np.linalg.norm(corrected, axis=1)[:, None]
-    cosine = np.sum(unit * stand_specific_force(incl, tf, 1.0), axis=1)
-    return np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))
+def held_out_error_deg(correct, temperature_c):
+    """Return the held-out errors [deg] of a calibration (``sim.bench.held_out_errors_deg``)."""
+    return held_out_errors_deg(TOOL, correct, temperature_c)
 
 
 def plateau_positions(temperatures_c=PLATEAUS_C):
     """Return (mean readings, truth, temperatures) of the nine positions at each plateau."""
-    means, truth, temps = [], [], []
-    for seed, temperature in enumerate(temperatures_c):
-        run = simulate_stand(StandRun(TOOL, seed=seed), temperature_c=temperature)
-        for segment in np.unique(run.segment):
-            mine = run.segment == segment
-            means.append(run.raw_mps2[mine].mean(axis=0))
-            temps.append(run.temperature_c[mine].mean())
-            truth.append(stand_specific_force(run.inclination_deg[mine][0],
-                                              run.toolface_deg[mine][0], G))
-    return np.array(means), np.array(truth), np.array(temps)
+    means, attitudes, temps = plateau_stand(TOOL, temperatures_c)
+    return means, stand_specific_force(attitudes[:, 0], attitudes[:, 1], G), temps
 
 
 def write_csv(path, columns):

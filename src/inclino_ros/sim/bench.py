@@ -426,3 +426,42 @@ def drifting_mount_tool(noise_mps2=2e-4 * sm.STANDARD_GRAVITY_MPS2):
     return replace(base, mount=replace(base.mount, drift_deg_per_c=(0.3 / 32.0, 0.0, 0.0)),
                    accelerometer=replace(base.accelerometer,
                                          bias_drift=tuple(map(tuple, drift))))
+
+
+def held_out_errors_deg(tool, correct, temperature_c, count=400, seed=9):
+    """
+    Return the angle [deg] between corrected and true gravity at ``count`` random attitudes.
+
+    ``tool`` read noise-free (only the calibration's error shows) at attitudes uniform over
+    the sphere, at ``temperature_c``; ``correct(readings (N, 3), temperatures (N,))`` is the
+    calibration under test.  The truth is the attitude the readings were made at.
+    """
+    rng = np.random.default_rng(seed)
+    incl = np.degrees(np.arccos(rng.uniform(-1.0, 1.0, count)))
+    tf = np.radians(rng.uniform(0.0, 360.0, count))
+    quiet = replace(tool, accelerometer=replace(tool.accelerometer, noise_std=0.0))
+    readings = sm.read(quiet, incl, np.degrees(tf), temperature_c=temperature_c).accel_mps2
+    corrected = correct(readings, np.full(count, float(temperature_c)))
+    unit = corrected / np.linalg.norm(corrected, axis=1)[:, None]
+    sin_i = np.sin(np.radians(incl))
+    truth = np.column_stack([sin_i * np.cos(tf), sin_i * np.sin(tf), np.cos(np.radians(incl))])
+    return np.degrees(np.arccos(np.clip(np.sum(unit * truth, axis=1), -1.0, 1.0)))
+
+
+def plateau_stand(tool, plateaus_c, samples=100):
+    """
+    Return (mean readings (P, 3), attitudes (P, 2) [deg], temperatures (P,)) of stand plateaus.
+
+    The nine stand positions (``simulate_stand``, ``samples`` each) at each temperature of
+    ``plateaus_c`` in turn (seed k for the k-th plateau).
+    """
+    means, attitudes, temperatures = [], [], []
+    for seed, temperature in enumerate(plateaus_c):
+        run = simulate_stand(StandRun(tool, seed=seed), samples=samples,
+                             temperature_c=temperature)
+        for segment in np.unique(run.segment):
+            mine = run.segment == segment
+            means.append(run.raw_mps2[mine].mean(axis=0))
+            attitudes.append((run.inclination_deg[mine][0], run.toolface_deg[mine][0]))
+            temperatures.append(float(temperature))
+    return np.array(means), np.array(attitudes), np.array(temperatures)
