@@ -109,3 +109,58 @@ def test_multi_temperature_stand_against_per_axis_drift(tmp_path):
           + ', '.join(f'{t:g} C {e.max():.4f}' for t, e in plateau.items()))
     assert np.sqrt(np.mean(per_axis ** 2)) > 0.2 and per_axis.max() > 0.3
     assert max(e.max() for e in plateau.values()) <= 0.04
+
+
+def test_fit_stand_command_writes_k_and_b_of_t(tmp_path):
+    """
+    Inclino fit-stand on positions at 28, 44, 60 deg C: K(T), b(T) in the file, applied at T.
+
+    Main refused the CSV (its temperatures span 32 C without a temperature stage).  The
+    file's stand carries the polynomials and their range; the model read back corrects the
+    held-out attitudes within 0.04 deg at and between the plateaus (measured ~0.003 deg),
+    holds K, b at the range's ends beyond it, and one plateau gives constant K, b as before.
+    """
+    rows = []
+    for seed, temperature in enumerate(PLATEAUS_C):
+        run = simulate_stand(StandRun(TOOL, seed=seed), temperature_c=temperature)
+        rows.append({'inclination_deg': run.inclination_deg, 'toolface_deg': run.toolface_deg,
+                     'temperature_c': run.temperature_c, 'ax': run.raw_mps2[:, 0],
+                     'ay': run.raw_mps2[:, 1], 'az': run.raw_mps2[:, 2]})
+    write_csv(tmp_path / 'multi.csv', {name: np.concatenate([r[name] for r in rows])
+                                       for name in rows[0]})
+    code, out, err = quiet(['fit-stand', tmp_path / 'multi.csv', '--calibration',
+                            tmp_path / 'cal.json'])
+    assert code == 0, err
+    assert 'positions at 3 temperature plateaus: K(T) and b(T)' in out
+    assert 'of order 2' in out and 'plateau  60.00 C: 9 positions' in out
+    stand = load_model(tmp_path / 'cal.json').stand
+    assert (stand.t_min_c, stand.t_max_c, stand.temperature_c) == (28.0, 60.0, 44.0)
+    assert len(stand.scale_coefficients) == 3
+    model = load_model(tmp_path / 'cal.json')
+    for temperature in (28.0, 36.0, 44.0, 52.0, 60.0):
+        assert held_out_error_deg(model.apply, temperature).max() <= 0.04
+    assert stand.outside_range([27.0, 44.0, 61.0]).tolist() == [True, False, True]
+    np.testing.assert_array_equal(stand.at(70.0)[0], stand.at(60.0)[0])
+    write_csv(tmp_path / 'one.csv', rows[0])
+    assert quiet(['fit-stand', tmp_path / 'one.csv', '--calibration',
+                  tmp_path / 'one.json'])[0] == 0
+    assert load_model(tmp_path / 'one.json').stand.scale_coefficients is None
+
+
+def test_survey_flags_a_temperature_outside_the_stand_range(tmp_path):
+    """Survey at 70 deg C with a 28..60 C stand: said on stderr (K, b held at 60 C)."""
+    means, truth, temps = plateau_positions((28.0, 60.0))
+    attitudes = np.degrees(np.column_stack([
+        np.arctan2(np.hypot(truth[:, 0], truth[:, 1]), truth[:, 2]),
+        np.arctan2(truth[:, 1], truth[:, 0])]))
+    write_csv(tmp_path / 'stand.csv', {
+        'inclination_deg': attitudes[:, 0], 'toolface_deg': attitudes[:, 1],
+        'temperature_c': temps, 'ax': means[:, 0], 'ay': means[:, 1], 'az': means[:, 2]})
+    assert quiet(['fit-stand', tmp_path / 'stand.csv', '--calibration',
+                  tmp_path / 'cal.json'])[0] == 0
+    write_csv(tmp_path / 'shots.csv', {'ax': [0.0, 0.0], 'ay': [0.0, 0.0], 'az': [G, G],
+                                       'temperature_c': [44.0, 70.0]})
+    code, _, err = quiet(['survey', tmp_path / 'shots.csv', '-o', tmp_path / 'out.csv',
+                          '--calibration', tmp_path / 'cal.json'])
+    assert code == 0, err
+    assert '1 of 2 temperature readings lie outside the stand stage' in err

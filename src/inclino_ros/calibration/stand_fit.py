@@ -26,7 +26,9 @@ from dataclasses import dataclass, replace
 from inclino_ros.calibration.provenance import utc_now_iso
 from inclino_ros.calibration.stages import Stand
 from inclino_ros.calibration.still_capture import CaptureRefused, require_still_vectors
-from inclino_ros.core.stand import fit_sphere, fit_stand, stand_specific_force, StandFitRefused
+from inclino_ros.core.stand import (
+    attitude_numbers, fit_sphere, fit_stand, fit_stand_plateaus, MIN_POSITIONS, plateau_numbers,
+    plateau_stand_fit, stand_specific_force, StandFitRefused)
 from inclino_ros.core.stillness import MIN_SAMPLES
 import numpy as np
 
@@ -40,6 +42,7 @@ class StandSolution:
     readings: np.ndarray     # the positions' means (stand) or the readings (sphere)
     attitudes_deg: np.ndarray  # (P, 2) inclination, toolface of the positions; None: sphere
     refusal: str
+    plateaus: object = None  # core.stand.TemperatureStandFit of a multi-temperature stand
 
 
 def group_positions(readings, attitude_deg):
@@ -141,12 +144,18 @@ def solve_stand(readings, attitudes_deg, gravity_mps2, max_rms_deg, temperatures
     name the two limits.
     """
     rms_name, temperature_name = names
-    if max_temperature_difference_c is not None:
-        check_temperature_span(temperatures_c, max_temperature_difference_c, temperature_name)
     readings = np.asarray(readings, dtype=float).reshape(-1, 3)
     attitudes = np.asarray(attitudes_deg, dtype=float).reshape(-1, 3)[:, :2]
-    truth = stand_specific_force(attitudes[:, 0], attitudes[:, 1], gravity_mps2)
-    fit = fit_stand(readings, np.reshape(truth, (-1, 3)))
+    truth = np.reshape(stand_specific_force(attitudes[:, 0], attitudes[:, 1], gravity_mps2),
+                       (-1, 3))
+    plateaus = temperature_plateaus(readings, truth, temperatures_c)
+    if plateaus is not None:
+        fit = plateau_stand_fit(plateaus, readings, truth, temperatures_c)
+    else:
+        if max_temperature_difference_c is not None:
+            check_temperature_span(temperatures_c, max_temperature_difference_c,
+                                   temperature_name)
+        fit = fit_stand(readings, truth)
     refusal = None
     if fit.rms_inclination_deg > max_rms_deg:
         worst = int(np.argmax(np.abs(fit.inclination_residual_deg)))
@@ -156,8 +165,36 @@ def solve_stand(readings, attitudes_deg, gravity_mps2, max_rms_deg, temperatures
                    'deg: a wrong attitude, or the tool moved)')
     stage = stand_stage(fit, 'stand', fit.rms_inclination_deg, len(readings),
                         stood_for_c(temperatures_c))
+    if plateaus is not None:
+        stage = replace(
+            stage, temperature_c=plateaus.centre_c,
+            scale_coefficients=tuple(tuple(map(tuple, term))
+                                     for term in plateaus.scale_coefficients.tolist()),
+            bias_coefficients_mps2=tuple(map(tuple, plateaus.bias_coefficients.tolist())),
+            t_min_c=plateaus.range_c[0], t_max_c=plateaus.range_c[1])
     return StandSolution(stage=stage, fit=fit, readings=readings, attitudes_deg=attitudes,
-                         refusal=refusal)
+                         refusal=refusal, plateaus=plateaus)
+
+
+def temperature_plateaus(readings, truth, temperatures_c):
+    """
+    Return the TemperatureStandFit of positions at two or more plateaus, else None.
+
+    Positions whose temperatures (each known) fall in two or more plateaus
+    (``stand.plateau_numbers``), each with MIN_POSITIONS distinct attitudes,
+    are a multi-temperature stand (``stand.fit_stand_plateaus``: K(T), b(T));
+    otherwise (one temperature, an unknown one, or a plateau too small to fit
+    alone) None: one K and b, the temperature span checked as before.
+    """
+    if temperatures_c is None or len(temperatures_c) == 0 or None in list(temperatures_c):
+        return None
+    temperatures_c = np.asarray(temperatures_c, dtype=float)
+    plateau = plateau_numbers(temperatures_c)
+    if plateau.max() < 1 or any(
+            attitude_numbers(truth[plateau == k]).max() + 1 < MIN_POSITIONS
+            for k in range(plateau.max() + 1)):
+        return None
+    return fit_stand_plateaus(readings, truth, temperatures_c)
 
 
 def repeatability_note(fit):

@@ -322,12 +322,27 @@ def fit_positions(args, readings, attitude_deg, times_s, stood_c, lines):
               for k, ((incl, tf, az), a, n, s, before, after) in enumerate(
                   zip(attitudes, result.attitude, counts, spread_deg, raw_deg, after_deg))]
     lines.append(repeatability_note(result))
+    if solution.plateaus is not None:
+        lines += plateau_lines(solution.plateaus)
     lines.append(f'RMS inclination residual: {result.rms_inclination_deg:.6f} deg (raw '
                  f'{np.sqrt(np.mean(raw_deg ** 2)):.4f} deg); RMS residual '
                  f'{result.rms_residual_mps2:.3g} m/s^2')
     return (solution.stage, solution.refusal,
             partial(plot_positions, raw_deg=raw_deg, after_deg=after_deg,
                     rms_deg=result.rms_inclination_deg))
+
+
+def plateau_lines(plateaus):
+    """Return a multi-temperature stand's plateaus, order, residual and 1 sigma as text lines."""
+    return [f'positions at {len(plateaus.fits)} temperature plateaus: K(T) and b(T), every '
+            f'element a polynomial of T of order {plateaus.order} (chi-square per order tried: '
+            + ', '.join(f'{order}: {chi:.3g} for {dof} dof' for order, chi, dof
+                        in plateaus.chi_square)
+            + f'), valid over {plateaus.range_c[0]:.1f} .. {plateaus.range_c[1]:.1f} C'] + [
+        f'  plateau {t:6.2f} C: {fit.attitude.size} positions, RMS inclination residual '
+        f'{fit.rms_inclination_deg:.5f} deg, 1 sigma of K elements <= {sigma[:9].max():.2g}, '
+        f'of b <= {sigma[9:].max():.2g} m/s^2'
+        for t, fit, sigma in zip(plateaus.plateaus_c, plateaus.fits, plateaus.element_sigma)]
 
 
 def fit_magnetometer(args, existing, fields, attitude_deg, times_s, temperature_c, stand,

@@ -67,7 +67,8 @@ from inclino_ros.calibration.model import CalibrationFileError, check_sensor, lo
 from inclino_ros.calibration.plausibility import (
     check_for_sensor, field_reading_ok, Implausible, temperature_ok)
 from inclino_ros.cli.errors import CommandError
-from inclino_ros.cli.fitting import add_sensor_argument, AXIS_COLUMNS, NODE_DEFAULTS, node_option
+from inclino_ros.cli.fitting import (
+    add_sensor_argument, AXIS_COLUMNS, NODE_DEFAULTS, node_option, warn_outside_range)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.mounting import add_axes_map_arguments, settings_maps
 from inclino_ros.cli.options import add_force_argument, between, node_parameter
@@ -335,6 +336,8 @@ def run(args):
         output = outputs.path(args.output)
         log = read_log(args) if is_csv(args.input) else None
         model, settings, count, temperature = _prepare(args, log)
+        if temperature is not None:
+            warn_outside_range(model, temperature.temperature_c, 'inclino process')
         magnetometer = _magnetometer(args, model)
         averager = (Averager(args.average_samples, args.output_rate_hz)
                     if args.average_samples > 1 or args.output_rate_hz > 0 else None)

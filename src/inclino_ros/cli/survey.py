@@ -37,7 +37,7 @@ import sys
 
 from inclino_ros.calibration.model import CalibrationFileError, CalibrationModel, load_model
 from inclino_ros.cli.errors import CommandError
-from inclino_ros.cli.fitting import NODE_DEFAULTS, node_option
+from inclino_ros.cli.fitting import NODE_DEFAULTS, node_option, warn_outside_range
 from inclino_ros.cli.options import add_force_argument, node_parameter
 from inclino_ros.cli.process import add_limit_arguments
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
@@ -170,6 +170,7 @@ def survey(args, outputs):
         if problem:
             raise CommandError(f'bx, by, bz must be in nT: {problem}')
     model = _model(args.calibration)
+    warn_outside_range(model, temperature_c, 'inclino survey')
     if model.accelerometer_axes != 3:
         raise CommandError(f'{args.calibration} is for a two-axis accelerometer: a survey '
                            'needs three axes')

@@ -526,3 +526,28 @@ def fit_stand_plateaus(readings, truth, temperatures_c, gap_c=PLATEAU_GAP_C,
         plateaus_c=centres, fits=tuple(fits), order=order, centre_c=centre,
         scale_coefficients=coefficients[:, :9].reshape(-1, 3, 3),
         bias_coefficients=coefficients[:, 9:], element_sigma=sigma, chi_square=tuple(tried))
+
+
+def plateau_stand_fit(plateaus, readings, truth, temperatures_c):
+    """
+    Return the StandFit view of a TemperatureStandFit over all its positions.
+
+    K and b at the plateaus' centre; each position's residual against K(T),
+    b(T) at its own temperature; the attitudes (plateaus visit the same ones:
+    repeats) and their repeatability as ``fit_stand`` reports them.
+    """
+    readings, truth = as_vectors(readings, 'readings'), as_vectors(truth, 'truth')
+    temperatures_c = np.asarray(temperatures_c, dtype=float).reshape(-1)
+    scale, bias = plateaus.at(temperatures_c)
+    residual = readings - (np.einsum('nij,nj->ni', scale, truth) + bias)
+    corrected = plateaus.apply(readings, temperatures_c)
+    inclination_residual_deg = np.degrees(inclination(corrected) - inclination(truth))
+    attitude = attitude_numbers(truth)
+    per_attitude, overall = repeatability(corrected, truth, attitude)
+    centre_scale, centre_bias = plateaus.at(plateaus.centre_c)
+    return StandFit(
+        scale_matrix=centre_scale, bias_mps2=centre_bias,
+        condition_number=max(fit.condition_number for fit in plateaus.fits),
+        residual_mps2=residual, inclination_residual_deg=inclination_residual_deg,
+        rms_residual_mps2=_rms(residual), rms_inclination_deg=_rms(inclination_residual_deg),
+        attitude=attitude, repeatability_deg=per_attitude, rms_repeatability_deg=overall)
