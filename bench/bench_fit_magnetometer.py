@@ -30,6 +30,7 @@ import time
 from inclino_ros.calibration.magnetometer import calibrate_from_shots
 from inclino_ros.calibration.model import CalibrationModel
 from inclino_ros.calibration.stand_capture import average_position, solve_positions
+from inclino_ros.core.stillness import StillLimits
 from inclino_ros.pipeline import MagneticSettings, run, Settings
 from inclino_ros.sim import sensor_model
 import numpy as np
@@ -51,13 +52,14 @@ def errors(tool, model, rng, noisy):
 
 
 def stand_model(tool, rng):
-    """Return the model of a 12-position stand calibration of both triads."""
+    """Return the model of a 12-position stand calibration of both triads (500 samples each)."""
     positions = []
     for incl, tf, azim in POSITIONS_DEG:
-        accel, field = shots_sim.read(tool, np.full(100, incl), np.full(100, tf),
-                                      np.full(100, azim), rng)
-        positions.append(average_position(accel, incl, tf, 1.0, field, azim))
-    stand, field, _ = solve_positions(positions, 9.80665, 1.0, (50000.0, 60.0), 1.0)
+        accel, field = shots_sim.read(tool, np.full(500, incl), np.full(500, tf),
+                                      np.full(500, azim), rng)
+        positions.append(average_position(accel, incl, tf, StillLimits(), fields_nT=field,
+                                          azimuth_deg=azim))
+    stand, field, _, _ = solve_positions(positions, 9.80665, 1.0, (50000.0, 60.0), 1.0)
     return CalibrationModel(3, stand=stand, magnetometer=field.magnetometer,
                             magnetometer_alignment=field.alignment), None
 

@@ -8,8 +8,9 @@ correction (``pipeline.run``), building the outputs (``node.outputs``),
 encoding them (``io.bag.encode``, ``encode_float64``) and publishing the
 five topics' bytes; beside them, what a relay pays per message for the
 same conversion in rclpy (taking a deserialized Imu, publishing an Imu
-message).  The executor's wake-up is not in the table (``bench_latency.py``
-measures whole processes).  Publishers have no subscriber here, so the DDS
+message).  The relay's executor wake-up per message is not in the table
+(``bench_latency.py`` measures whole processes; the node's sample thread
+pays none).  Publishers have no subscriber here, so the DDS
 delivery cost is not in it either.  Median of ``--repeats`` rounds.
 
 Run with the venv's interpreter: ``.venv/bin/python bench/bench_sample_path.py``;
@@ -130,10 +131,11 @@ def report(results, rounds):
                 value = stage[name]
             cells.append(f'{value:.0f} ({value / batch:.1f})')
         lines.append(f'| {name} | ' + ' | '.join(cells) + ' |')
-    lines += ['', "The node pays a fixed cost per batch (the correction's ~0.2 ms of numpy "
-              'calls dominates) and a few us per sample; the relay pays its conversion per '
-              'message, and both pay an executor wake-up per callback (~0.15 ms, not here): '
-              "hence the node's `input_batch_period_s`.", '']
+    lines += ['', "The node pays a fixed cost per batch (the correction's ~0.1 ms of numpy "
+              'calls dominates; batches of at most 8 messages are coded with struct, without '
+              'a fixed cost) and a few us per sample; the relay pays its conversion per '
+              'message and an executor wake-up per message (~0.15 ms, not here), which the '
+              "node's sample thread does not pay.", '']
     return '\n'.join(lines)
 
 

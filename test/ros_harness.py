@@ -224,7 +224,7 @@ class Probe:
             self.executor.spin_once(timeout_sec=0.01)
         return self.received[topic]
 
-    def survey_for(self, publish, retry_s=2.0, timeout_s=60.0):
+    def survey_for(self, publish, retry_s=2.0, timeout_s=60.0, paired=False):
         """
         Call ``publish()`` (returns the index it stamped) until a survey of that stamp comes.
 
@@ -232,8 +232,11 @@ class Probe:
         sample sent while the node's reader has not yet discovered the probe's writer is
         lost (the publisher side matches first; on a loaded machine the other side can
         lag): after ``retry_s`` without its survey the same reading is sent again, with
-        a new stamp.  Earlier outputs are forgotten first, and those of this call stay
-        in ``received`` (a survey of an older sample arriving late is not taken).
+        a new stamp.  ``paired``: only a survey with an azimuth counts (a magnetometer
+        reading delivered after the sample of its stamp leaves that sample unpaired: the
+        node corrects a sample as soon as it arrives), the pair is sent again at once.
+        Earlier outputs are forgotten first, and those of this call stay in ``received``
+        (a survey of an older sample arriving late is not taken).
         """
         self.spin_for(0.2)  # let outputs of earlier samples drain
         self.clear()
@@ -243,11 +246,16 @@ class Probe:
             sent.add(publish())
             retry = min(end, time.monotonic() + retry_s)
             while time.monotonic() < retry:
-                for survey in self.received['survey']:
-                    if survey.header.stamp.sec in sent:
-                        return survey
+                ours = [s for s in self.received['survey'] if s.header.stamp.sec in sent]
+                if ours and not paired:
+                    return ours[0]
+                if any(math.isfinite(s.vector.z) for s in ours):
+                    return next(s for s in ours if math.isfinite(s.vector.z))
+                if len(ours) == len(sent):   # all came, none paired: send again
+                    break
                 self.executor.spin_once(timeout_sec=0.01)
-        raise AssertionError(f'no survey of the samples stamped {sorted(sent)} in {timeout_s} s')
+        raise AssertionError(f'no {"paired " if paired else ""}survey of the samples stamped '
+                             f'{sorted(sent)} in {timeout_s} s')
 
     def clear(self):
         """Forget the messages received so far."""

@@ -96,3 +96,19 @@ def test_a_fifo_as_the_nodes_file_stops_it_with_the_reason(start_node, tmp_path,
     node = start_node(**{which: str(fifo)})
     assert node.process.wait(timeout=60) == 1
     assert 'FIFO' in node.log()
+
+
+def test_a_damaged_history_never_stops_the_node(start_node, probe, tmp_path):
+    """A version edited by hand: the node loads the file, corrects, and reports the damage."""
+    path = tmp_path / 'calibration.json'
+    save_model(path, CalibrationModel(3, installation=Installation(
+        gamma_deg=GAMMA_DEG, beta_deg=BETA_DEG, captured_at=utc_now_iso(),
+        sample_count=100, std_deg=0.01, g_total_mps2=9.80665)))
+    entry = tmp_path / 'calibration.json.history' / 'v000001.json'
+    entry.write_text(entry.read_text().replace('gamma_deg', 'gamma_deX'))
+    node = start_node(**NODE)
+    probe.wait_for_node()
+    assert survey_of(probe, 2.0, 30.0).x == pytest.approx(2.0, abs=ANGLE_TOL_DEG)
+    _, values = latest_status(probe, ': calibration')
+    assert values['history_problems'].startswith('version 1 (')
+    assert 'does not match its sha256' in node.log()

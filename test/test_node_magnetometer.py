@@ -36,7 +36,7 @@ def capture(probe, accel, field, timeout_s=20.0):
 
 def azimuths_of(probe, accel, field):
     """Publish paired readings one by one; return the node's survey.z for each (``survey_for``)."""
-    return np.array([probe.survey_for(lambda: probe.publish_pair(a, b)).vector.z
+    return np.array([probe.survey_for(lambda: probe.publish_pair(a, b), paired=True).vector.z
                      for a, b in zip(accel, field)])
 
 

@@ -77,9 +77,17 @@ def test_gravity_removed_stream_gives_no_angle_and_says_so(start_node, probe):
     rng = np.random.default_rng(3)
     for _ in range(50):
         probe.publish(rng.normal(0.0, 0.35, 3))
-    probe.spin_for(1.5)
+
+    def errors():
+        return [s for s in statuses(probe, ': input') if s.level == DiagnosticStatus.ERROR]
+
+    def all_counted():  # the node has judged every sample and said so
+        return any({kv.key: kv.value for kv in s.values}.get('dropped_dynamic') == '50'
+                   for s in errors())
+
+    probe.spin_until(all_counted)
     assert probe.received['survey'] == [] and probe.received['imu/data'] == []
-    errors = [s for s in statuses(probe, ': input') if s.level == DiagnosticStatus.ERROR]
+    errors = errors()
     assert errors and 'most samples dropped' in errors[-1].message
     assert 'as dynamic' in errors[-1].message
     values = {kv.key: kv.value for kv in errors[-1].values}

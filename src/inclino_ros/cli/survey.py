@@ -117,9 +117,9 @@ def _samples(path, rows, header):
     counts = _numbers(rows, header, SAMPLES_COLUMN)
     bad = np.flatnonzero(~((counts >= 1) & (np.mod(counts, 1.0) == 0.0)))
     if bad.size:
-        given = rows[bad[0]][header.index(SAMPLES_COLUMN)]
+        value = rows[bad[0]][header.index(SAMPLES_COLUMN)]
         raise CommandError(f'{path}: column {SAMPLES_COLUMN} must be a whole count >= 1 '
-                           f'(row {bad[0] + 1} has {given!r})')
+                           f'(row {bad[0] + 1} has {value!r})')
     return counts
 
 

@@ -34,6 +34,8 @@ class InputStats:
         self._period_accepted += accepted
         self._period_g_sum += float(survey.g_total_mps2.sum())
         self._period_toolface_nan += int(np.isnan(survey.toolface_deg).sum())
+        if survey.codes.size == accepted:   # none dropped (the usual batch): nothing to add
+            return
         for code, dropped in enumerate(count_reasons(survey.codes).values()):
             self.dropped_total[code] += dropped
             self._period_reasons[code] += dropped
