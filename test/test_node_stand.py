@@ -4,7 +4,7 @@ import math
 
 from diagnostic_msgs.msg import DiagnosticStatus
 from inclino_ros.calibration.model import (
-    CalibrationModel, load_model, save_model, Temperature, utc_now_iso)
+    CalibrationModel, load_model, save_model, Stand, Temperature, utc_now_iso)
 import numpy as np
 import pytest
 from ros_harness import G
@@ -168,3 +168,37 @@ def test_a_sensor_read_in_g_gives_no_capture_and_the_node_lives_on(node_and_prob
     assert 'no data: 0 of 20 samples' in answer.message and 'dynamic)' in answer.message
     assert not (tmp_path / 'calibration.json').exists()
     assert probe.call('clear_positions').message == 'cleared 0 stand positions'
+
+
+def test_a_multi_temperature_stand_is_applied_at_the_temperature(node_and_probe, tmp_path):
+    """
+    A stand with K(T) (issue 18): corrected at the latest temperature, clamped beyond its range.
+
+    Beyond the range the temperature diagnostics say so (WARN).
+    K(T) = diag(1 + s (T - 40)), s = (1e-3, -2e-3, 3e-3), b = 0, fitted over 20..60 C: a
+    reading scaled by K(T) reads its true inclination at T (rounding only), 0.1 deg off
+    at any other temperature of the range.
+    """
+    slope = np.array([1e-3, -2e-3, 3e-3])
+    terms = (((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)),
+             ((1e-3, 0.0, 0.0), (0.0, -2e-3, 0.0), (0.0, 0.0, 3e-3)))
+    stand = Stand(scale_matrix=terms[0], bias_mps2=(0.0, 0.0, 0.0), method='stand',
+                  condition_number=1.0, rms_inclination_deg=0.001, positions=18,
+                  fitted_at=utc_now_iso(), temperature_c=40.0, scale_coefficients=terms,
+                  bias_coefficients_mps2=((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)), t_min_c=20.0,
+                  t_max_c=60.0)
+    save_model(tmp_path / 'calibration.json', CalibrationModel(accelerometer_axes=3, stand=stand))
+    _, probe = node_and_probe()
+    f = specific_force(30.0, 70.0)
+    for temperature_c in (20.0, 55.0):
+        probe.publish_temperature(temperature_c)
+        probe.spin_for(0.3)
+        assert inclination_of(probe, f * (1.0 + slope * (temperature_c - 40.0))) == \
+            pytest.approx(30.0, abs=1e-9)
+    status = diagnostics_status(probe, ': temperature')
+    assert status.level == DiagnosticStatus.OK and status.message == '55.00 C'
+    probe.publish_temperature(75.0)   # beyond the range: K(60 C)
+    probe.spin_for(0.3)
+    assert inclination_of(probe, f * (1.0 + slope * 20.0)) == pytest.approx(30.0, abs=1e-9)
+    status = diagnostics_status(probe, ': temperature')
+    assert status.level == DiagnosticStatus.WARN and 'outside the fitted range' in status.message

@@ -14,7 +14,7 @@ from inclino_ros.core.cross_axial import apply_cross_axial
 from inclino_ros.core.installation import (
     inverse_installation_matrix, pseudo_inclination, to_tool_frame)
 from inclino_ros.core.stand import correct_stand, rotation_part
-from inclino_ros.core.temperature import compensate_temperature, TemperatureFit
+from inclino_ros.core.temperature import compensate_temperature, in_range, TemperatureFit
 import numpy as np
 
 
@@ -138,7 +138,17 @@ class Stand:
         temperature_c = np.asarray(temperature_c, dtype=float)
         if self.scale_coefficients is None:
             return np.zeros(temperature_c.shape, dtype=bool)
-        return (temperature_c < self.t_min_c) | (temperature_c > self.t_max_c)
+        return ~in_range(temperature_c, self)
+
+    @property
+    def reference_temperature_c(self):
+        """Return the temperature K and b stand for without a temperature input (the centre)."""
+        return self.temperature_c
+
+    @property
+    def temperature_dependent(self):
+        """Return whether K and b are polynomials of T (a multi-temperature stand)."""
+        return self.scale_coefficients is not None
 
     @cached_property
     def arrays(self):
