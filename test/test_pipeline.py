@@ -146,7 +146,7 @@ def stand_calibrate(sensor, g=G):
     for incl_deg, tf_deg in STAND_POSITIONS_DEG:
         readings, _ = reading(sensor, [incl_deg] * 6, tf_deg)
         positions.append(average_position(readings, incl_deg, tf_deg, StillLimits()))
-    stand, _, _ = solve_positions(positions, g, max_rms_deg=0.05)
+    stand, _, _, _ = solve_positions(positions, g, max_rms_deg=0.05)
     return CalibrationModel(accelerometer_axes=3, stand=stand)
 
 

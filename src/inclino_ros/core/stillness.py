@@ -261,6 +261,77 @@ def judge(stillness, limits):
     return reason
 
 
+@dataclass(frozen=True)
+class SegmentLimits:
+    """
+    How still segments are found in a continuous log (``find_still_segments``).
+
+    ``window_s``: the log is judged in windows of this length; a window is
+    still when its accelerometer direction does not move (``motion`` with
+    ``still``, the same test every capture passes) and, with a gyro, its RMS
+    turn rate about the log's median rate (the gyro's bias: a still log is
+    mostly still) stays below ``max_rate_deg_per_s``: a turn about the
+    vertical, which gravity does not show, is seen there.  Consecutive still
+    windows join; the first and last window of a run are left out (the tool
+    settling after the hand lets go, the hand taking it); what is left, at
+    least ``min_s`` long and still as a whole (``motion``: a slow settling
+    that no window shows shows there; not tested with ``whole`` False, for
+    a heating run whose readings drift with the temperature), is a segment.
+    """
+
+    window_s: float = 0.5
+    min_s: float = 1.0
+    max_rate_deg_per_s: float = 2.0
+    still: StillLimits = StillLimits()
+    whole: bool = True
+
+
+def find_still_segments(times_s, vectors, gyro_radps=None, limits=SegmentLimits()):
+    """
+    Return [(start, end)] sample ranges of the still segments of a continuous log.
+
+    ``times_s`` (N,) increasing sample times, ``vectors`` (N, 3) the
+    accelerometer readings, ``gyro_radps`` (N, 3) or None.  Each window of
+    ``limits.window_s`` (at least MIN_SAMPLES samples, else not still) is
+    judged by ``assess`` and ``motion`` on the directions of its readings
+    (``tangent_angles``), and by the gyro's RMS rate (``SegmentLimits``).
+    """
+    times_s = np.asarray(times_s, dtype=float).reshape(-1)
+    vectors = np.asarray(vectors, dtype=float).reshape(-1, 3)
+    if times_s.size < MIN_SAMPLES:
+        return []
+    if gyro_radps is not None:
+        gyro_radps = np.asarray(gyro_radps, dtype=float).reshape(-1, 3)
+        gyro_radps = gyro_radps - np.nanmedian(gyro_radps, axis=0)
+    window = np.floor((times_s - times_s[0]) / limits.window_s).astype(int)
+    edges = np.flatnonzero(np.diff(window)) + 1
+    starts, ends = np.append(0, edges), np.append(edges, times_s.size)
+    still = np.zeros(starts.size, dtype=bool)
+    for k, (start, end) in enumerate(zip(starts, ends)):
+        if end - start < MIN_SAMPLES or not np.all(np.isfinite(vectors[start:end])):
+            continue
+        if gyro_radps is not None:
+            rate = np.degrees(np.sqrt(np.mean(np.sum(gyro_radps[start:end] ** 2, axis=1))))
+            if not rate < limits.max_rate_deg_per_s:
+                continue
+        still[k] = motion(assess(tangent_angles(vectors[start:end]), times_s[start:end]),
+                          limits.still) is None
+    segments = []
+    change = np.flatnonzero(np.diff(np.concatenate([[0], still.astype(int), [0]])))
+    for first, after in zip(change[::2], change[1::2]):
+        # The tool settles after the hand lets go, the hand takes it before it turns: a
+        # run's first and last window are left out.
+        first, after = first + 1, after - 1
+        if after <= first:
+            continue
+        start, end = starts[first], ends[after - 1]
+        if times_s[end - 1] - times_s[start] >= limits.min_s and (not limits.whole or motion(
+                assess(tangent_angles(vectors[start:end]), times_s[start:end]),
+                limits.still) is None):
+            segments.append((int(start), int(end)))
+    return segments
+
+
 def label_attitudes(readings, separation_deg):
     """
     Return an attitude label per reading (N, 3): directions within ``separation_deg`` share one.
