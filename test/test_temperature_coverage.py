@@ -100,18 +100,18 @@ def test_temperature_stage_sigma_covers_its_error():
 
 
 def test_file_without_parameter_covariance_keeps_the_residual_and_says_so():
-    """A version 3 file loads; its sigma is the residual's, as before, and the model says so."""
+    """A version 4 file loads; its sigma is the residual's, as before, and the model says so."""
     rng = np.random.default_rng(19031)
     temperature_c, readings, labels = heating_run(rng)
     stage, fit, _ = solve_temperature(CalibrationModel(3), 'accelerometer', temperature_c,
                                       readings, labels, ORDER)
     doc = CalibrationModel(3, temperature=stage).to_dict()
-    assert doc['schema_version'] == 4
+    assert doc['schema_version'] == 5
     assert np.shape(doc['temperature']['parameter_covariance']) == (3, 2 * ORDER, 2 * ORDER)
     new = model_from_dict(doc)
     assert new.tilt_std_rad == 0.0 and new.uncertainty_notes == ()
     del doc['temperature']['parameter_covariance']
-    doc['schema_version'] = 3
+    doc['schema_version'] = 4
     old = model_from_dict(doc)
     assert old.temperature.parameter_covariance is None
     residual = np.sqrt(np.mean(fit.rms_residual ** 2)) / 9.80665
