@@ -54,13 +54,16 @@ from inclino_ros.cli.fitting import (
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.options import between
 from inclino_ros.core.attitude import angle_between, inclination
-from inclino_ros.core.stillness import label_attitudes, SegmentLimits
+from inclino_ros.core.stillness import label_attitudes, SegmentLimits, StillLimits
 from inclino_ros.core.temperature import AXES, TemperatureFitRefused
 import numpy as np
 
 #: Still segments of a heating log: slow (5 s windows, 10 s at least), and the readings drift
-#: with the temperature: each window must be still, not a whole segment.
-HEATING_SEGMENTS = SegmentLimits(window_s=5.0, min_s=10.0, whole=False)
+#: with the temperature (a few hundredths of a degree a second): each window must be still,
+#: not a whole segment, and a window moves only beyond 0.1 deg/s or 0.5 deg within it (a
+#: hand turning the tool moves it by degrees).
+HEATING_SEGMENTS = SegmentLimits(window_s=5.0, min_s=10.0, whole=False, still=StillLimits(
+    max_drift_deg_per_s=0.1, max_sem_deg=0.5))
 #: Highest order of K_T(T) and B_T(T) (seed 001 fits order 2).
 MAX_ORDER = 6
 REPORT_NAME = 'fit_temperature'
