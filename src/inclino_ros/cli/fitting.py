@@ -28,7 +28,9 @@ from inclino_ros.cli.options import node_parameter
 from inclino_ros.core.mounting import to_tool_axes
 from inclino_ros.io import tables
 from inclino_ros.io.bag import BagError, concatenate, read, topic_info
-from inclino_ros.io.files import Outputs
+from inclino_ros.calibration.provenance import utc_now_iso
+from inclino_ros.io.files import Outputs, write_text as write_file
+from inclino_ros.io.report import certificate_html, residual_lines
 from inclino_ros.node.parameters import PARAMETERS
 
 RAW_TOPIC = '/imu/data_raw'
@@ -186,6 +188,7 @@ def save(args, model, outputs):
     implausible result) or the file changed since ``begin_update``,
     CommandError when the file cannot be written.
     """
+    args.saved_model = model
     try:
         save_model(args.calibration, model, args.writer, outputs, args.calibration_sha256)
     except ValueError as err:
@@ -200,6 +203,40 @@ def report_paths(args, name):
         os.path.expanduser(args.calibration)))
     os.makedirs(folder, exist_ok=True)
     return os.path.join(folder, f'{name}.png'), os.path.join(folder, f'{name}.txt')
+
+
+def report_residuals(args, lines, rows, title='residuals'):
+    """
+    Add the fit's residual rows (``io.report.Residual``) to its text report and certificate.
+
+    ``lines`` gets one line per row and those down-weighted or refused
+    (``io.report.residual_lines``); the certificate ``run_fit`` writes the
+    same rows.
+    """
+    args.residual_rows = list(getattr(args, 'residual_rows', [])) + list(rows)
+    lines += residual_lines(rows, title)
+
+
+def write_certificate(command, args, lines, outputs):
+    """
+    Write the fit's calibration certificate, ``fit_NAME_certificate.html``, as one of ``outputs``.
+
+    Beside its other reports (``report_paths``): the calibration file as
+    saved (``save``), the residual rows (``report_residuals``), the PNG
+    figures among ``outputs`` and the text report (``io.report``).
+    """
+    model = getattr(args, 'saved_model', None)
+    if model is None:
+        return
+    name = command.replace('-', '_')
+    folder = os.path.dirname(report_paths(args, name)[0])
+    path = os.path.join(folder, f'{name}_certificate.html')
+    lines.append(f'certificate: {path}')
+    figures = [(os.path.basename(final), temporary)
+               for final, temporary in outputs.pending('.png')]
+    page = certificate_html(command, os.path.abspath(args.calibration), model.to_dict(),
+                            getattr(args, 'residual_rows', []), figures, lines, utc_now_iso())
+    write_file(path, page, outputs=outputs)
 
 
 def new_figure(rows, title):
@@ -243,6 +280,7 @@ def run_fit(command, args, fit):
         with Outputs(inputs=[args.input, args.calibration], force=True) as outputs:
             try:
                 fit(args, lines, outputs)
+                write_certificate(command, args, lines, outputs)
             except (Refused, Implausible) as err:
                 refusal = err
     except CalibrationChanged as err:  # at the commit: nothing of this command was written
