@@ -17,7 +17,7 @@ import os
 from inclino_ros.sim.sensor_model import read, Tool, Triad
 import numpy as np
 from test_calibration_history import fit_level, level_csv
-from test_msa_cli import quiet
+from test_msa_cli import quiet, read_table, REFERENCE_ARGS
 
 HARD_IRON_NT = (80.0, -40.0, 0.0)
 #: White noise of the simulated magnetometer, 1 sigma per axis [nT].
@@ -104,8 +104,8 @@ def test_fit_rotation_certificate_and_direction_error(tmp_path):
     """fit-rotation: certificate = file; direction error = asin(|c| / r) of a hard iron."""
     csv, readings = rotation_csv(tmp_path / 'turn.csv')
     calibration = tmp_path / 'cal.json'
-    code, out, err = quiet(['fit-rotation', csv, '--calibration', calibration,
-                            '--sensor-id', 'SN-7'])
+    code, _, err = quiet(['fit-rotation', csv, '--calibration', calibration,
+                          '--sensor-id', 'SN-7'])
     assert code == 0, err
     certificate = tmp_path / 'fit_rotation_certificate.html'
     page = assert_certificate_is_the_file(certificate, calibration)
@@ -130,7 +130,6 @@ def test_fit_rotation_certificate_and_direction_error(tmp_path):
     assert abs(stated - expected_deg) < 0.05 * expected_deg
     assert 'radial residual per 45 deg sector of the turn' in text
     assert 'down-weighted or refused: none' in text
-    assert f'certificate: {certificate}' in out
 
 
 def test_fit_level_certificate_and_block_residuals(tmp_path):
@@ -164,3 +163,22 @@ def test_a_refused_fit_writes_no_certificate(tmp_path):
     assert code == 1
     assert not os.path.exists(tmp_path / 'fit_rotation_certificate.html')
     assert not os.path.exists(tmp_path / 'cal.json')
+
+
+def test_msa_certificate_per_station(tmp_path):
+    """msa --calibration: the certificate holds the file and one B-total/dip row per station."""
+    stations = tmp_path / 'stations.csv'
+    assert quiet(['simulate-well', stations])[0] == 0
+    calibration, out_csv = tmp_path / 'cal.json', tmp_path / 'out.csv'
+    code, out, err = quiet(['msa', stations, '-o', out_csv, *REFERENCE_ARGS, '--calibration',
+                            calibration, '--report', tmp_path / 'msa.png'])
+    assert code == 0, err
+    page = assert_certificate_is_the_file(f'{out_csv}.certificate.html', calibration)
+    table = read_table(out_csv)
+    deltas = np.ravel(np.column_stack([table['b_total_delta_nT'], table['dip_delta_deg']]))
+    assert len(page.rows) == deltas.size
+    np.testing.assert_allclose([row['residual'] for row in page.rows], deltas, atol=1e-3)
+    used = np.repeat(table['used'] > 0, 2)
+    assert [row['class'] == 'used' for row in page.rows] == used.tolist()
+    assert 'B total and dip of each station after the correction' in out
+    assert f'certificate: {out_csv}.certificate.html' in out

@@ -217,21 +217,23 @@ def report_residuals(args, lines, rows, title='residuals'):
     lines += residual_lines(rows, title)
 
 
-def write_certificate(command, args, lines, outputs):
+def write_certificate(command, args, lines, outputs, path=None):
     """
-    Write the fit's calibration certificate, ``fit_NAME_certificate.html``, as one of ``outputs``.
+    Write the fit's calibration certificate as one of ``outputs``; nothing if none was saved.
 
-    Beside its other reports (``report_paths``): the calibration file as
-    saved (``save``), the residual rows (``report_residuals``), the PNG
-    figures among ``outputs`` and the text report (``io.report``).
+    ``path``: ``fit_NAME_certificate.html`` beside the other reports
+    (``report_paths``) unless given; the text report, written already, does
+    not name it (what a fit prints is its text report).  It holds the calibration file as saved
+    (``save``), the residual rows (``report_residuals``), the PNG figures
+    among ``outputs`` and the text report (``io.report.certificate_html``).
     """
     model = getattr(args, 'saved_model', None)
     if model is None:
         return
-    name = command.replace('-', '_')
-    folder = os.path.dirname(report_paths(args, name)[0])
-    path = os.path.join(folder, f'{name}_certificate.html')
-    lines.append(f'certificate: {path}')
+    if path is None:
+        name = command.replace('-', '_')
+        path = os.path.join(os.path.dirname(report_paths(args, name)[0]),
+                            f'{name}_certificate.html')
     figures = [(os.path.basename(final), temporary)
                for final, temporary in outputs.pending('.png')]
     page = certificate_html(command, os.path.abspath(args.calibration), model.to_dict(),

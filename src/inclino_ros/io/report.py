@@ -191,13 +191,15 @@ def certificate_html(command, calibration_path, doc, rows, figures, report_lines
     sensor = doc.get('sensor_id') or 'not named'
     span = temperature_range_c(doc)
     span_text = 'not recorded' if span is None else f'{span[0]:.2f} .. {span[1]:.2f} C'
-    stages = []
+    scalars = [_stage_rows(name, value)[0] for name, value in doc.items()
+               if not isinstance(value, dict) and name != 'sensor_id']
+    stages = [f'<h3>file</h3><table class="stage"><tr><th>key</th><th>value</th><th></th></tr>'
+              + ''.join(scalars) + '</table>'] if scalars else []
     for name, section in doc.items():
-        if name in ('sensor_id',):
-            continue
-        stages.append(f'<h3>{html.escape(name)}</h3><table class="stage" data-stage='
-                      f'"{html.escape(name)}"><tr><th>key</th><th>value</th><th></th></tr>'
-                      + ''.join(_stage_rows(name, section)) + '</table>')
+        if isinstance(section, dict):
+            stages.append(f'<h3>{html.escape(name)}</h3><table class="stage" data-stage='
+                          f'"{html.escape(name)}"><tr><th>key</th><th>value</th><th></th></tr>'
+                          + ''.join(_stage_rows(name, section)) + '</table>')
     left = [row for row in rows if row.status != USED]
     refused = ('<ul id="not-used">' + ''.join(
         f'<li>{html.escape(row.label)}: {html.escape(row.status)}'
