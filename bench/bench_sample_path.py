@@ -4,7 +4,7 @@ Where the node's time goes per batch: each stage of its sample path, in one proc
 The stages of ``InclinometerNode._on_batch`` timed one by one on batches of
 1, 5, 25 and 100 samples (a calibrated three-axis model, one frame_id):
 taking the serialized samples, decoding them (``io.bag.decode``), the
-correction (``pipeline.run``), building the outputs (``node.outputs``),
+correction (``pipeline.run``), building the outputs (``stream.outputs``),
 encoding them (``io.bag.encode``, ``encode_float64``) and publishing the
 five topics' bytes; beside them, what a relay pays per message for the
 same conversion in rclpy (taking a deserialized Imu, publishing an Imu
@@ -44,7 +44,7 @@ def stages(node, batch, rounds):
     from geometry_msgs.msg import Vector3Stamped
     from inclino_ros.calibration.model import CalibrationModel, Installation
     from inclino_ros.io import bag
-    from inclino_ros.node.outputs import outputs
+    from inclino_ros.stream import outputs
     from inclino_ros.node.sample_path import take_serialized
     from inclino_ros.pipeline import MagneticSettings, run, Settings
     from rclpy.qos import QoSProfile
@@ -91,8 +91,8 @@ def stages(node, batch, rounds):
         'correct (pipeline.run)': timed(lambda: run(
             series.linear_acceleration_mps2, model, settings, None, None,
             MagneticSettings()), rounds),
-        'outputs (node.outputs)': timed(lambda: outputs(series.stamps_ns, series.frame_ids,
-                                                        survey), rounds),
+        'outputs (stream.outputs)': timed(
+            lambda: outputs(series.stamps_ns, series.frame_ids, survey), rounds),
         'encode 5 topics': timed(lambda: (
             bag.encode(out.survey), bag.encode(out.imu),
             [bag.encode_float64(out.inclination_deg) for _ in range(3)]), rounds),

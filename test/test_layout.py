@@ -1,8 +1,9 @@
 """
 The layers of ``inclino_ros`` and the one direction its imports run.
 
-cli, node -> pipeline -> calibration -> core; io beside (it may use core; the
-calibration files are written and read through it);
+cli, node -> stream -> pipeline -> calibration -> core; io beside (it may use core; the
+calibration files are written and read through it); stream (a batch corrected into
+outputs, a recorded bag replayed) is shared by the node and ``inclino process``;
 sim (the virtual bench) is used by cli, tests and benchmarks only.  Every
 module's ``inclino_ros`` imports, module-level or inside functions, are read
 with ``ast`` from the source tree.
@@ -22,8 +23,9 @@ ALLOWED = {
     'io': {'core'},
     'sim': {'core', 'io'},
     'pipeline': {'core', 'calibration'},
-    'node': {'core', 'calibration', 'io', 'pipeline'},
-    'cli': {'core', 'calibration', 'io', 'pipeline', 'node', 'sim'},
+    'stream': {'core', 'calibration', 'io', 'pipeline'},
+    'node': {'core', 'calibration', 'io', 'pipeline', 'stream'},
+    'cli': {'core', 'calibration', 'io', 'pipeline', 'stream', 'node', 'sim'},
 }
 
 
@@ -78,3 +80,20 @@ def test_checker_sees_a_wrong_arrow(tmp_path):
     bad.write_text('def f():\n    from inclino_ros.sim.bench import simulate\n'
                    'from inclino_ros import pipeline\n')
     assert package_imports(bad) == {'inclino_ros.sim.bench', 'inclino_ros.pipeline'}
+
+
+def test_commands_import_no_ros():
+    """Every command module imports without ROS: offline commands never load rclpy or msgs."""
+    import subprocess
+    import sys
+
+    modules = sorted(f'inclino_ros.cli.{path.stem}' for path in (PACKAGE / 'cli').glob('*.py'))
+    ros = ('rclpy', 'rcl_interfaces', 'sensor_msgs', 'std_msgs', 'std_srvs', 'geometry_msgs',
+           'diagnostic_msgs')
+    script = ('import importlib, sys\n'
+              f'for name in {modules!r}:\n'
+              '    importlib.import_module(name)\n'
+              f'print(sorted({{m.split(".")[0] for m in sys.modules}} & set({ros!r})))\n')
+    loaded = subprocess.run([sys.executable, '-c', script], capture_output=True, text=True,
+                            check=True, timeout=120).stdout.strip()
+    assert loaded == '[]', f'importing the commands loads {loaded}'

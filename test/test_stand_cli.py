@@ -698,3 +698,56 @@ def test_seed001_fits_of_a_mounted_board(runs, tmp_path):
                                atol=1e-12)
     np.testing.assert_allclose(mounted.temperature.coefficients,
                                runs['model'].temperature.coefficients, atol=1e-12)
+
+
+def test_stand_is_one_rule_for_the_node_and_the_command(tmp_path):
+    """
+    The same positions give one stand stage through the node's solve path and fit-stand.
+
+    The node averages each capture into a Position (``stand_capture``), the
+    command groups a recorded run's samples by attitude; both solve with
+    ``stand_fit.solve_stand``.  The positions hold different sample counts
+    and temperatures (1.5 C apart, within the 2 C limit): the stage's
+    temperature is the mean over the positions for both doors (the command
+    used to take the mean over the samples, the node over the positions).
+    """
+    from inclino_ros.calibration.stand_capture import Position, solve_positions
+    from inclino_ros.calibration.stand_fit import with_stand
+
+    stand = simulate_stand(StandRun(TOOL))
+    keep = (stand.segment != 1) | (np.arange(stand.segment.size) % 4 == 0)  # position 1: 25
+    temperature_c = 24.0 + 1.5 * (stand.segment[keep] == 1)
+    attitudes = np.column_stack([stand.inclination_deg, stand.toolface_deg])[keep]
+    readings = stand.raw_mps2[keep]
+    start = CalibrationModel(3, installation=Installation(0.5, -0.3, NOW, 100, 0.01, G))
+    save_model(tmp_path / 'cal.json', start)
+    write_csv(tmp_path / 'stand.csv', {
+        'inclination_deg': attitudes[:, 0], 'toolface_deg': attitudes[:, 1],
+        'ax': readings[:, 0], 'ay': readings[:, 1], 'az': readings[:, 2],
+        'temperature_c': temperature_c})
+    code, _, err = quiet(['fit-stand', tmp_path / 'stand.csv', '--calibration',
+                          tmp_path / 'cal.json'])
+    assert code == 0, err
+    command = load_model(tmp_path / 'cal.json')
+
+    segments = stand.segment[keep]
+    positions = [Position(inclination_deg=float(attitudes[segments == k][0, 0]),
+                          toolface_deg=float(attitudes[segments == k][0, 1]),
+                          reading_mps2=tuple(readings[segments == k].mean(axis=0).tolist()),
+                          std_deg=0.01, samples=int(np.sum(segments == k)),
+                          temperature_c=float(temperature_c[segments == k][0]))
+                 for k in np.unique(segments)]
+    stage, field, _ = solve_positions(positions, G, 0.05, max_temperature_difference_c=2.0)
+    node = with_stand(start, stage, field)
+
+    assert node.installation is None and command.installation is None
+    np.testing.assert_allclose(command.stand.scale_matrix, node.stand.scale_matrix,
+                               rtol=0, atol=1e-12)
+    np.testing.assert_allclose(command.stand.bias_mps2, node.stand.bias_mps2, rtol=0, atol=1e-12)
+    assert replace(command.stand, scale_matrix=None, bias_mps2=None, fitted_at=None,
+                   rms_inclination_deg=None, condition_number=None) == replace(
+        node.stand, scale_matrix=None, bias_mps2=None, fitted_at=None,
+        rms_inclination_deg=None, condition_number=None)
+    assert command.stand.rms_inclination_deg == pytest.approx(node.stand.rms_inclination_deg,
+                                                              rel=1e-9)
+    assert command.stand.temperature_c == pytest.approx(24.0 + 1.5 / 9)

@@ -17,6 +17,7 @@ import math
 from inclino_ros.calibration.plausibility import FIELD_NT
 from inclino_ros.core.attitude import (
     complete_two_axis, inclination, orientation_quaternion, TOOLFACE_CONVENTIONS)
+from inclino_ros.core.constants import STANDARD_GRAVITY_MPS2
 from inclino_ros.core.magnetics import (
     azimuth_deg, b_total_nT, dip_deg, gravity_from_specific_force, iscwsa_from_tool, QcLimits,
     survey_qc, SurveyQc, true_azimuth_deg)
@@ -55,8 +56,8 @@ class Settings:
     """
 
     accelerometer_axes: int = 3
-    gravity_mps2: float = 9.80665
-    accelerometer_range_mps2: float = 2.0 * 9.80665
+    gravity_mps2: float = STANDARD_GRAVITY_MPS2
+    accelerometer_range_mps2: float = 2.0 * STANDARD_GRAVITY_MPS2
     toolface_convention: str = 'seed000'
     noise_std_mps2: float = 0.01
     toolface_max_std_deg: float = 5.0

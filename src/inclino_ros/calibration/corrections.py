@@ -38,11 +38,9 @@ import math
 from inclino_ros.calibration.stages import (
     Installation, Magnetic, Magnetometer, MagnetometerAlignment, MagnetometerTemperature, Stand,
     Temperature, ToolAxis)
+from inclino_ros.core.constants import STANDARD_GRAVITY_MPS2
 from inclino_ros.core.installation import to_tool_frame
 import numpy as np
-
-#: Gravity [m/s^2] against which a temperature residual becomes an angle.
-STANDARD_GRAVITY_MPS2 = 9.80665
 
 #: The accelerometer's stages, in the order they are applied.
 STAGES = ('temperature', 'stand', 'installation', 'tool_axis')

@@ -16,6 +16,7 @@ import math
 from inclino_ros.calibration.model import (
     Magnetometer, MagnetometerAlignment, Stand, ToolAxis, utc_now_iso)
 from inclino_ros.core.attitude import angle_between
+from inclino_ros.core.constants import STANDARD_GRAVITY_MPS2
 from inclino_ros.core.installation import installation_matrix, to_tool_frame
 from inclino_ros.core.magnetics import expected_field_tool_nT
 from inclino_ros.core.shots import find_roll_groups, fit_shots, ShotLimits, tilt_angles
@@ -175,7 +176,8 @@ class ShotCalibration:
 
 
 def calibrate_from_shots(existing, accel_mps2, field_nT, roll_group=None, temperature_c=None,
-                         gravity_mps2=9.80665, reference_total_nT=None, limits=ShotLimits()):
+                         gravity_mps2=STANDARD_GRAVITY_MPS2, reference_total_nT=None,
+                         limits=ShotLimits()):
     """
     Return the ShotCalibration of shots (``core.shots.fit_shots``) on top of ``existing``.
 

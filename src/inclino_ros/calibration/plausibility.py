@@ -49,13 +49,13 @@ The bounds, and why:
   ``TEMPERATURE_C``.
 """
 
+from inclino_ros.core.constants import STANDARD_GRAVITY_MPS2
 from inclino_ros.core.cross_axial import RotationLimits
 from inclino_ros.core.msa import MAX_INTERFERENCE_NT
+from inclino_ros.core.refusal import Refused
 from inclino_ros.core.stand import MAX_CONDITION_NUMBER
 import numpy as np
 
-#: Standard gravity [m/s^2]: the g of the bounds (local gravity differs by < 0.3 %).
-STANDARD_GRAVITY_MPS2 = 9.80665
 #: A still tool's |A| (and a level capture's G-total) lies within this fraction of g.
 STILL_G_FRACTION = 0.5
 #: No reading of a still tool reaches this many g.
@@ -90,12 +90,8 @@ _FIELD_UNITS = (('tesla', 1e9), ('gauss', 1e5), ('microtesla', 1e3), ('milligaus
 _ACCELERATION_UNITS = (('g', STANDARD_GRAVITY_MPS2), ('mg', STANDARD_GRAVITY_MPS2 / 1000.0))
 
 
-class Implausible(ValueError):
+class Implausible(Refused, ValueError):
     """A stage or readings no real sensor gives; ``reason`` says why."""
-
-    def __init__(self, reason):
-        super().__init__(reason)
-        self.reason = reason
 
 
 def magnitude(vectors):

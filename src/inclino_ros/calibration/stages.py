@@ -303,6 +303,13 @@ class Magnetic:
         """Return corrected tool-frame field readings (..., 3) [nT]."""
         return apply_cross_axial(b_nT, self) - np.asarray(self.interference_nT)
 
+    @property
+    def msa_reference(self):
+        """Return (total nT, dip deg) the interference was solved against; None before an MSA."""
+        if self.msa_method is None:
+            return None
+        return self.msa_reference_total_nT, self.msa_reference_dip_deg
+
 
 #: A magnetic stage that changes nothing, to build the first correction on.
 NO_MAGNETIC_CORRECTION = Magnetic(

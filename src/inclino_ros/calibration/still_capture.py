@@ -10,12 +10,13 @@ or "too noisy for the target: N samples needed ...".
 """
 
 from inclino_ros.core.attitude import inclination, toolface_seed000
+from inclino_ros.core.refusal import Refused
 from inclino_ros.core.stillness import (
     assess, judge, motion, tangent_angles, without_once_per_turn)
 import numpy as np
 
 
-class CaptureRefused(Exception):
+class CaptureRefused(Refused):
     """A capture whose samples cannot give a trustworthy calibration."""
 
 

@@ -22,10 +22,12 @@ import sys
 
 from inclino_ros.calibration.history import file_digest
 from inclino_ros.calibration.model import (
-    age_seconds, CalibrationChanged, CalibrationFileError, load_model, MAGNETOMETER_STAGES,
-    model_from_dict, read_model_history, save_model, STAGES)
+    age_seconds, CalibrationChanged, MAGNETOMETER_STAGES, model_from_dict, read_model_history,
+    save_model, STAGES)
 from inclino_ros.cli.errors import CommandError
+from inclino_ros.cli.fitting import load_calibration
 from inclino_ros.cli.helptext import add_command
+from inclino_ros.core.constants import STANDARD_GRAVITY_MPS2
 from inclino_ros.io.files import loads_strict
 from inclino_ros.pipeline import run, Settings
 import numpy as np
@@ -89,12 +91,7 @@ def _load(spec):
     if path and number.isdigit():
         version = _version(path, int(number))
         return _model_of_text(version.text, spec), f'{spec} ({version.written_at})'
-    try:
-        return load_model(spec), spec
-    except FileNotFoundError:
-        raise CommandError(f'{spec}: no such file') from None
-    except CalibrationFileError as err:
-        raise CommandError(str(err)) from None
+    return load_calibration(spec, any_sensor=True), spec
 
 
 def _stages(model):
@@ -194,7 +191,7 @@ def corrected_angles(model, raw):
     return inclination, toolface
 
 
-def angle_changes(model_a, model_b, gravity_mps2=9.80665):
+def angle_changes(model_a, model_b, gravity_mps2=STANDARD_GRAVITY_MPS2):
     """
     Return lines: how the corrected angles move from ``model_a`` to ``model_b`` at ATTITUDES_DEG.
 

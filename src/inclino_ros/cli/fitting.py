@@ -26,6 +26,7 @@ from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.mounting import add_axes_map_arguments, axes_matrix
 from inclino_ros.cli.options import node_parameter
 from inclino_ros.core.mounting import to_tool_axes
+from inclino_ros.core.refusal import Refused
 from inclino_ros.io import tables
 from inclino_ros.io.bag import BagError, concatenate, read, topic_info
 from inclino_ros.calibration.provenance import utc_now_iso
@@ -38,10 +39,6 @@ TEMPERATURE_TOPIC = '/imu/temperature'
 AXIS_COLUMNS = ('ax', 'ay', 'az')
 #: The node's parameter defaults: the commands' options default to the same values.
 NODE_DEFAULTS = {parameter.name: parameter.default for parameter in PARAMETERS}
-
-
-class Refused(Exception):
-    """A fit that must not be written: exit code 1, the calibration file untouched."""
 
 
 def add_file_arguments(parser, csv_help='CSV file with a header row'):
@@ -142,6 +139,28 @@ def add_sensor_argument(parser):
                              'refused; a new or unnamed file is stamped with it (default: none)')
 
 
+def load_calibration(path, sensor_id=None, required=True, any_sensor=False):
+    """
+    Return the model of the calibration file ``path``: the one way a command loads one.
+
+    CommandError for a file that cannot be used (``model.load_model``) or
+    that belongs to another sensor than ``sensor_id`` (``model.check_sensor``;
+    not checked with ``any_sensor``), and for a missing file when
+    ``required`` (else None).
+    """
+    try:
+        model = load_model(path)
+        if not any_sensor:
+            check_sensor(model, sensor_id, path)
+    except FileNotFoundError:
+        if required:
+            raise CommandError(f'no calibration file {path}') from None
+        return None
+    except (CalibrationFileError, OSError) as err:
+        raise CommandError(str(err)) from None
+    return model
+
+
 def load_existing(path, sensor_id=None, axes=3):
     """
     Return the model in ``path``, a new ``axes``-axis one if there is none.
@@ -151,13 +170,9 @@ def load_existing(path, sensor_id=None, axes=3):
     sensor than ``sensor_id`` is a CommandError (``model.check_sensor``); the
     model returned names ``sensor_id`` (if given).
     """
-    try:
-        model = load_model(path)
-        check_sensor(model, sensor_id, path)
-    except FileNotFoundError:
+    model = load_calibration(path, sensor_id, required=False)
+    if model is None:
         return CalibrationModel(accelerometer_axes=axes or 3, sensor_id=sensor_id or None)
-    except (CalibrationFileError, OSError) as err:
-        raise CommandError(str(err)) from None
     model = replace(model, sensor_id=sensor_id or model.sensor_id)
     if axes is not None and model.accelerometer_axes != axes:
         raise CommandError(f'{path} is for a {model.accelerometer_axes}-axis accelerometer, '

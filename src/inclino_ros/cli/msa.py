@@ -61,13 +61,14 @@ Exit codes: 0 corrected, 1 refused (the reason printed, nothing written,
 the calibration file untouched), 2 unusable input.
 """
 
-from dataclasses import asdict, replace
+from dataclasses import asdict
 import json
 import sys
 
-from inclino_ros.calibration.model import (
-    CalibrationChanged, NO_MAGNETIC_CORRECTION, STAGES, STANDARD_GRAVITY_MPS2, utc_now_iso)
+from inclino_ros.calibration.model import CalibrationChanged, STANDARD_GRAVITY_MPS2
 from inclino_ros.calibration.plausibility import check_field_readings, Implausible
+from inclino_ros.calibration.stations import (
+    raw_survey_inputs, solve_interference, with_interference)
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_sensor_argument, begin_update, finish_figure, load_existing, new_figure, read_csv,
@@ -77,13 +78,12 @@ from inclino_ros.cli.options import add_force_argument, between, non_negative, r
 from inclino_ros.cli.process import add_limit_arguments
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core import magnetics
-from inclino_ros.core.cross_axial import apply_cross_axial
 from inclino_ros.core.msa import (
-    azimuth_difference_deg, improved_cross_axial, MAX_INTERFERENCE_NT, misfit_nT2, MsaRefused,
-    short_collar, solve_msa_axial, solve_msa_classic, solve_msa_improved, WMM_REFERENCE_STD)
+    azimuth_difference_deg, MAX_INTERFERENCE_NT, misfit_nT2, MsaRefused, WMM_REFERENCE_STD)
 from inclino_ros.core.uncertainty import toolface_std_rad
 from inclino_ros.io.files import Outputs
 from inclino_ros.io.report import REFUSED, Residual, USED
+from inclino_ros.io.tables import write_csv
 import numpy as np
 
 GRAVITY_COLUMNS = ('gx', 'gy', 'gz')
@@ -205,36 +205,23 @@ def load_stations(args):
 
 def calibrated_field(args, table, lines):
     """
-    Return the model of ``args.calibration``, its corrections applied to ``table['B']``.
+    Return the model of ``args.calibration``, its corrections applied to the table's G and B.
 
-    The magnetometer stages up to seed 002's cross-axial correction correct
-    the raw readings of ``table['B']``.
-
-    ISCWSA and tool axes differ by a turn about x (``magnetics.iscwsa_from_tool``,
-    its own inverse): B is turned into the tool frame, corrected and turned back.
+    The stations hold raw readings: ``stations.raw_survey_inputs`` corrects
+    them as ``~/solve_msa`` corrects its stations (``msa_inputs``).
     """
     model = load_existing(args.calibration, args.sensor_id)
-    accelerometer = [name for name in STAGES if getattr(model, name) is not None]
-    if accelerometer:
-        # Both triads sit on one board (the shared mount): G of a survey is the
-        # raw accelerometer, corrected by the same stages as B, or the two
-        # would be in frames the mount turns apart.  In g, ISCWSA: the tool's
-        # specific force is -G (z toward the bit).
-        force = -magnetics.iscwsa_from_tool(table['G']) * STANDARD_GRAVITY_MPS2
-        table['G'] = -magnetics.iscwsa_from_tool(model.apply(force)) / STANDARD_GRAVITY_MPS2
+    table['G'], table['B'] = raw_survey_inputs(model, table['G'], table['B'],
+                                               STANDARD_GRAVITY_MPS2)
+    if model.stages:
         lines.append(f'accelerometer stages of {args.calibration} applied to G: '
-                     f'{", ".join(accelerometer)}')
-    before = model.magnetometer_stages[:model.magnetometer_stages.index('magnetic')] \
-        if model.magnetic is not None else model.magnetometer_stages
+                     f'{", ".join(model.stages)}')
+    before = tuple(name for name in model.magnetometer_stages if name != 'magnetic')
     if before or model.stand is not None:
-        table['B'] = magnetics.iscwsa_from_tool(model.apply_magnetic(
-            magnetics.iscwsa_from_tool(table['B']), before='magnetic'))
         lines.append(f"magnetometer stages of {args.calibration} before seed 002's applied "
                      f'to B: {", ".join(before) or "the accelerometer frame turn"}')
     stage = model.magnetic
     if stage is not None and stage.rotation_fitted_at is not None:
-        table['B'] = magnetics.iscwsa_from_tool(
-            apply_cross_axial(magnetics.iscwsa_from_tool(table['B']), stage))
         table['rotation_fitted_at'] = stage.rotation_fitted_at
         lines.append(f'hard and soft iron of {args.calibration} applied to B')
     return model
@@ -242,18 +229,11 @@ def calibrated_field(args, table, lines):
 
 def store(args, model, result, lines, outputs):
     """Write the solved eps into the magnetic stage of ``args.calibration`` (tool frame)."""
-    eps_tool_nT = magnetics.iscwsa_from_tool(result.eps_nT)
-    stage = replace(model.magnetic or NO_MAGNETIC_CORRECTION,
-                    interference_nT=tuple(eps_tool_nT.tolist()),
-                    interference_std_nT=tuple(result.eps_std_nT.tolist()),
-                    msa_method=result.method,
-                    msa_stations=int(result.diagnostics.stations_used),
-                    msa_reference_total_nT=float(args.reference_total_nT),
-                    msa_reference_dip_deg=float(args.reference_dip_deg),
-                    msa_fitted_at=utc_now_iso())
-    save(args, replace(model, magnetic=stage), outputs)
+    model = with_interference(model, result, (args.reference_total_nT, args.reference_dip_deg))
+    save(args, model, outputs)
     lines.append('wrote the interference (tool x, y, z: '
-                 + ', '.join(f'{v:.1f}' for v in eps_tool_nT) + f' nT) to {args.calibration}')
+                 + ', '.join(f'{v:.1f}' for v in model.magnetic.interference_nT)
+                 + f' nT) to {args.calibration}')
     report_residuals(args, lines, station_residuals(args, result),
                      'B total and dip of each station after the correction')
 
@@ -284,29 +264,17 @@ def station_residuals(args, result):
 
 def correct(args, table, lines):
     """Return the msa result of ``args.method`` and the cross-axial source (improved)."""
-    G, B = table['G'], table['B']
-    reference = (args.reference_total_nT, args.reference_dip_deg)
+    result, source = solve_interference(
+        args.method, table['G'], table['B'], (args.reference_total_nT, args.reference_dip_deg),
+        (args.reference_total_std_nT, args.reference_dip_std_deg),
+        table.get('rotation_fitted_at'), args.cross_axial_nT, args.exclude_failing)
     if args.method == 'short-collar':
-        result = short_collar(G, B, *reference)
         lines.append(f'short-collar: eps_z per station {np.nanmin(result.eps_z_nT):.1f} .. '
                      f'{np.nanmax(result.eps_z_nT):.1f} nT; {int(result.east_west.sum())} '
                      'station(s) near east/west flagged (azimuth NaN)')
         return result, None
-    options = {'exclude_failing_qc': args.exclude_failing,
-               'reference_std': (args.reference_total_std_nT, args.reference_dip_std_deg)}
-    source = None
-    if args.method == 'classic':
-        result = solve_msa_classic(G, B, *reference, **options)
-    elif args.method == 'axial':
-        result = solve_msa_axial(G, B, *reference, **options)
-    else:
-        cross_axial, source, covariance = improved_cross_axial(
-            G, B, *reference, given_nT=args.cross_axial_nT,
-            rotation_fitted_at=table.get('rotation_fitted_at'), **options)
-        lines.append(f'cross-axial {cross_axial[0]:.1f}, {cross_axial[1]:.1f} nT: {source}'
-                     + ('' if covariance is not None else ' (its uncertainty not included)'))
-        result = solve_msa_improved(G, B, *reference, cross_axial_nT=cross_axial,
-                                    cross_axial_covariance_nT2=covariance, **options)
+    if source is not None:
+        lines.append(source)
     lines += result_lines(result)
     return result, source
 
@@ -367,7 +335,7 @@ def write_outputs(args, table, output, lines, outputs):
         columns[TRUTH_COLUMN] = table[TRUTH_COLUMN]
         columns['azimuth_error_deg'] = azimuth_difference_deg(
             result.azimuth_deg, table[TRUTH_COLUMN])
-    write_table(outputs.path(args.output), columns)
+    write_csv(outputs.path(args.output), columns)
     json_path = f'{args.output}.msa.json'
     with open(outputs.path(json_path), 'x') as stream:
         json.dump(summary(args, result, source), stream, indent=2)
@@ -390,17 +358,6 @@ def station_toolface_deg(G, max_std_deg):
     std_deg = np.degrees(toolface_std_rad(f, noise ** 2 * np.broadcast_to(np.eye(3), (len(f), 3,
                                                                                       3))))
     return np.where(std_deg <= max_std_deg, magnetics.gravity_toolface_deg(G), np.nan)
-
-
-def write_table(path, columns):
-    """Write ``{name: values}`` as CSV; booleans as 0/1, floats in full precision."""
-    rows = np.column_stack([np.asarray(values, dtype=float) for values in columns.values()])
-    flags = [np.asarray(values).dtype == bool for values in columns.values()]
-    with open(path, 'x') as stream:
-        stream.write(','.join(columns) + '\n')
-        for row in rows:
-            stream.write(','.join(str(int(v)) if flag else repr(float(v))
-                                  for v, flag in zip(row, flags)) + '\n')
 
 
 def summary(args, result, source):

@@ -50,178 +50,29 @@ never (``io.files.Outputs``).  A damaged IN (a read that fails or yields
 fewer messages than the bag says) is an error and leaves no OUT.
 """
 
-from dataclasses import dataclass
-import math
+from functools import partial
 import sys
 
-from inclino_ros.calibration.model import CalibrationFileError, check_sensor, load_model
 from inclino_ros.calibration.plausibility import (
-    check_for_sensor, field_reading_ok, Implausible, temperature_ok)
+    check_for_sensor, Implausible, temperature_ok)
 from inclino_ros.cli.errors import CommandError
-from inclino_ros.cli.fitting import add_sensor_argument, NODE_DEFAULTS, node_option
+from inclino_ros.cli.fitting import (
+    add_sensor_argument, load_calibration, NODE_DEFAULTS, node_option)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.mounting import add_axes_map_arguments, settings_maps
 from inclino_ros.cli.options import add_force_argument, between, node_parameter
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core.averaging import Averager
-from inclino_ros.core.screening import count_reasons, REASONS
 from inclino_ros.io.bag import (
     BagWriter, CHUNK_SIZE, concatenate, IMU, MAGNETIC_FIELD, read, STORAGES, TEMPERATURE,
     TemperatureSeries, topic_info, VECTOR3_STAMPED)
 from inclino_ros.io.files import Outputs
-from inclino_ros.io.timing import pair_nearest
-from inclino_ros.node.outputs import averaged_outputs, outputs
-from inclino_ros.pipeline import MagneticSettings, run as run_pipeline, Settings
-import numpy as np
+from inclino_ros.pipeline import MagneticSettings, Settings
+from inclino_ros.stream import Magnetometer, replay, Summary
 from tqdm import tqdm
 
 SURVEY_TOPIC = '/survey'
 IMU_TOPIC = '/imu/data'
-#: Azimuth counts of the summary (accepted samples; mag_non_finite: magnetometer messages).
-MAGNETIC_COUNTS = ('mag_non_finite', 'mag_paired', 'mag_unpaired', 'azimuth_trusted',
-                   'azimuth_untrusted', 'azimuth_imprecise', 'qc_failed', 'qc_failed_b_total',
-                   'qc_failed_dip', 'qc_failed_g_total')
-#: What each reason for dropping a sample means, for the loud message of a bad run.
-DROP_MEANINGS = {
-    'non_finite': 'NaN or Inf readings', 'saturated': 'readings at the sensor range',
-    'zero': 'readings of zero magnitude (dead sensor, free fall)',
-    'over_g': 'two-axis readings above g',
-    'dynamic': 'G-total off gravity by more than --g-total-tolerance-mps2: not gravity (a '
-               'driver that removes gravity? wrong unit?)',
-    'two_axis_range': 'two-axis readings beyond --two-axis-max-inclination-deg (tool past '
-                      '90 deg?)'}
-
-
-@dataclass(frozen=True)
-class Magnetometer:
-    """A magnetometer topic read whole, and how its readings pair with the Imu samples."""
-
-    stamps_ns: np.ndarray     # (M,) int64
-    field_nT: np.ndarray      # (M, 3) sensor axes, NaN where the driver sent no value
-    max_pairing_ns: int
-    settings: MagneticSettings
-    dropped: int              # finite readings no magnetometer gives (beyond an Earth field)
-    non_finite: int           # readings holding a NaN or infinite value (a driver's gaps)
-
-    @classmethod
-    def from_series(cls, series, max_pairing_s, settings):
-        """
-        Return the Magnetometer of a MagneticFieldSeries (any order; tesla -> nT).
-
-        Readings ``plausibility.field_reading_ok`` refuses are dropped (and
-        counted): a sample is paired with the nearest reading that is left.
-        """
-        field_nT = series.field_nT
-        kept = field_reading_ok(field_nT)
-        finite = np.isfinite(field_nT).all(axis=1)
-        return cls(series.stamps_ns[kept], field_nT[kept], round(max_pairing_s * 1e9), settings,
-                   int(np.count_nonzero(finite & ~kept)), int(np.count_nonzero(~finite)))
-
-    def field_at(self, stamps_ns):
-        """Return (field_nT (N, 3), paired (N,)) of the readings nearest ``stamps_ns``."""
-        return pair_nearest(stamps_ns, self.stamps_ns, self.field_nT, self.max_pairing_ns)
-
-
-class Summary:
-    """Running statistics of a processed stream."""
-
-    def __init__(self, gravity_mps2):
-        """Start with nothing seen; G-total sums are kept about ``gravity_mps2``."""
-        self.gravity_mps2 = gravity_mps2
-        self.samples_in = 0
-        self.dropped = dict.fromkeys(REASONS, 0)
-        self.inclination_min_deg = math.inf
-        self.inclination_max_deg = -math.inf
-        self._inclination_sum_deg = 0.0
-        self._g_offset_sum = 0.0
-        self._g_offset_sum_sq = 0.0
-        self.toolface_imprecise = 0
-        self.magnetic = None
-        self.written = 0           # messages on each output topic
-        self.averaged = False      # --average-samples / --output-rate-hz
-        self.windows_moving = 0    # windows of a tool that moved: not written
-        self.windows_dropped = 0   # mean readings that could not be gravity
-        self.samples_not_averaged = 0   # in the window still open at the end of IN
-
-    @property
-    def accepted(self):
-        """Return the number of samples that produced output."""
-        return self.samples_in - sum(self.dropped.values())
-
-    def mostly_dropped(self):
-        """Return the loud message of a run where most samples were dropped, else None."""
-        dropped = sum(self.dropped.values())
-        if dropped * 2 <= self.samples_in:
-            return None
-        reason = max(self.dropped, key=self.dropped.get)
-        return (f'{dropped} of {self.samples_in} samples dropped, most '
-                f'({self.dropped[reason]}) as {reason}: {DROP_MEANINGS[reason]}; no angle was '
-                'computed from them')
-
-    def add(self, survey):
-        """Count one processed batch (a ``pipeline.Survey``)."""
-        self.samples_in += survey.codes.size
-        for reason, count in count_reasons(survey.codes).items():
-            self.dropped[reason] += count
-        if survey.inclination_deg.size:
-            self.inclination_min_deg = min(self.inclination_min_deg,
-                                           float(survey.inclination_deg.min()))
-            self.inclination_max_deg = max(self.inclination_max_deg,
-                                           float(survey.inclination_deg.max()))
-            self._inclination_sum_deg += float(survey.inclination_deg.sum())
-            # The pipeline makes a toolface NaN where its 1 sigma exceeds the limit.
-            self.toolface_imprecise += int(np.isnan(survey.toolface_deg).sum())
-            offset = survey.g_total_mps2 - self.gravity_mps2
-            self._g_offset_sum += float(offset.sum())
-            self._g_offset_sum_sq += float(offset @ offset)
-
-    def add_magnetic(self, survey, paired, non_finite):
-        """
-        Count the azimuths of one batch: ``paired`` (N,) says which input samples had a field.
-
-        Counts (of accepted samples): paired, unpaired, trusted, untrusted,
-        and the paired ones failing QC, in all and per test; ``non_finite``
-        is the number of magnetometer messages without a value (never paired).
-        """
-        counts = self.magnetic or dict.fromkeys(MAGNETIC_COUNTS, 0)
-        counts['mag_non_finite'] = non_finite
-        paired = np.asarray(paired)[survey.accepted]
-        azimuth = survey.magnetic
-        counts['mag_paired'] += int(paired.sum())
-        counts['mag_unpaired'] += int((~paired).sum())
-        counts['azimuth_trusted'] += int(azimuth.trusted.sum())
-        counts['azimuth_untrusted'] += int((~azimuth.trusted).sum())
-        counts['azimuth_imprecise'] += int(azimuth.imprecise.sum())
-        qc = azimuth.qc
-        for name, ok in (('qc_failed', qc.ok), ('qc_failed_b_total', qc.b_total_ok),
-                         ('qc_failed_dip', qc.dip_ok), ('qc_failed_g_total', qc.g_total_ok)):
-            counts[name] += int((paired & ~ok).sum())
-        self.magnetic = counts
-
-    def lines(self, magnetometer=None):
-        """Return the summary as ``name: value`` text, with what ``magnetometer`` dropped."""
-        n = self.accepted
-        lines = [f'samples_in: {self.samples_in}', f'accepted: {n}']
-        lines += [f'dropped_{reason}: {count}' for reason, count in self.dropped.items()]
-        lines.append(f'toolface_imprecise: {self.toolface_imprecise}')
-        if self.magnetic is not None:
-            lines += [f'{name}: {count}' for name, count in self.magnetic.items()]
-        if magnetometer is not None:
-            lines.append(f'mag_readings_dropped: {magnetometer.dropped}')
-        if self.averaged:
-            lines += [f'windows_written: {self.written}',
-                      f'windows_moving: {self.windows_moving}',
-                      f'windows_dropped: {self.windows_dropped}',
-                      f'samples_not_averaged: {self.samples_not_averaged}']
-        if n == 0:
-            return lines + ['inclination_deg: none accepted', 'g_total_mps2: none accepted']
-        g_mean = self.gravity_mps2 + self._g_offset_sum / n
-        g_std = (math.sqrt(max(self._g_offset_sum_sq - self._g_offset_sum ** 2 / n, 0.0)
-                           / (n - 1)) if n > 1 else 0.0)
-        return lines + [
-            f'inclination_deg: min {self.inclination_min_deg:.6f} '
-            f'mean {self._inclination_sum_deg / n:.6f} max {self.inclination_max_deg:.6f}',
-            f'g_total_mps2: mean {g_mean:.6f} std {g_std:.6f}']
 
 
 def register(subparsers):
@@ -343,13 +194,7 @@ def run(args):
 
 def _prepare(args):
     """Return (model, settings, message count, TemperatureSeries or None) or raise CommandError."""
-    try:
-        model = load_model(args.calibration)
-        check_sensor(model, args.sensor_id, args.calibration)
-    except FileNotFoundError:
-        raise CommandError(f'no calibration file {args.calibration}') from None
-    except (CalibrationFileError, OSError) as err:
-        raise CommandError(str(err)) from None
+    model = load_calibration(args.calibration, args.sensor_id)
     if not model.calibrated:
         print(f'inclino process: warning: {args.calibration} holds no accelerometer '
               'correction (no level-bench, stand or temperature stage): the inclination and '
@@ -404,10 +249,8 @@ def _magnetometer(args, model):
     if args.mag_topic is None:
         return None
     stage = model.magnetic
-    fallback = ((stage.msa_reference_total_nT, stage.msa_reference_dip_deg)
-                if stage is not None and stage.msa_method is not None else (None, None))
     try:
-        total_nT, dip_deg, declination_deg, source = resolve_reference(args, fallback)
+        total_nT, dip_deg, declination_deg, source = resolve_reference(args, model)
     except ValueError as err:
         raise CommandError(str(err)) from None
     if total_nT is None or dip_deg is None:
@@ -448,8 +291,8 @@ def process(in_path, topic, out, model, settings, chunk_size, count=None, temper
     summary = Summary(settings.gravity_mps2)
     with tqdm(total=count, unit='msg', desc='inclino process', file=sys.stderr) as progress:
         try:
-            _process_batches(read(in_path, topic, chunk_size), out, model, settings,
-                             temperature, magnetometer, summary, progress, averager)
+            replay(read(in_path, topic, chunk_size), partial(_write, out), model, settings,
+                   summary, temperature, magnetometer, averager, progress)
         except KeyboardInterrupt:
             raise KeyboardInterrupt(f'after {summary.samples_in} of {count} messages') from None
     if averager is not None:
@@ -457,36 +300,6 @@ def process(in_path, topic, out, model, settings, chunk_size, count=None, temper
     return summary
 
 
-def _process_batches(batches, out, model, settings, temperature, magnetometer, summary,
-                     progress, averager=None):
-    """Correct each batch into ``out``, counting in ``summary`` (see ``process``)."""
-    for batch in batches:
-        temperature_c = None if temperature is None else temperature.at(batch.stamps_ns)
-        if magnetometer is None:
-            survey = run_pipeline(batch.linear_acceleration_mps2, model, settings,
-                                  temperature_c)
-        else:
-            field_nT, paired = magnetometer.field_at(batch.stamps_ns)
-            survey = run_pipeline(batch.linear_acceleration_mps2, model, settings,
-                                  temperature_c, field_nT, magnetometer.settings)
-            summary.add_magnetic(survey, paired, magnetometer.non_finite)
-        summary.add(survey)
-        accepted = survey.accepted
-        stamps_ns, frame_ids = batch.stamps_ns[accepted], batch.frame_ids[accepted]
-        if averager is None:
-            _write(out, outputs(stamps_ns, frame_ids, survey), summary)
-        else:
-            moving, dropped, published = averaged_outputs(
-                averager, stamps_ns, frame_ids, survey, temperature_c, model, settings,
-                None if magnetometer is None else magnetometer.settings)
-            summary.windows_moving += moving
-            summary.windows_dropped += dropped
-            for windows in published:
-                _write(out, windows, summary)
-        progress.update(batch.stamps_ns.size)
-
-
-def _write(out, published, summary):
-    """Write one batch's Outputs (``node.outputs``) to /survey and /imu/data."""
+def _write(out, published):
+    """Write one Outputs (``stream.outputs``) to /survey and /imu/data."""
     out.write_series({SURVEY_TOPIC: published.survey, IMU_TOPIC: published.imu})
-    summary.written += published.inclination_deg.size

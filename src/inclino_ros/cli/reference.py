@@ -51,14 +51,18 @@ def _date(text):
         return float(text)
 
 
-def resolve_reference(args, fallback=(None, None)):
+def resolve_reference(args, model=None):
     """
     Return (total_nT, dip_deg, declination_deg, source) of the options.
 
-    Each of F and D comes from its option, else ``--site``, else
-    ``fallback`` (F, D); None where none gives it, the declination too.
-    ValueError for an impossible value.
+    Each of F and D comes from its option, else ``--site``, else the
+    reference the calibration ``model``'s MSA was solved against
+    (``Magnetic.msa_reference``, when neither option is given); None where
+    none gives it, the declination too.  ValueError for an impossible value.
     """
+    stage = None if model is None else model.magnetic
+    fallback = (stage.msa_reference if stage is not None and stage.msa_reference is not None
+                else (None, None))
     site = None if args.site is None else site_reference(args.site)
     total_nT, dip_deg, declination_deg = (
         args.reference_total_nT, args.reference_dip_deg, args.declination_deg)

@@ -51,7 +51,6 @@ OUT, OUT.truth.json and the CSV are written under temporary names, renamed
 when all are complete, and refused when they exist unless ``--force``.
 """
 
-import csv
 from dataclasses import replace
 import json
 
@@ -61,6 +60,7 @@ from inclino_ros.cli.mounting import add_axes_map_arguments, settings_maps
 from inclino_ros.cli.options import add_force_argument, between, finite, reference_total_nT
 from inclino_ros.core.mounting import to_sensor_axes
 from inclino_ros.core.msa import MAX_INTERFERENCE_NT
+from inclino_ros.io import tables
 from inclino_ros.io.bag import (
     BagWriter, IMU, MAGNETIC_FIELD, MagneticFieldSeries, magnetometer, raw_imu, TEMPERATURE,
     TemperatureSeries, VECTOR3_STAMPED, Vector3Series)
@@ -410,7 +410,4 @@ def write_csv(path, sim, temperature, attitude=False):
     if attitude:
         columns['attitude'] = sim.segment
     columns.update(zip(('ax', 'ay', 'az'), sim.raw_mps2.T))
-    with open(path, 'x', newline='') as stream:
-        writer = csv.writer(stream)
-        writer.writerow(columns)
-        writer.writerows(zip(*(values.tolist() for values in columns.values())))
+    tables.write_csv(path, columns)

@@ -28,13 +28,11 @@ Exit codes: 0 written, 2 an input that cannot be used (missing column, a
 field not in nT, no calibration file).
 """
 
-import csv
 import math
 import sys
 
-from inclino_ros.calibration.model import CalibrationFileError, load_model
 from inclino_ros.cli.errors import CommandError
-from inclino_ros.cli.fitting import NODE_DEFAULTS, node_option
+from inclino_ros.cli.fitting import load_calibration, NODE_DEFAULTS, node_option
 from inclino_ros.cli.options import add_force_argument, node_parameter
 from inclino_ros.cli.process import add_limit_arguments
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
@@ -116,16 +114,6 @@ def _samples(path, rows, header):
     return counts
 
 
-def _model(path):
-    """Return the calibration model of ``path``; CommandError if there is none or it is bad."""
-    try:
-        return load_model(path)
-    except FileNotFoundError:
-        raise CommandError(f'no calibration file {path}') from None
-    except (CalibrationFileError, OSError) as err:
-        raise CommandError(str(err)) from None
-
-
 def survey(args, outputs):
     """Compute and write the survey; return (rows, rows with an azimuth)."""
     try:
@@ -146,15 +134,12 @@ def survey(args, outputs):
         problem = field_unit_problem(np.nanmedian(magnitude))
         if problem:
             raise CommandError(f'bx, by, bz must be in nT: {problem}')
-    model = _model(args.calibration)
+    model = load_calibration(args.calibration, any_sensor=True)
     if model.accelerometer_axes != 3:
         raise CommandError(f'{args.calibration} is for a two-axis accelerometer: a survey '
                            'needs three axes')
-    stage = model.magnetic
-    fallback = ((stage.msa_reference_total_nT, stage.msa_reference_dip_deg)
-                if stage is not None and stage.msa_method is not None else (None, None))
     try:
-        total_nT, dip_deg, declination_deg, _ = resolve_reference(args, fallback)
+        total_nT, dip_deg, declination_deg, _ = resolve_reference(args, model)
         settings = Settings(gravity_mps2=args.gravity_mps2,
                             accelerometer_range_mps2=NODE_DEFAULTS['accelerometer_range_mps2'],
                             toolface_convention=args.toolface_convention,
@@ -199,13 +184,6 @@ def output_columns(result, declination_deg, with_qc):
     return {name: (accepted, value) for name, value in values.items()}
 
 
-def _cell(value):
-    """Return a CSV cell: 1/0 for flags, repr for numbers, ``nan`` for NaN."""
-    if isinstance(value, (bool, np.bool_)):
-        return '1' if value else '0'
-    return repr(float(value))
-
-
 def write(path, header, rows, codes, columns):
     """Write the input rows with the output columns (and the status) to ``path``."""
     names = list(columns) + ['status']
@@ -221,11 +199,8 @@ def write(path, header, rows, codes, columns):
         column[accepted] = list(values)
         full[name] = column
     try:
-        with open(path, 'x', newline='') as stream:
-            writer = csv.writer(stream)
-            writer.writerow(renamed + names)
-            for i, row in enumerate(rows):
-                writer.writerow(list(row) + [_cell(full[name][i]) for name in columns]
-                                + [status[i]])
+        tables.write_csv(path, [(name, [row[k] for row in rows])
+                                for k, name in enumerate(renamed)]
+                         + [(name, full[name]) for name in columns] + [('status', status)])
     except OSError as err:
         raise CommandError(f'cannot write {path}: {err}') from None

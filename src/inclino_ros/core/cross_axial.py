@@ -27,10 +27,11 @@ calibration file use the z-up tool frame; x and y are the same in ISCWSA).
 from dataclasses import dataclass
 import math
 
+from inclino_ros.core.refusal import Refused
 import numpy as np
 
 
-class RotationFitRefused(Exception):
+class RotationFitRefused(Refused):
     """A rotation capture that cannot give a trustworthy cross-axial correction."""
 
 

@@ -76,11 +76,11 @@ import math
 
 from inclino_ros.core import magnetics
 from inclino_ros.core.attitude import as_vectors
+from inclino_ros.core.constants import STANDARD_GRAVITY_MPS2
+from inclino_ros.core.refusal import Refused
 from inclino_ros.core.uncertainty import azimuth_gradients
 import numpy as np
 
-#: Gravity of the QC tolerance in ``magnetics.QcLimits`` (m/s^2), to make it relative.
-STANDARD_GRAVITY_MPS2 = 9.80665
 #: Largest interference accepted [nT]: a drill string's magnetisation stays well below
 #: the Earth's field (seed 002 §3.2, Fig. 5 searches +-10000 nT).
 MAX_INTERFERENCE_NT = 10000.0
@@ -98,12 +98,8 @@ MAX_ITERATIONS = 50
 WMM_REFERENCE_STD = (138.0, 0.20)
 
 
-class MsaRefused(Exception):
+class MsaRefused(Refused):
     """Stations that cannot give a trustworthy correction; ``reason`` says why."""
-
-    def __init__(self, reason):
-        super().__init__(reason)
-        self.reason = reason
 
 
 @dataclass(frozen=True)

@@ -39,8 +39,10 @@ from dataclasses import dataclass
 import math
 
 from inclino_ros.core.attitude import angle_between, as_vectors
+from inclino_ros.core.constants import STANDARD_GRAVITY_MPS2
 from inclino_ros.core.installation import (
     installation_angles, installation_matrix, level_axis_angles)
+from inclino_ros.core.refusal import Refused
 from inclino_ros.core.stand import fit_sphere, rotation_part, StandFitRefused
 import numpy as np
 from scipy.optimize import least_squares
@@ -54,7 +56,7 @@ _Z = np.array([0.0, 0.0, 1.0])
 _MAX_ROUNDS = 20
 
 
-class ShotFitRefused(Exception):
+class ShotFitRefused(Refused):
     """
     Shots that cannot give a trustworthy reference-free calibration, with the reason.
 
@@ -65,7 +67,6 @@ class ShotFitRefused(Exception):
 
     def __init__(self, reason, fit=None, reasons=None):
         super().__init__(reason)
-        self.reason = reason
         self.reasons = tuple(reasons or (reason,))
         self.fit = fit
 
@@ -410,8 +411,8 @@ class _Model:
         return np.concatenate([value / weights[name] for name, value in families.items()])
 
 
-def fit_shots(accel_mps2, field_nT, roll_group=None, g=9.80665, reference_total_nT=None,
-              fit_accel=True, limits=ShotLimits()):
+def fit_shots(accel_mps2, field_nT, roll_group=None, g=STANDARD_GRAVITY_MPS2,
+              reference_total_nT=None, fit_accel=True, limits=ShotLimits()):
     """
     Return the ShotFit of still shots of both triads, or raise ShotFitRefused.
 

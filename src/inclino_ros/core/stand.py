@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import math
 
 from inclino_ros.core.attitude import angle_between, as_vectors, inclination, specific_force
+from inclino_ros.core.refusal import Refused
 import numpy as np
 from scipy.linalg import polar
 
@@ -41,12 +42,8 @@ MIN_SPHERE_READINGS = 12
 MAX_READING_RATIO = 10.0
 
 
-class StandFitRefused(Exception):
+class StandFitRefused(Refused):
     """Readings that cannot give a trustworthy stand or sphere calibration."""
-
-    def __init__(self, reason):
-        super().__init__(reason)
-        self.reason = reason
 
 
 @dataclass(frozen=True)

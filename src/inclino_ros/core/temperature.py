@@ -46,6 +46,7 @@ way").
 
 from dataclasses import dataclass, replace
 
+from inclino_ros.core.refusal import Refused
 import numpy as np
 from numpy.polynomial import Polynomial
 from numpy.polynomial import polynomial as poly
@@ -71,12 +72,8 @@ MAX_DRIFT_ITERATIONS = 50
 AXES = 'xyz'
 
 
-class TemperatureFitRefused(Exception):
+class TemperatureFitRefused(Refused):
     """Data that cannot give a trustworthy temperature model."""
-
-    def __init__(self, reason):
-        super().__init__(reason)
-        self.reason = reason
 
 
 @dataclass(frozen=True)

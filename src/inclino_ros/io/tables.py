@@ -157,3 +157,43 @@ def read_shots(path, accel_columns=('ax', 'ay', 'az'), field_columns=('bx', 'by'
         names = list(dict.fromkeys(name for name in groups if name))
         labels = np.array([names.index(name) if name else -1 for name in groups])
     return accel, field, labels, table.get('temperature_c')
+
+
+def _cell(value):
+    """Return one CSV cell: text as it is, 1/0 for flags, integers whole, repr for floats."""
+    if isinstance(value, str):
+        return value
+    if isinstance(value, (bool, np.bool_)):
+        return '1' if value else '0'
+    if isinstance(value, (int, np.integer)):
+        return str(int(value))
+    return repr(float(value))
+
+
+def _cells(values):
+    """Return a column's cells (``_cell``), whole numpy columns converted at once."""
+    array = np.asarray(values)
+    if array.dtype == bool:
+        return ['1' if v else '0' for v in array.tolist()]
+    if array.dtype.kind in 'iu':
+        return [str(v) for v in array.tolist()]
+    if array.dtype.kind == 'f':
+        return [repr(v) for v in array.tolist()]
+    return [_cell(v) for v in values]
+
+
+def write_csv(path, columns, mode='x'):
+    """
+    Write ``columns`` as a CSV with a header row: the one table writer of the package.
+
+    ``columns``: ``{name: values}`` or ``[(name, values)]`` (names may then
+    repeat), all of one length.  Cells: text as it is, flags as 1/0,
+    integers whole, floats in full precision (``repr``: read back bit for bit;
+    NaN as ``nan``).  ``mode`` 'x' (the default) never overwrites a file.
+    """
+    items = list(columns.items() if isinstance(columns, dict) else columns)
+    cells = [_cells(values) for _, values in items]
+    with open(path, mode, newline='') as stream:
+        writer = csv.writer(stream)
+        writer.writerow([name for name, _ in items])
+        writer.writerows(zip(*cells))

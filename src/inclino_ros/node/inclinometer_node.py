@@ -33,15 +33,16 @@ from inclino_ros.io.bag import encode, encode_float64, IMU, MAGNETIC_FIELD
 from inclino_ros.node.capture import change_refusal, Collector, latched_qos
 from inclino_ros.node.executor import run_node
 from inclino_ros.node.magnetic_services import MagneticServices
-from inclino_ros.node.outputs import averaged_outputs, outputs
 from inclino_ros.node.parameters import PARAMETERS, refusal
 from inclino_ros.node.sample_path import (
     BatchWaker, decode_messages, ServedElsewhere, take_serialized)
 from inclino_ros.node.services import CalibrationServices
 from inclino_ros.node.stats import InputStats, MagneticInput, TemperatureInput
-from inclino_ros.pipeline import MagneticSettings, run, Settings
+from inclino_ros.pipeline import MagneticSettings, Settings
+from inclino_ros.stream import correct_batch
 import numpy as np
-from rcl_interfaces.msg import SetParametersResult
+from rcl_interfaces.msg import (
+    FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult)
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.exceptions import NameValidationException, ParameterException
 from rclpy.node import Node
@@ -51,6 +52,23 @@ from sensor_msgs.msg import Imu, MagneticField, Temperature
 from std_msgs.msg import Float64, String
 
 
+def descriptor(parameter):
+    """Return the ROS descriptor of a ``parameters.Parameter``: description, range, read-only."""
+    result = ParameterDescriptor(
+        name=parameter.name, description=parameter.description, read_only=parameter.read_only,
+        additional_constraints='' if parameter.choices is None else
+        f'one of: {", ".join(parameter.choices)}')
+    if isinstance(parameter.default, bool) or parameter.low is None:
+        return result
+    if isinstance(parameter.default, int):
+        result.integer_range = [IntegerRange(
+            from_value=int(parameter.low), to_value=int(parameter.high), step=1)]
+    else:
+        result.floating_point_range = [FloatingPointRange(
+            from_value=float(parameter.low), to_value=float(parameter.high), step=0.0)]
+    return result
+
+
 class InclinometerNode(Node):
     """Corrects an inclinometer's accelerometer stream with the stored calibration."""
 
@@ -58,7 +76,7 @@ class InclinometerNode(Node):
         """Declare parameters, load the calibration and create the interfaces."""
         super().__init__('inclinometer', **kwargs)
         for parameter in PARAMETERS:
-            self.declare_parameter(parameter.name, parameter.default, parameter.descriptor())
+            self.declare_parameter(parameter.name, parameter.default, descriptor(parameter))
             reason = refusal(parameter.name, self.param(parameter.name))
             if reason:
                 raise ValueError(reason)
@@ -256,32 +274,27 @@ class InclinometerNode(Node):
         if self.magnetometer.stamp_ns is not None:  # no azimuth work without a magnetometer
             field_nT = self.magnetometer.paired(batch.stamps_ns,
                                                 self.param('magnetic.max_pairing_s'))
-        survey = run(batch.linear_acceleration_mps2, self.model, self.settings, temperature_c,
-                     field_nT, self.magnetic_settings)
+        frame_ids = (np.full(batch.stamps_ns.size, self.frame_id) if self.frame_id
+                     else batch.frame_ids)
+        result = correct_batch(batch.linear_acceleration_mps2, batch.stamps_ns, frame_ids,
+                               self.model, self.settings, temperature_c, field_nT,
+                               self.magnetic_settings, self.averager)
+        survey = result.survey
         self.stats.count(survey)
-        accepted = survey.accepted
-        stamps_ns = batch.stamps_ns[accepted]
-        frame_ids = (np.full(stamps_ns.size, self.frame_id) if self.frame_id
-                     else batch.frame_ids[accepted])
         field_nT = None if survey.magnetic is None else survey.magnetic.uncorrected_nT
         if field_nT is not None:
             self.magnetometer.count(survey.magnetic)
         if self.collector.capture is not None:
             self.collector.add_samples(survey.uncorrected_mps2, temperature_c, field_nT,
-                                       stamps_ns * 1e-9)
+                                       batch.stamps_ns[survey.accepted] * 1e-9)
             self._capture_fed.trigger()
-        if self.averager is None:
-            self._publish(outputs(stamps_ns, frame_ids, survey))
-            return
-        moving, dropped, published = averaged_outputs(
-            self.averager, stamps_ns, frame_ids, survey, temperature_c, self.model,
-            self.settings, None if self.magnetometer.stamp_ns is None else self.magnetic_settings)
-        self.stats.count_windows(moving, dropped)
-        for out in published:
+        if self.averager is not None:
+            self.stats.count_windows(result.windows_moving, result.windows_dropped)
+        for out in result.published:
             self._publish(out)
 
     def _publish(self, out):
-        """Publish a batch's Outputs (``node.outputs``), serialized at once."""
+        """Publish a batch's Outputs (``stream.outputs``), serialized at once."""
         for publisher, messages in (
                 (self.survey_pub, encode(out.survey)),
                 (self.inclination_pub, encode_float64(out.inclination_deg)),

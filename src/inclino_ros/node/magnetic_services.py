@@ -17,24 +17,18 @@ The node's magnetometer services (seed 002): rotation fit, survey stations, MSA.
 - ``~/clear_surveys``: empties the station list.
 """
 
-from dataclasses import replace
-
 from inclino_ros.calibration.model import NO_MAGNETIC_CORRECTION, utc_now_iso
 from inclino_ros.calibration.plausibility import check_field_readings, Implausible
 from inclino_ros.calibration.rotation import solve_rotation
-from inclino_ros.calibration.stations import msa_inputs, save_stations, Station
+from inclino_ros.calibration.stations import (
+    msa_inputs, save_stations, solve_interference, Station, with_interference)
 from inclino_ros.calibration.still_capture import (
     CaptureRefused, require_axis_still, require_still_vectors)
 from inclino_ros.core.cross_axial import RotationFitRefused
-from inclino_ros.core.magnetics import iscwsa_from_tool
-from inclino_ros.core.msa import (
-    azimuth_difference_deg, improved_cross_axial, MsaRefused, solve_msa_axial, solve_msa_classic,
-    solve_msa_improved)
+from inclino_ros.core.msa import azimuth_difference_deg, MsaRefused
 from inclino_ros.pipeline import correct
 import numpy as np
 from rclpy.callback_groups import ReentrantCallbackGroup
-
-SOLVERS = {'classic': solve_msa_classic, 'axial': solve_msa_axial}
 
 
 #: The services that change the calibration (refused in field mode: ``capture.change_refusal``).
@@ -140,29 +134,16 @@ class MagneticServices:
         if settings.reference_total_nT <= 0:
             return self.collector.refuse(response, 'MSA needs the reference field: set '
                                          'magnetic.reference_total_nT and reference_dip_deg')
-        stage = self._stage()
         gravity, field = msa_inputs(self.stations, node.model)
         reference = (settings.reference_total_nT, settings.reference_dip_deg)
         reference_std = (node.param('magnetic.reference_total_std_nT'),
                          node.param('magnetic.reference_dip_std_deg'))
         try:
-            source = ''
-            if method == 'improved':
-                cross_axial, source, covariance = improved_cross_axial(
-                    gravity, field, *reference, rotation_fitted_at=stage.rotation_fitted_at,
-                    reference_std=reference_std)
-                source = f'; cross-axial ({cross_axial[0]:.1f}, {cross_axial[1]:.1f}) nT {source}'
-                result = solve_msa_improved(gravity, field, *reference, cross_axial_nT=cross_axial,
-                                            reference_std=reference_std,
-                                            cross_axial_covariance_nT2=covariance)
-            else:
-                result = SOLVERS[method](gravity, field, *reference, reference_std=reference_std)
-            stage = replace(stage, interference_nT=tuple(iscwsa_from_tool(
-                result.eps_nT).tolist()), interference_std_nT=tuple(result.eps_std_nT.tolist()),
-                msa_method=method, msa_stations=len(self.stations),
-                msa_reference_total_nT=settings.reference_total_nT,
-                msa_reference_dip_deg=settings.reference_dip_deg, msa_fitted_at=utc_now_iso())
-            self.collector.commit(replace(node.model, magnetic=stage))
+            result, source = solve_interference(
+                method, gravity, field, reference, reference_std,
+                rotation_fitted_at=self._stage().rotation_fitted_at)
+            source = '' if source is None else f'; {source}'
+            self.collector.commit(with_interference(node.model, result, reference))
         except (MsaRefused, CaptureRefused) as err:
             return self.collector.refuse(response, str(err))
         change = np.abs(azimuth_difference_deg(result.azimuth_deg, result.azimuth_raw_deg))

@@ -3,15 +3,18 @@ The node's parameters: one table of names, defaults, ranges and meanings.
 
 Defaults here are the same as ``config/inclinometer.yaml``; the README's
 parameter table is made from this list (``python -m inclino_ros.node.parameters``).
+No ROS types here: the offline commands take their defaults and ranges from
+this table without importing rcl_interfaces; the node turns each entry into
+its ParameterDescriptor (``inclinometer_node.descriptor``).
 """
 
 from dataclasses import dataclass
 import math
 
 from inclino_ros.calibration.plausibility import EARTH_FIELD_NT
-from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+from inclino_ros.core.constants import STANDARD_GRAVITY_MPS2
 
-GRAVITY_MPS2 = 9.80665
+GRAVITY_MPS2 = STANDARD_GRAVITY_MPS2
 #: Longest frame_id [characters] the node stamps on its outputs.
 MAX_FRAME_ID = 256
 
@@ -27,22 +30,6 @@ class Parameter:
     high: float = None
     read_only: bool = True
     choices: tuple = None
-
-    def descriptor(self):
-        """Return the ROS descriptor with description, range and read-only flag."""
-        descriptor = ParameterDescriptor(
-            name=self.name, description=self.description, read_only=self.read_only,
-            additional_constraints='' if self.choices is None else
-            f'one of: {", ".join(self.choices)}')
-        if isinstance(self.default, bool) or self.low is None:
-            return descriptor
-        if isinstance(self.default, int):
-            descriptor.integer_range = [IntegerRange(
-                from_value=int(self.low), to_value=int(self.high), step=1)]
-        else:
-            descriptor.floating_point_range = [FloatingPointRange(
-                from_value=float(self.low), to_value=float(self.high), step=0.0)]
-        return descriptor
 
 
 PARAMETERS = (

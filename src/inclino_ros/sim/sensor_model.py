@@ -153,13 +153,12 @@ Every function is vectorised over N samples.
 from dataclasses import dataclass
 import math
 
+from inclino_ros.core.constants import STANDARD_GRAVITY_MPS2
 import numpy as np
 from scipy.signal import lfilter
 from transforms3d.axangles import axangle2mat
 from transforms3d.euler import euler2mat
 
-#: Standard gravity [m/s^2], used unless the caller gives another value.
-STANDARD_GRAVITY_MPS2 = 9.80665
 #: One milli-g [m/s^2].
 MILLI_G_MPS2 = 1e-3 * STANDARD_GRAVITY_MPS2
 

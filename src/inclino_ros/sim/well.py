@@ -32,10 +32,10 @@ with the same noise draws (same seed) and no interference; what noise alone
 leaves, the best any correction can do.
 """
 
-import csv
 from dataclasses import dataclass
 
 from inclino_ros.core import magnetics
+from inclino_ros.io.tables import write_csv
 from inclino_ros.sim import sensor_model as sm
 from inclino_ros.sim.bench import DEFAULT_INTERFERENCE_TOOL_NT, iscwsa_from_tool, make_tool
 import numpy as np
@@ -185,8 +185,5 @@ def well_truth(well):
 def write_stations_csv(path, well):
     """Write the stations of ``well`` as the ``inclino msa`` input CSV (STATION_COLUMNS)."""
     table = np.column_stack([well.md_m, well.gravity, well.field_nT, well.inclination_deg,
-                             well.azimuth_deg, well.toolface_deg])
-    with open(path, 'w', newline='') as stream:
-        writer = csv.writer(stream)
-        writer.writerow(STATION_COLUMNS)
-        writer.writerows([[repr(float(v)) for v in row] for row in table])
+                             well.azimuth_deg, well.toolface_deg]).astype(float)
+    write_csv(path, list(zip(STATION_COLUMNS, table.T)), mode='w')

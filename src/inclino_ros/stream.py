@@ -1,0 +1,301 @@
+"""
+A stream of raw batches corrected into outputs: one place for the node and ``inclino process``.
+
+``correct_batch`` runs one batch through ``pipeline.run`` and builds what it
+publishes (every accepted sample, or the windows an averager closes); the node
+calls it for what one wake-up finds queued, ``replay`` for every batch of a
+recorded bag (pairing each sample with the nearest magnetometer reading of a
+``Magnetometer``, counting in a ``Summary``).
+
+For the accepted samples (or averaged windows) of a ``pipeline.Survey``:
+``survey`` (Vector3Stamped: x inclination_deg, y toolface_deg, z magnetic
+azimuth_deg, NaN without a trusted azimuth) and ``imu/data`` (the corrected
+specific force, the roll/pitch orientation and the covariances of
+``pipeline.imu_covariances``; angular velocity not measured), plus the
+scalar values of the node's ``inclination``, ``toolface`` and ``azimuth``
+(true, declination added) topics; ``averaged_outputs`` those of the windows
+an ``averaging.Averager`` closes.  The series are encoded to CDR by
+``io.bag.encode`` (the node publishes those bytes, ``inclino process``
+writes them to a bag).  No ROS here.
+"""
+
+from dataclasses import dataclass
+import math
+
+from inclino_ros.calibration.plausibility import field_reading_ok
+from inclino_ros.core.screening import count_reasons, REASONS
+from inclino_ros.io.bag import ImuSeries, not_measured_covariance, Vector3Series
+from inclino_ros.io.timing import pair_nearest
+from inclino_ros.pipeline import average, imu_covariances, MagneticSettings, run
+import numpy as np
+
+#: Azimuth counts of the summary (accepted samples; mag_non_finite: magnetometer messages).
+MAGNETIC_COUNTS = ('mag_non_finite', 'mag_paired', 'mag_unpaired', 'azimuth_trusted',
+                   'azimuth_untrusted', 'azimuth_imprecise', 'qc_failed', 'qc_failed_b_total',
+                   'qc_failed_dip', 'qc_failed_g_total')
+#: What each reason for dropping a sample means, for the loud message of a bad run.
+DROP_MEANINGS = {
+    'non_finite': 'NaN or Inf readings', 'saturated': 'readings at the sensor range',
+    'zero': 'readings of zero magnitude (dead sensor, free fall)',
+    'over_g': 'two-axis readings above g',
+    'dynamic': 'G-total off gravity by more than --g-total-tolerance-mps2: not gravity (a '
+               'driver that removes gravity? wrong unit?)',
+    'two_axis_range': 'two-axis readings beyond --two-axis-max-inclination-deg (tool past '
+                      '90 deg?)'}
+
+
+@dataclass(frozen=True)
+class Magnetometer:
+    """A magnetometer topic read whole, and how its readings pair with the Imu samples."""
+
+    stamps_ns: np.ndarray     # (M,) int64
+    field_nT: np.ndarray      # (M, 3) sensor axes, NaN where the driver sent no value
+    max_pairing_ns: int
+    settings: MagneticSettings
+    dropped: int              # finite readings no magnetometer gives (beyond an Earth field)
+    non_finite: int           # readings holding a NaN or infinite value (a driver's gaps)
+
+    @classmethod
+    def from_series(cls, series, max_pairing_s, settings):
+        """
+        Return the Magnetometer of a MagneticFieldSeries (any order; tesla -> nT).
+
+        Readings ``plausibility.field_reading_ok`` refuses are dropped (and
+        counted): a sample is paired with the nearest reading that is left.
+        """
+        field_nT = series.field_nT
+        kept = field_reading_ok(field_nT)
+        finite = np.isfinite(field_nT).all(axis=1)
+        return cls(series.stamps_ns[kept], field_nT[kept], round(max_pairing_s * 1e9), settings,
+                   int(np.count_nonzero(finite & ~kept)), int(np.count_nonzero(~finite)))
+
+    def field_at(self, stamps_ns):
+        """Return (field_nT (N, 3), paired (N,)) of the readings nearest ``stamps_ns``."""
+        return pair_nearest(stamps_ns, self.stamps_ns, self.field_nT, self.max_pairing_ns)
+
+
+class Summary:
+    """Running statistics of a processed stream."""
+
+    def __init__(self, gravity_mps2):
+        """Start with nothing seen; G-total sums are kept about ``gravity_mps2``."""
+        self.gravity_mps2 = gravity_mps2
+        self.samples_in = 0
+        self.dropped = dict.fromkeys(REASONS, 0)
+        self.inclination_min_deg = math.inf
+        self.inclination_max_deg = -math.inf
+        self._inclination_sum_deg = 0.0
+        self._g_offset_sum = 0.0
+        self._g_offset_sum_sq = 0.0
+        self.toolface_imprecise = 0
+        self.magnetic = None
+        self.written = 0           # messages on each output topic
+        self.averaged = False      # --average-samples / --output-rate-hz
+        self.windows_moving = 0    # windows of a tool that moved: not written
+        self.windows_dropped = 0   # mean readings that could not be gravity
+        self.samples_not_averaged = 0   # in the window still open at the end of IN
+
+    @property
+    def accepted(self):
+        """Return the number of samples that produced output."""
+        return self.samples_in - sum(self.dropped.values())
+
+    def mostly_dropped(self):
+        """Return the loud message of a run where most samples were dropped, else None."""
+        dropped = sum(self.dropped.values())
+        if dropped * 2 <= self.samples_in:
+            return None
+        reason = max(self.dropped, key=self.dropped.get)
+        return (f'{dropped} of {self.samples_in} samples dropped, most '
+                f'({self.dropped[reason]}) as {reason}: {DROP_MEANINGS[reason]}; no angle was '
+                'computed from them')
+
+    def add(self, survey):
+        """Count one processed batch (a ``pipeline.Survey``)."""
+        self.samples_in += survey.codes.size
+        for reason, count in count_reasons(survey.codes).items():
+            self.dropped[reason] += count
+        if survey.inclination_deg.size:
+            self.inclination_min_deg = min(self.inclination_min_deg,
+                                           float(survey.inclination_deg.min()))
+            self.inclination_max_deg = max(self.inclination_max_deg,
+                                           float(survey.inclination_deg.max()))
+            self._inclination_sum_deg += float(survey.inclination_deg.sum())
+            # The pipeline makes a toolface NaN where its 1 sigma exceeds the limit.
+            self.toolface_imprecise += int(np.isnan(survey.toolface_deg).sum())
+            offset = survey.g_total_mps2 - self.gravity_mps2
+            self._g_offset_sum += float(offset.sum())
+            self._g_offset_sum_sq += float(offset @ offset)
+
+    def add_magnetic(self, survey, paired, non_finite):
+        """
+        Count the azimuths of one batch: ``paired`` (N,) says which input samples had a field.
+
+        Counts (of accepted samples): paired, unpaired, trusted, untrusted,
+        and the paired ones failing QC, in all and per test; ``non_finite``
+        is the number of magnetometer messages without a value (never paired).
+        """
+        counts = self.magnetic or dict.fromkeys(MAGNETIC_COUNTS, 0)
+        counts['mag_non_finite'] = non_finite
+        paired = np.asarray(paired)[survey.accepted]
+        azimuth = survey.magnetic
+        counts['mag_paired'] += int(paired.sum())
+        counts['mag_unpaired'] += int((~paired).sum())
+        counts['azimuth_trusted'] += int(azimuth.trusted.sum())
+        counts['azimuth_untrusted'] += int((~azimuth.trusted).sum())
+        counts['azimuth_imprecise'] += int(azimuth.imprecise.sum())
+        qc = azimuth.qc
+        for name, ok in (('qc_failed', qc.ok), ('qc_failed_b_total', qc.b_total_ok),
+                         ('qc_failed_dip', qc.dip_ok), ('qc_failed_g_total', qc.g_total_ok)):
+            counts[name] += int((paired & ~ok).sum())
+        self.magnetic = counts
+
+    def lines(self, magnetometer=None):
+        """Return the summary as ``name: value`` text, with what ``magnetometer`` dropped."""
+        n = self.accepted
+        lines = [f'samples_in: {self.samples_in}', f'accepted: {n}']
+        lines += [f'dropped_{reason}: {count}' for reason, count in self.dropped.items()]
+        lines.append(f'toolface_imprecise: {self.toolface_imprecise}')
+        if self.magnetic is not None:
+            lines += [f'{name}: {count}' for name, count in self.magnetic.items()]
+        if magnetometer is not None:
+            lines.append(f'mag_readings_dropped: {magnetometer.dropped}')
+        if self.averaged:
+            lines += [f'windows_written: {self.written}',
+                      f'windows_moving: {self.windows_moving}',
+                      f'windows_dropped: {self.windows_dropped}',
+                      f'samples_not_averaged: {self.samples_not_averaged}']
+        if n == 0:
+            return lines + ['inclination_deg: none accepted', 'g_total_mps2: none accepted']
+        g_mean = self.gravity_mps2 + self._g_offset_sum / n
+        g_std = (math.sqrt(max(self._g_offset_sum_sq - self._g_offset_sum ** 2 / n, 0.0)
+                           / (n - 1)) if n > 1 else 0.0)
+        return lines + [
+            f'inclination_deg: min {self.inclination_min_deg:.6f} '
+            f'mean {self._inclination_sum_deg / n:.6f} max {self.inclination_max_deg:.6f}',
+            f'g_total_mps2: mean {g_mean:.6f} std {g_std:.6f}']
+
+
+@dataclass(frozen=True)
+class Outputs:
+    """What one batch publishes, topic by topic."""
+
+    survey: Vector3Series
+    imu: ImuSeries
+    inclination_deg: np.ndarray
+    toolface_deg: np.ndarray
+    true_azimuth_deg: np.ndarray   # None without magnetometer readings
+
+
+def outputs(stamps_ns, frame_ids, survey):
+    """Return the Outputs of the accepted rows of ``survey``, stamped ``stamps_ns`` (M,)."""
+    n = np.size(stamps_ns)
+    acceleration_cov, orientation_cov = imu_covariances(survey)
+    w, x, y, z = survey.orientation_wxyz.T
+    magnetic = survey.magnetic
+    azimuth_deg = np.full(n, np.nan) if magnetic is None else magnetic.azimuth_deg
+    return Outputs(
+        survey=Vector3Series(stamps_ns, frame_ids, np.stack(
+            [survey.inclination_deg, survey.toolface_deg, azimuth_deg], axis=1)),
+        imu=ImuSeries(
+            stamps_ns, frame_ids, orientation_xyzw=np.stack([x, y, z, w], axis=1),
+            orientation_covariance=orientation_cov, angular_velocity_radps=np.zeros((n, 3)),
+            angular_velocity_covariance=not_measured_covariance(n),
+            linear_acceleration_mps2=survey.corrected_mps2,
+            linear_acceleration_covariance=acceleration_cov),
+        inclination_deg=survey.inclination_deg, toolface_deg=survey.toolface_deg,
+        true_azimuth_deg=None if magnetic is None else magnetic.true_azimuth_deg)
+
+
+def averaged_outputs(averager, stamps_ns, frame_ids, survey, temperature_c, model, settings,
+                     magnetic_settings=None):
+    """
+    Push the accepted samples of ``survey`` into ``averager``; return the windows it closes.
+
+    ``stamps_ns``, ``frame_ids``: of the accepted samples; ``temperature_c``:
+    None, one value, or one per input sample of the batch.  Returns (windows
+    of a moving tool, windows whose mean reading was dropped by screening,
+    [Outputs]): the angles of the kept windows (``pipeline.average``; with
+    ``magnetic_settings``, their azimuths).
+    """
+    n = np.size(stamps_ns)
+    if temperature_c is None:
+        temperature_c = np.full(n, math.nan)
+    elif np.ndim(temperature_c) == 0:
+        temperature_c = np.full(n, float(temperature_c))
+    else:
+        temperature_c = np.asarray(temperature_c, dtype=float)[survey.accepted]
+    field_nT = (np.full((n, 3), math.nan) if survey.magnetic is None
+                else survey.magnetic.uncorrected_nT)
+    windows = averager.push(stamps_ns, frame_ids, survey.uncorrected_mps2, temperature_c,
+                            field_nT)
+    if windows is None:
+        return 0, 0, []
+    kept, parts = average(windows, model, settings, magnetic_settings)
+    published, dropped = [], 0
+    for rows, averaged in parts:
+        rows = rows[averaged.accepted]
+        dropped += averaged.codes.size - rows.size
+        published.append(outputs(windows.stamps_ns[rows], windows.frame_ids[rows], averaged))
+    return windows.count - int(np.count_nonzero(kept)), dropped, published
+
+
+@dataclass(frozen=True)
+class Batch:
+    """What one batch of raw samples gave: its survey and the Outputs to publish."""
+
+    survey: object          # pipeline.Survey of every input sample
+    published: list         # [Outputs]: the accepted samples', or the closed windows'
+    windows_moving: int     # windows of a moving tool (averaging only)
+    windows_dropped: int    # windows whose mean reading was dropped by screening
+
+
+def correct_batch(raw_mps2, stamps_ns, frame_ids, model, settings, temperature_c=None,
+                  field_nT=None, magnetic_settings=None, averager=None):
+    """
+    Return the Batch of raw samples (N, 3) stamped ``stamps_ns`` with ``frame_ids`` (N,).
+
+    ``pipeline.run`` over the batch (``field_nT``: the paired magnetometer
+    readings, NaN rows unpaired, or None); then the Outputs of the accepted
+    samples, or with an ``averager`` (``core.averaging.Averager``) those of
+    the windows it closes (``averaged_outputs``).
+    """
+    survey = run(raw_mps2, model, settings, temperature_c, field_nT, magnetic_settings)
+    accepted = survey.accepted
+    stamps_ns, frame_ids = np.asarray(stamps_ns)[accepted], np.asarray(frame_ids)[accepted]
+    if averager is None:
+        return Batch(survey, [outputs(stamps_ns, frame_ids, survey)], 0, 0)
+    moving, dropped, published = averaged_outputs(
+        averager, stamps_ns, frame_ids, survey, temperature_c, model, settings,
+        None if field_nT is None else magnetic_settings)
+    return Batch(survey, published, moving, dropped)
+
+
+def replay(batches, write, model, settings, summary, temperature=None, magnetometer=None,
+           averager=None, progress=None):
+    """
+    Correct each recorded ImuSeries of ``batches``, handing every Outputs to ``write``.
+
+    ``temperature`` (a TemperatureSeries or None) gives each sample its
+    temperature, ``magnetometer`` (a Magnetometer or None) its field;
+    ``summary`` (a Summary) counts; ``progress.update(n)`` is called per batch.
+    """
+    for batch in batches:
+        temperature_c = None if temperature is None else temperature.at(batch.stamps_ns)
+        field_nT, paired, magnetic_settings = None, None, None
+        if magnetometer is not None:
+            field_nT, paired = magnetometer.field_at(batch.stamps_ns)
+            magnetic_settings = magnetometer.settings
+        result = correct_batch(batch.linear_acceleration_mps2, batch.stamps_ns,
+                               batch.frame_ids, model, settings, temperature_c, field_nT,
+                               magnetic_settings, averager)
+        if magnetometer is not None:
+            summary.add_magnetic(result.survey, paired, magnetometer.non_finite)
+        summary.add(result.survey)
+        summary.windows_moving += result.windows_moving
+        summary.windows_dropped += result.windows_dropped
+        for published in result.published:
+            write(published)
+            summary.written += published.inclination_deg.size
+        if progress is not None:
+            progress.update(batch.stamps_ns.size)
