@@ -166,7 +166,7 @@ def test_a_refused_fit_writes_no_certificate(tmp_path):
 
 
 def test_msa_certificate_per_station(tmp_path):
-    """msa --calibration: the certificate holds the file and one B-total/dip row per station."""
+    """Msa with --calibration: the certificate holds the file, a B-total and dip row a station."""
     stations = tmp_path / 'stations.csv'
     assert quiet(['simulate-well', stations])[0] == 0
     calibration, out_csv = tmp_path / 'cal.json', tmp_path / 'out.csv'

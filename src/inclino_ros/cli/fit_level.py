@@ -141,7 +141,7 @@ def fit(args, lines, outputs):
         f'G-total {installation.g_total_mps2:.4f} m/s^2)']
     g_mps2 = args.gravity_mps2 if axes == 2 else None
     report_residuals(args, lines, block_residuals(level, installation, g_mps2),
-                     f'tilt of each {BLOCKS}th of the capture minus the whole capture\'s')
+                     f"tilt of each {BLOCKS}th of the capture minus the whole capture's")
     png, txt = report_paths(args, REPORT_NAME)
     plot_level(outputs.path(png), level, installation, g_mps2)
     # The level bench measures the whole mount: a tool axis on top would count twice.
@@ -153,7 +153,7 @@ def fit(args, lines, outputs):
 
 
 def axis_tilts_deg(level, two_axis_g):
-    """Return the axis tilts theta'_x1, theta'_y1 (N, 2) [deg] of each sample (seed 000 Eqs. 11-12)."""
+    """Return the tilts theta'_x1, theta'_y1 (N, 2) [deg] of each sample (seed 000 Eqs. 11-12)."""
     g = np.full(level.shape[0], two_axis_g) if two_axis_g else np.linalg.norm(level, axis=1)
     return np.degrees(np.stack(level_axis_angles(level, g), axis=1))
 

@@ -135,8 +135,8 @@ def fit(args, lines, outputs):
     lines += summary_lines(result, readings)
     angle_deg, _, after_nT, error_deg = rotation_angles(readings, corrected, result)
     lines.append(f'cross-axial direction error the fit removes: up to '
-                 f'{np.max(np.abs(error_deg)):.3f} deg (RMS {np.sqrt(np.mean(error_deg ** 2)):.3f} '
-                 f'deg); left after it: noise RMSE / r = '
+                 f'{np.max(np.abs(error_deg)):.3f} deg (RMS '
+                 f'{np.sqrt(np.mean(error_deg ** 2)):.3f} deg); left after it: noise RMSE / r = '
                  f'{np.degrees(result.rmse_nT / result.radius_nT):.4f} deg')
     report_residuals(args, lines, sector_residuals(angle_deg, after_nT, result),
                      'radial residual per 45 deg sector of the turn')

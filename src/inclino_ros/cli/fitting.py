@@ -22,6 +22,7 @@ from inclino_ros.calibration.model import (
     CalibrationChanged, CalibrationFileError, CalibrationModel, check_sensor, load_model,
     save_model)
 from inclino_ros.calibration.plausibility import Implausible
+from inclino_ros.calibration.provenance import utc_now_iso
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.mounting import add_axes_map_arguments, axes_matrix
 from inclino_ros.cli.options import node_parameter
@@ -29,7 +30,6 @@ from inclino_ros.core.mounting import to_tool_axes
 from inclino_ros.core.refusal import Refused
 from inclino_ros.io import tables
 from inclino_ros.io.bag import BagError, concatenate, read, topic_info
-from inclino_ros.calibration.provenance import utc_now_iso
 from inclino_ros.io.files import Outputs, write_text as write_file
 from inclino_ros.io.report import certificate_html, residual_lines
 from inclino_ros.node.parameters import PARAMETERS

@@ -325,7 +325,7 @@ class Outputs:
         return temporary
 
     def pending(self, suffix=''):
-        """Return (final, temporary) of the outputs written so far whose name ends in ``suffix``."""
+        """Return (final, temporary) of the outputs written so far named ``*suffix``."""
         return [(final, tmp) for final, tmp in self._pending.items()
                 if final.endswith(suffix) and os.path.lexists(tmp)]
 

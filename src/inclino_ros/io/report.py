@@ -62,7 +62,7 @@ class Residual:
 def residual_lines(rows, title='residuals'):
     """Return the text report's lines of ``rows``: one per row, then what was not used."""
     if not rows:
-        return [f'{title}: none in this fit\'s results']
+        return [f"{title}: none in this fit's results"]
     width = max(len(row.label) for row in rows)
     lines = [f'{title} (residual against the stated noise; x noise = |residual| / noise):']
     for row in rows:
@@ -193,7 +193,7 @@ def certificate_html(command, calibration_path, doc, rows, figures, report_lines
     span_text = 'not recorded' if span is None else f'{span[0]:.2f} .. {span[1]:.2f} C'
     scalars = [_stage_rows(name, value)[0] for name, value in doc.items()
                if not isinstance(value, dict) and name != 'sensor_id']
-    stages = [f'<h3>file</h3><table class="stage"><tr><th>key</th><th>value</th><th></th></tr>'
+    stages = ['<h3>file</h3><table class="stage"><tr><th>key</th><th>value</th><th></th></tr>'
               + ''.join(scalars) + '</table>'] if scalars else []
     for name, section in doc.items():
         if isinstance(section, dict):
