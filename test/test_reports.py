@@ -17,6 +17,7 @@ import os
 from inclino_ros.sim.sensor_model import read, Tool, Triad
 import numpy as np
 from test_calibration_history import fit_level, level_csv
+from test_fit_magnetometer import outlier, shots_csv
 from test_msa_cli import quiet, read_table, REFERENCE_ARGS
 
 HARD_IRON_NT = (80.0, -40.0, 0.0)
@@ -182,3 +183,21 @@ def test_msa_certificate_per_station(tmp_path):
     assert [row['class'] == 'used' for row in page.rows] == used.tolist()
     assert 'B total and dip of each station after the correction' in out
     assert f'certificate: {out_csv}.certificate.html' in out
+
+
+def test_fit_magnetometer_certificate_names_the_outlier_shot(tmp_path):
+    """Iron near shot 6: its row is refused in the certificate and the text; the others used."""
+    calibration = tmp_path / 'cal.json'
+    code, out, err = quiet(['fit-magnetometer', shots_csv(tmp_path, edit=outlier),
+                            '--calibration', calibration, '--plot'])
+    assert code == 0, err
+    page = assert_certificate_is_the_file(tmp_path / 'fit_magnetometer_certificate.html',
+                                          calibration)
+    assert len(page.rows) == 24
+    assert [row['class'] for row in page.rows] == ['used'] * 5 + ['refused'] + ['used'] * 18
+    # The 3000 nT of iron stands far off the noise; the others' |B| about it (chi-square)
+    assert abs(page.rows[5]['residual']) > 10 * page.rows[5]['noise']
+    others = np.array([row['residual'] / row['noise'] for i, row in enumerate(page.rows)
+                       if i != 5])
+    assert np.sqrt(np.mean(others ** 2)) < 3.0
+    assert 'down-weighted or refused: shot 6' in out
