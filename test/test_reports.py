@@ -19,6 +19,7 @@ import numpy as np
 from test_calibration_history import fit_level, level_csv
 from test_fit_magnetometer import outlier, shots_csv
 from test_msa_cli import quiet, read_table, REFERENCE_ARGS
+from test_stand_cli import HEATING_ATTITUDES_ARGS, NOISE_MPS2
 
 HARD_IRON_NT = (80.0, -40.0, 0.0)
 #: White noise of the simulated magnetometer, 1 sigma per axis [nT].
@@ -201,3 +202,43 @@ def test_fit_magnetometer_certificate_names_the_outlier_shot(tmp_path):
                        if i != 5])
     assert np.sqrt(np.mean(others ** 2)) < 3.0
     assert 'down-weighted or refused: shot 6' in out
+
+
+def test_fit_stand_and_temperature_certificates(tmp_path):
+    """
+    Stand: one row a position, its residual and noise those of the stand table.
+
+    Temperature: one row a 5 C bin of the run, no per-sample noise stated (NaN).
+    """
+    args = ['--sensor', 'mems', '--noise-mps2', NOISE_MPS2]
+    assert quiet(['simulate', tmp_path / 'stand', '--stand', *args, '--samples', 100])[0] == 0
+    assert quiet(['simulate', tmp_path / 'heating', '--heating', *args, '--heating-attitudes',
+                  *HEATING_ATTITUDES_ARGS, '--seed', '1'])[0] == 0
+    calibration = tmp_path / 'cal.json'
+    code, out, err = quiet(['fit-stand', tmp_path / 'stand', '--calibration', calibration])
+    assert code == 0, err
+    page = assert_certificate_is_the_file(tmp_path / 'fit_stand_certificate.html', calibration)
+    lines = out.splitlines()
+    header = next(i for i, line in enumerate(lines) if line.split()[:2] == ['pos', 'incl_deg'])
+    table = np.array([line.split() for line in lines[header + 1:header + 1 + len(page.rows)]],
+                     dtype=float)
+    assert len(page.rows) == 9 and int(table[-1, 0]) == 9
+    np.testing.assert_allclose([row['residual'] for row in page.rows], table[:, 6], atol=1e-6)
+    # the table prints noise_deg to 4 decimals: half a unit of the last, over sqrt(samples)
+    noise_error = np.array([row['noise'] for row in page.rows]) - table[:, 4] / np.sqrt(
+        table[:, 3])
+    assert np.all(np.abs(noise_error) <= 0.5e-4 / np.sqrt(table[:, 3]) + 1e-12)
+    code, _, err = quiet(['fit-temperature', tmp_path / 'heating', '--calibration',
+                          calibration])
+    assert code == 0, err
+    page = assert_certificate_is_the_file(tmp_path / 'fit_temperature_certificate.html',
+                                          calibration)
+    with open(calibration) as stream:
+        doc = json.load(stream)
+    low_c, high_c = doc['temperature']['t_min_c'], doc['temperature']['t_max_c']
+    bins = np.arange(np.floor(low_c / 5.0) * 5.0, high_c, 5.0)
+    assert len(page.rows) == len(bins) and all(math.isnan(row['noise']) for row in page.rows)
+    stated_c = [value for key, value in flatten(doc).items()
+                if key.endswith('_c') and isinstance(value, (int, float))]
+    assert min(stated_c) <= low_c and max(stated_c) >= high_c
+    assert page.ids['temperature-range'] == f'{min(stated_c):.2f} .. {max(stated_c):.2f} C'

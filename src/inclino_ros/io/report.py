@@ -31,6 +31,8 @@ import numpy as np
 USED, DOWN_WEIGHTED, REFUSED = 'used', 'down-weighted', 'refused'
 #: Key fragments that name an uncertainty in a calibration file section.
 UNCERTAINTY_KEYS = ('std', 'sigma', 'rmse', 'noise', 'uncertainty')
+#: Keys of a temperature stage's fitted range [C].
+FITTED_RANGE_KEYS = ('t_min_c', 't_max_c')
 
 
 @dataclass(frozen=True)
@@ -136,7 +138,7 @@ def temperature_range_c(doc):
     def walk(node):
         if isinstance(node, dict):
             for key, value in node.items():
-                if 'temperature' in key and key.endswith('_c'):
+                if key.endswith('_c') and ('temperature' in key or key in FITTED_RANGE_KEYS):
                     found.extend(v for v in np.ravel(np.asarray(value, dtype=object))
                                  if isinstance(v, (int, float)) and not isinstance(v, bool)
                                  and math.isfinite(v))
