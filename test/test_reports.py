@@ -219,15 +219,19 @@ def test_fit_stand_and_temperature_certificates(tmp_path):
     assert code == 0, err
     page = assert_certificate_is_the_file(tmp_path / 'fit_stand_certificate.html', calibration)
     lines = out.splitlines()
-    header = next(i for i, line in enumerate(lines) if line.split()[:2] == ['pos', 'incl_deg'])
-    table = np.array([line.split() for line in lines[header + 1:header + 1 + len(page.rows)]],
-                     dtype=float)
-    assert len(page.rows) == 9 and int(table[-1, 0]) == 9
-    np.testing.assert_allclose([row['residual'] for row in page.rows], table[:, 6], atol=1e-6)
+    header = next(i for i, line in enumerate(lines) if line.split()[:1] == ['pos'])
+    names = lines[header].split()
+    rows = np.array([line.split() for line in lines[header + 1:header + 1 + len(page.rows)]],
+                    dtype=float)
+    table = {name: rows[:, names.index(name)] for name in ('pos', 'samples', 'noise_deg',
+                                                           'residual_deg')}
+    assert len(page.rows) == 9 and int(table['pos'][-1]) == 9
+    np.testing.assert_allclose([row['residual'] for row in page.rows], table['residual_deg'],
+                               atol=1e-6)
     # the table prints noise_deg to 4 decimals: half a unit of the last, over sqrt(samples)
-    noise_error = np.array([row['noise'] for row in page.rows]) - table[:, 4] / np.sqrt(
-        table[:, 3])
-    assert np.all(np.abs(noise_error) <= 0.5e-4 / np.sqrt(table[:, 3]) + 1e-12)
+    noise_error = np.array([row['noise'] for row in page.rows]) - table['noise_deg'] / np.sqrt(
+        table['samples'])
+    assert np.all(np.abs(noise_error) <= 0.5e-4 / np.sqrt(table['samples']) + 1e-12)
     code, _, err = quiet(['fit-temperature', tmp_path / 'heating', '--calibration',
                           calibration])
     assert code == 0, err

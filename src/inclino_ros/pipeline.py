@@ -23,6 +23,7 @@ from inclino_ros.core.magnetics import (
     survey_qc, SurveyQc, true_azimuth_deg)
 from inclino_ros.core.mounting import axes_map_matrix, IDENTITY, keeps_axial, to_tool_axes
 from inclino_ros.core.screening import ACCEPTED, screen, screen_corrected
+from inclino_ros.core.stillness import assess, tangent_angles
 from inclino_ros.core.uncertainty import (
     azimuth_std_rad, dip_std_rad, inclination_std_rad, roll_pitch_covariance,
     specific_force_covariance, toolface_std_rad)
@@ -323,6 +324,56 @@ def correct(tool_mps2, model, settings, temperature_c=None, field_nT=None,
                   magnetic=None if field_nT is None else resolve_azimuth(
                       corrected, field_nT, model, settings, magnetic_settings,
                       covariance, tilt_var, temperature_c, averaged, field_averaged))
+
+
+def effective_count(vectors, times_s, noise_floor):
+    """
+    Return the count of white samples of noise ``noise_floor`` a capture's mean is worth.
+
+    ``vectors`` (M, 3) of one still capture (readings of one sensor), ``times_s``
+    (M,) or None.  The capture's own noise (``stillness.assess``: per-sample
+    sigma of its direction times its length, and n_eff with its correlation,
+    ``core.correlated_noise``) gives the mean's 1 sigma ``sigma sqrt(F / M)``;
+    the configured per-sample noise is its floor: the count is
+    ``n_eff min(1, (noise_floor / sigma)^2)``, so that ``noise_floor /
+    sqrt(count)`` is the larger of the two.  Fewer than the still test's
+    samples: M (white noise at the floor).
+    """
+    vectors = np.asarray(vectors, dtype=float)
+    try:
+        stillness = assess(tangent_angles(vectors), times_s)
+    except ValueError:
+        return float(vectors.shape[0])
+    sigma = math.radians(stillness.noise_deg) * float(np.linalg.norm(vectors.mean(axis=0)))
+    ratio = 1.0 if not sigma > noise_floor else (noise_floor / sigma) ** 2
+    return stillness.effective_samples * ratio
+
+
+def capture_mean(tool_mps2, times_s, model, settings, temperature_c=None, field_nT=None,
+                 magnetic_settings=MagneticSettings()):
+    """
+    Return the Survey (one row) of the mean of a still capture, its 1 sigma from the capture.
+
+    ``tool_mps2`` (M, 3) accepted readings in the tool axes, ``times_s`` (M,)
+    or None, ``field_nT`` (M, 3) paired magnetometer readings (NaN rows
+    unpaired) or None.  Each sensor's mean counts as ``effective_count``
+    samples of its configured noise (``settings.noise_std_mps2``,
+    ``magnetic_settings.noise_std_nT``): correlated noise (a low-pass filter
+    below the output rate) widens every 1 sigma by sqrt(F), a noise above the
+    configured one by its ratio (issue 19 item 4).
+    """
+    tool_mps2 = np.asarray(tool_mps2, dtype=float).reshape(-1, 3)
+    count = effective_count(tool_mps2, times_s, settings.noise_std_mps2)
+    mean_field, field_count = None, None
+    if field_nT is not None:
+        field_nT = np.asarray(field_nT, dtype=float).reshape(-1, 3)
+        paired = np.isfinite(field_nT).all(axis=1)
+        times = None if times_s is None else np.asarray(times_s, dtype=float)[paired]
+        mean_field = field_nT[paired].mean(axis=0)[None]
+        field_count = [effective_count(field_nT[paired], times,
+                                       magnetic_settings.noise_std_nT)]
+    return correct(tool_mps2.mean(axis=0)[None], model, settings, temperature_c, mean_field,
+                   magnetic_settings, averaged=np.array([count]), field_averaged=field_count)
 
 
 def average(windows, model, settings, magnetic_settings=None):

@@ -72,6 +72,19 @@ class CalibrationModel:
         return tuple(name for name in STAGES if getattr(self, name) is not None)
 
     @property
+    def toolface_zero(self):
+        """
+        Return what the toolface's zero is tied to: ``'stand'`` or ``'board'`` (issue 19 item 6).
+
+        A stand calibration sees the tool at known toolfaces, so its correction
+        takes up the board's roll about the tool axis; a level bench, a rotation
+        or a magnetometer calibration cannot see that roll: the toolface is then
+        measured from the sensor board's x axis, off the tool's high side by the
+        roll whatever its 1 sigma says.
+        """
+        return 'stand' if self.stand is not None else 'board'
+
+    @property
     def magnetometer_stages(self):
         """Return the names of the magnetometer stages present (the mount included), in order."""
         return tuple(name for name in MAGNETOMETER_STAGES if getattr(self, name) is not None)

@@ -107,34 +107,6 @@ def fit_field_stand(fields_nT, attitudes_deg, reference_total_nT, reference_dip_
         residual_deg=residual_deg, rms_residual_deg=rms_deg)
 
 
-def merge_repeated_attitudes(readings, attitudes_deg, min_separation_deg):
-    """
-    Return (readings, attitudes) with repeats of one accelerometer attitude averaged.
-
-    Stand positions that differ only in azimuth read the same specific force:
-    new attitudes for the magnetometer, repeats for the accelerometer.
-    ``attitudes_deg`` (P, 3): inclination, toolface, azimuth; positions whose
-    gravity directions lie within ``min_separation_deg`` and whose azimuths
-    differ are one.  A repeat of the whole attitude stays, for ``fit_stand``
-    to refuse.
-    """
-    readings = np.asarray(readings, dtype=float).reshape(-1, 3)
-    attitudes_deg = np.asarray(attitudes_deg, dtype=float).reshape(-1, 3)
-    i, t = np.radians(attitudes_deg[:, 0]), np.radians(attitudes_deg[:, 1])
-    unit = np.stack([np.sin(i) * np.cos(t), np.sin(i) * np.sin(t), np.cos(i)], axis=1)
-    owner = np.arange(len(unit))
-    for k in range(len(unit)):
-        near = np.flatnonzero(
-            (np.degrees(angle_between(unit[:k], unit[k])) < min_separation_deg)
-            & (np.abs((attitudes_deg[:k, 2] - attitudes_deg[k, 2] + 180.0) % 360.0 - 180.0)
-               >= min_separation_deg))
-        if near.size:
-            owner[k] = owner[near[0]]
-    kept = np.unique(owner)
-    means = np.array([readings[owner == k].mean(axis=0) for k in kept]).reshape(-1, 3)
-    return means, attitudes_deg[kept, :2]   # none: (0, 3), for fit_stand to refuse as too few
-
-
 #: What a shot calibration says when nothing measured the mount (issue 18).
 MOUNT_WARNING = (
     'WARNING: the mount is NOT calibrated: no roll groups and no installation (level-bench) '

@@ -180,6 +180,38 @@ def _temperature_range(values, name):
                          f'not contain the reference {float(t_ref)} C')
 
 
+def _stand_polynomial(values, name):
+    """
+    Raise ValueError unless K(T), b(T) are all given or none, shaped and finite, T in range.
+
+    Coefficients (order + 1) x 3 x 3 and (order + 1) x 3 of ``T - temperature_c``,
+    ``t_min_c < t_max_c`` holding ``temperature_c``; all four None: constant K, b.
+    """
+    keys = ('scale_coefficients', 'bias_coefficients_mps2', 't_min_c', 't_max_c')
+    given = [values[key] is not None for key in keys]
+    if not any(given):
+        return
+    if not all(given) or values['temperature_c'] is None:
+        raise ValueError(f'{name}: {", ".join(keys)} and temperature_c are all given or none')
+    scale = np.asarray(values['scale_coefficients'], dtype=object)
+    if scale.ndim != 3 or scale.shape[1:] != (3, 3) or not 1 <= scale.shape[0] <= 8:
+        raise ValueError(f'{name}.scale_coefficients must be 1..8 terms of 3 x 3')
+    order = scale.shape[0]
+    values['scale_coefficients'] = tuple(tuple(map(tuple, term)) for term in _finite(
+        values, name, 'scale_coefficients', (order, 3, 3)).tolist())
+    values['bias_coefficients_mps2'] = tuple(map(tuple, _finite(
+        values, name, 'bias_coefficients_mps2', (order, 3)).tolist()))
+    if not np.allclose(values['scale_coefficients'][0], values['scale_matrix'], rtol=0,
+                       atol=1e-9) or not np.allclose(values['bias_coefficients_mps2'][0],
+                                                     values['bias_mps2'], rtol=0, atol=1e-9):
+        raise ValueError(f"{name}: scale_matrix and bias_mps2 must be the polynomials' first "
+                         'terms (their values at temperature_c)')
+    if not values['t_min_c'] <= values['temperature_c'] <= values['t_max_c'] \
+            or values['t_min_c'] == values['t_max_c']:
+        raise ValueError(f'{name} range [{values["t_min_c"]}, {values["t_max_c"]}] C is empty '
+                         f'or does not contain its temperature {values["temperature_c"]} C')
+
+
 def _msa(values, name):
     """Raise ValueError unless a solved interference names its method, stations and field."""
     if values['msa_method'] is not None:
@@ -211,7 +243,9 @@ STAGE_FIELDS = {
     'stand': (Stand, {
         'scale_matrix': _array(3, 3), 'bias_mps2': _array(3), 'condition_number': _number,
         'method': _choice('stand', 'sphere'), 'rms_inclination_deg': _optional(_number),
-        'positions': _count, 'fitted_at': _time, 'temperature_c': _temperature}, (),
+        'positions': _count, 'fitted_at': _time, 'temperature_c': _temperature,
+        'scale_coefficients': _kept, 'bias_coefficients_mps2': _kept,
+        't_min_c': _optional(_number), 't_max_c': _optional(_number)}, (_stand_polynomial,),
         plausibility.check_stand),
     'magnetometer': (Magnetometer, {
         'scale_matrix': _array(3, 3), 'bias_nT': _array(3), 'condition_number': _number,

@@ -14,7 +14,7 @@ from inclino_ros.core.cross_axial import apply_cross_axial
 from inclino_ros.core.installation import (
     inverse_installation_matrix, pseudo_inclination, to_tool_frame)
 from inclino_ros.core.stand import correct_stand, rotation_part
-from inclino_ros.core.temperature import compensate_temperature, TemperatureFit
+from inclino_ros.core.temperature import compensate_temperature, in_range, TemperatureFit
 import numpy as np
 
 
@@ -78,7 +78,17 @@ class ToolAxis(_SeedZeroRotation):
 
 @dataclass(frozen=True)
 class Stand:
-    """Seed 001 scale/misalignment matrix K and bias b: ``G = K^-1 (A - b)``."""
+    """
+    Seed 001 scale/misalignment matrix K and bias b: ``G = K^-1 (A - b)``.
+
+    Fitted at two or more temperature plateaus (``core.stand.fit_stand_plateaus``)
+    every element of K and b is a polynomial of ``T - temperature_c``
+    (``scale_coefficients`` (order + 1) x 3 x 3, ``bias_coefficients_mps2``
+    (order + 1) x 3; ``scale_matrix`` and ``bias_mps2`` their values at
+    ``temperature_c``), valid over ``t_min_c`` .. ``t_max_c``: ``apply`` takes
+    K(T), b(T) at each reading's temperature, held at the nearer end of the
+    range beyond it (``outside_range`` counts those).
+    """
 
     scale_matrix: tuple        # K, 3 rows of 3, dimensionless
     bias_mps2: tuple           # b, 3 values
@@ -88,6 +98,10 @@ class Stand:
     positions: int             # positions (stand) or readings (sphere) fitted
     fitted_at: str
     temperature_c: float = None  # what the captured readings stood for; None: unknown
+    scale_coefficients: tuple = None      # K(T): powers of (T - temperature_c); None: constant
+    bias_coefficients_mps2: tuple = None  # b(T), likewise
+    t_min_c: float = None                 # the plateaus' range; None: constant K, b
+    t_max_c: float = None
 
     @property
     def tilt_std_rad(self):
@@ -95,8 +109,46 @@ class Stand:
         return math.radians(self.rms_inclination_deg or 0.0)
 
     def apply(self, f, temperature_c=None):
-        """Return ``K^-1 (f - b)`` (seed 001 Eq. 11) for ``f`` of shape (N, 3)."""
-        return correct_stand(f, self.arrays[0], self.arrays[1])
+        """
+        Return ``K^-1 (f - b)`` (seed 001 Eq. 11) for ``f`` of shape (N, 3).
+
+        With K(T), b(T) (a multi-temperature stand) at ``temperature_c``
+        (scalar or (N,), clamped to the fitted range; None: at the stage's
+        temperature).
+        """
+        if self.scale_coefficients is None or temperature_c is None:
+            return correct_stand(f, self.arrays[0], self.arrays[1])
+        f = np.asarray(f, dtype=float).reshape(-1, 3)
+        scale, bias = self.at(np.broadcast_to(np.asarray(temperature_c, dtype=float),
+                                              f.shape[:1]))
+        return np.linalg.solve(scale, (f - bias)[..., None])[..., 0]
+
+    def at(self, temperature_c):
+        """Return (K, b) at ``temperature_c`` (clamped to the range): (..., 3, 3), (..., 3)."""
+        if self.scale_coefficients is None:
+            return self.arrays
+        held = np.clip(np.asarray(temperature_c, dtype=float), self.t_min_c, self.t_max_c)
+        powers = np.power.outer(held - self.temperature_c,
+                                np.arange(len(self.scale_coefficients)))
+        return (np.tensordot(powers, np.array(self.scale_coefficients), axes=1),
+                np.tensordot(powers, np.array(self.bias_coefficients_mps2), axes=1))
+
+    def outside_range(self, temperature_c):
+        """Return which temperatures lie outside a multi-temperature stand's range (bool)."""
+        temperature_c = np.asarray(temperature_c, dtype=float)
+        if self.scale_coefficients is None:
+            return np.zeros(temperature_c.shape, dtype=bool)
+        return ~in_range(temperature_c, self)
+
+    @property
+    def reference_temperature_c(self):
+        """Return the temperature K and b stand for without a temperature input (the centre)."""
+        return self.temperature_c
+
+    @property
+    def temperature_dependent(self):
+        """Return whether K and b are polynomials of T (a multi-temperature stand)."""
+        return self.scale_coefficients is not None
 
     @cached_property
     def arrays(self):

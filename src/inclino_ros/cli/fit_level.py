@@ -8,9 +8,12 @@ with the same checks as the node (still, plausible G-total, bench level).
 Input: a bag (the raw sensor on ``/imu/data_raw``, the samples from
 ``--start-s`` to ``--end-s`` seconds after its first message) or a CSV with
 the columns ``ax, ay, az`` (m/s^2, sensor axes) and optionally ``time_s``
-and ``temperature_c``.  The stages already in the file (temperature, stand) are
-applied first, as the node does; the installation stage is replaced, every
-other stage kept, the file written atomically.
+and ``temperature_c``.  A CSV with ``time_s`` that moves is a continuous
+log (optionally with the gyro, ``wx, wy, wz`` rad/s): its longest still
+segment is the capture (``continuous_log.longest_still_part``), said.
+The stages already in the file (temperature, stand) are applied first, as
+the node does; the installation stage is replaced, every other stage kept,
+the file written atomically.
 
 Refused (exit 1, the calibration file untouched): the tool moved or the mean
 is not precise enough (``still_capture``), an implausible G-total, a bench
@@ -19,7 +22,10 @@ that is not level, or a temperature far from the stand stage's.
 
 from dataclasses import replace
 import math
+import sys
 
+from inclino_ros.calibration.continuous_log import (
+    GYRO_COLUMNS, longest_still_part, segment_limits, TIME_COLUMN)
 from inclino_ros.calibration.level_capture import (
     CaptureRefused, LevelLimits, solve_level_capture)
 from inclino_ros.calibration.model import readings_temperature_c, temperature_conflict
@@ -31,7 +37,6 @@ from inclino_ros.cli.fitting import (
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.play import in_window
 from inclino_ros.core.installation import level_axis_angles
-from inclino_ros.core.stillness import StillLimits
 from inclino_ros.io.report import Residual
 import numpy as np
 
@@ -91,9 +96,23 @@ def load_input(args):
     ``time_s``: the samples in order).
     """
     if not is_bag(args.input):
-        table = read_csv(args.input, AXIS_COLUMNS, optional=('temperature_c', 'time_s'))
-        return (np.column_stack([table[name] for name in AXIS_COLUMNS]),
-                table.get('temperature_c'), table.get('time_s'))
+        table = read_csv(args.input, AXIS_COLUMNS,
+                         optional=('temperature_c', TIME_COLUMN) + GYRO_COLUMNS)
+        readings = np.column_stack([table[name] for name in AXIS_COLUMNS])
+        temperature_c, times_s = table.get('temperature_c'), table.get(TIME_COLUMN)
+        if times_s is None:
+            return readings, temperature_c, times_s
+        gyro = (np.column_stack([table[name] for name in GYRO_COLUMNS])
+                if all(name in table for name in GYRO_COLUMNS) else None)
+        try:
+            taken, note = longest_still_part(times_s, readings, gyro, segment_limits(
+                args.max_drift_deg_per_s, args.max_sem_deg))
+        except ValueError as err:
+            raise Refused(f'{args.input}: {err}') from None
+        if note:
+            print(f'inclino fit-level: {note}', file=sys.stderr)
+        return (readings[taken], None if temperature_c is None else temperature_c[taken],
+                times_s[taken])
     imu = read_topic(args.input, args.raw_topic)
     window = in_window(imu.stamps_ns, args.start_s, args.end_s)
     if not window.any():
@@ -118,9 +137,7 @@ def fit(args, lines, outputs):
     limits = LevelLimits(
         max_tilt_deg=args.max_tilt_deg, gravity_mps2=args.gravity_mps2,
         g_total_tolerance_mps2=args.g_total_tolerance_mps2,
-        still=StillLimits(max_drift_deg_per_s=args.max_drift_deg_per_s,
-                          max_sem_deg=args.max_sem_deg, drift_name='--max-drift-deg-per-s',
-                          sem_name='--max-sem-deg'))
+        still=segment_limits(args.max_drift_deg_per_s, args.max_sem_deg).still)
     stood_for_c = readings_temperature_c(
         existing.temperature, None if temperature_c is None else float(np.mean(temperature_c)))
     reason = temperature_conflict(existing, stood_for_c, args.max_temperature_difference_c,

@@ -33,6 +33,7 @@ from inclino_ros.io.bag import BagError, concatenate, read, topic_info
 from inclino_ros.io.files import Outputs, write_text as write_file
 from inclino_ros.io.report import certificate_html, residual_lines
 from inclino_ros.node.parameters import PARAMETERS
+import numpy as np
 
 RAW_TOPIC = '/imu/data_raw'
 TEMPERATURE_TOPIC = '/imu/temperature'
@@ -72,10 +73,10 @@ def is_bag(path):
     return os.path.isdir(path)
 
 
-def read_csv(path, required, optional=()):
+def read_csv(path, required, optional=(), text=()):
     """Return the columns of a CSV file (``tables.read_csv``); CommandError if unusable."""
     try:
-        return tables.read_csv(path, required, optional)
+        return tables.read_csv(path, required, optional, text)
     except tables.TableError as err:
         raise CommandError(str(err)) from None
 
@@ -321,3 +322,15 @@ def write_text(path, lines):
 def matrix_lines(name, matrix, fmt):
     """Return a 3x3 matrix as indented text lines under ``name``."""
     return [f'{name}:'] + ['  ' + ' '.join(format(v, fmt) for v in row) for row in matrix]
+
+
+def warn_outside_range(model, temperature_c, command):
+    """Say on stderr how many temperatures lie outside a multi-temperature stand's range."""
+    if model.stand is None or temperature_c is None:
+        return
+    outside = int(np.count_nonzero(model.stand.outside_range(temperature_c)))
+    if outside:
+        print(f'{command}: warning: {outside} of {np.size(temperature_c)} temperature readings '
+              f"lie outside the stand stage's fitted range {model.stand.t_min_c:g} .. "
+              f'{model.stand.t_max_c:g} C: K and b held at the nearer end there',
+              file=sys.stderr)
