@@ -192,7 +192,7 @@ def temperature_residuals(temperature_c, before, after, what):
                 f'{low:.0f} .. {low + TEMPERATURE_BIN_C:.0f} C ({int(inside.sum())} samples)',
                 float(np.sqrt(np.mean(after[inside] ** 2))), float('nan'), 'deg',
                 note=f'RMS {what} {np.sqrt(np.mean(before[inside] ** 2)):.4f} deg '
-                     'uncompensated; no per-sample noise stated'))
+                     'uncompensated'))
     return rows
 
 

@@ -61,6 +61,11 @@ class Residual:
         return abs(self.residual) / self.noise
 
 
+def _shown(value, fmt):
+    """Return a number as printed, 'not stated' for NaN."""
+    return format(value, fmt) if math.isfinite(value) else 'not stated'
+
+
 def residual_lines(rows, title='residuals'):
     """Return the text report's lines of ``rows``: one per row, then what was not used."""
     if not rows:
@@ -68,8 +73,10 @@ def residual_lines(rows, title='residuals'):
     width = max(len(row.label) for row in rows)
     lines = [f'{title} (residual against the stated noise; x noise = |residual| / noise):']
     for row in rows:
-        lines.append(f'  {row.label:<{width}}  {row.residual:+10.4f} {row.unit}  noise '
-                     f'{row.noise:8.4f} {row.unit}  x noise {row.ratio:6.2f}  {row.status}'
+        noise = (f'noise {row.noise:8.4f} {row.unit}  x noise {row.ratio:6.2f}'
+                 if math.isfinite(row.noise) else 'noise not stated')
+        lines.append(f'  {row.label:<{width}}  {row.residual:+10.4f} {row.unit}  {noise}  '
+                     f'{row.status}'
                      + (f' ({row.note})' if row.note else ''))
     left = [row for row in rows if row.status != USED]
     lines.append('down-weighted or refused: ' + (
@@ -158,9 +165,9 @@ def _residual_table(rows):
             f'<tr class="{row.status.replace(" ", "-")}" data-row="{i}">'
             f'<td data-col="label">{html.escape(row.label)}</td>'
             f'<td data-col="residual" data-value="{row.residual!r}">{row.residual:+.4f}</td>'
-            f'<td data-col="noise" data-value="{row.noise!r}">{row.noise:.4f}</td>'
+            f'<td data-col="noise" data-value="{row.noise!r}">{_shown(row.noise, ".4f")}</td>'
             f'<td>{html.escape(row.unit)}</td>'
-            f'<td data-col="ratio">{row.ratio:.2f}</td>'
+            f'<td data-col="ratio">{_shown(row.ratio, ".2f")}</td>'
             f'<td data-col="status">{html.escape(row.status)}</td>'
             f'<td>{html.escape(row.note)}</td></tr>')
     return ('<table id="residuals"><tr><th>position / temperature / shot</th><th>residual</th>'
