@@ -64,9 +64,10 @@ def register(subparsers):
         'The drill-string interference of a multi-station analysis is reset (it was solved on '
         'the old cross-axial correction: run inclino msa again); every other stage is kept, '
         'and the stage records the temperature the readings stood for (a CSV column '
-        'temperature_c, or --temperature-topic). The report, fit_rotation.png (the readings, '
-        'and the distance of each from the circle before and after the correction) and '
-        'fit_rotation.txt, goes beside the file or to --report-dir.',
+        'temperature_c, or --temperature-topic). The report, fit_rotation.png (the radial '
+        'residual and the cross-axial direction error against the rotation angle, before and '
+        'after the correction), fit_rotation.txt and the calibration certificate '
+        'fit_rotation_certificate.html, goes beside the file or to --report-dir.',
         'Refused (exit 1, the file untouched): less than 270 deg of the turn covered, too flat '
         'or too noisy an ellipse, too few readings. Exit 2: unusable input.')
     add_file_arguments(parser, 'CSV file with bx, by, bz [nT]')
