@@ -33,12 +33,15 @@ from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_common_arguments, add_still_options, AXIS_COLUMNS, finish_figure, has_topic, is_bag,
     load_existing, new_figure, NODE_DEFAULTS, node_option, read_csv, read_topic, Refused,
-    report_paths, run_fit, sample_temperatures, save, tool_axes, write_text)
+    report_paths, report_residuals, run_fit, sample_temperatures, save, tool_axes, write_text)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.play import in_window
 from inclino_ros.core.installation import level_axis_angles
+from inclino_ros.io.report import Residual
 import numpy as np
 
+#: Parts the level capture is cut into for the residual table.
+BLOCKS = 5
 REPORT_NAME = 'fit_level'
 
 
@@ -153,9 +156,11 @@ def fit(args, lines, outputs):
         f'theta_deg={installation.theta_deg:.4f} (noise {installation.std_deg:.4f} deg per '
         f'sample, 1 sigma of the angles {math.degrees(installation.tilt_std_rad):.4f} deg, '
         f'G-total {installation.g_total_mps2:.4f} m/s^2)']
+    g_mps2 = args.gravity_mps2 if axes == 2 else None
+    report_residuals(args, lines, block_residuals(level, installation, g_mps2),
+                     f"tilt of each {BLOCKS}th of the capture minus the whole capture's")
     png, txt = report_paths(args, REPORT_NAME)
-    plot_level(outputs.path(png), level, installation,
-               args.gravity_mps2 if axes == 2 else None)
+    plot_level(outputs.path(png), level, installation, g_mps2)
     # The level bench measures the whole mount: a tool axis on top would count twice.
     save(args, replace(existing, installation=installation, tool_axis=None), outputs)
     lines += [f'wrote {args.calibration}: installation stage'
@@ -164,10 +169,37 @@ def fit(args, lines, outputs):
     write_text(outputs.path(txt), lines)
 
 
+def axis_tilts_deg(level, two_axis_g):
+    """Return the tilts theta'_x1, theta'_y1 (N, 2) [deg] of each sample (seed 000 Eqs. 11-12)."""
+    g = np.full(level.shape[0], two_axis_g) if two_axis_g else np.linalg.norm(level, axis=1)
+    return np.degrees(np.stack(level_axis_angles(level, g), axis=1))
+
+
+def block_residuals(level, installation, two_axis_g):
+    """
+    Return the Residual rows of the capture cut in BLOCKS: each axis tilt's mean minus the whole's.
+
+    The stated noise of a block's mean is the stage's per-sample noise
+    ``std_deg`` over the square root of the block's samples: a block far
+    above it is a drift or a knock the stillness check let through.
+    """
+    tilts_deg = axis_tilts_deg(level, two_axis_g)
+    rows = []
+    for number, block in enumerate(np.array_split(np.arange(level.shape[0]), BLOCKS)):
+        if block.size == 0:
+            continue
+        noise_deg = installation.std_deg / math.sqrt(block.size)
+        for column, name in enumerate(("theta'_x1", "theta'_y1")):
+            rows.append(Residual(
+                f'block {number + 1}/{BLOCKS} ({block.size} samples) {name}',
+                float(tilts_deg[block, column].mean() - tilts_deg[:, column].mean()),
+                noise_deg, 'deg'))
+    return rows
+
+
 def plot_level(path, level, installation, two_axis_g):
     """Plot the axis tilts of every sample and their mean (seed 000 Eqs. 11-12)."""
-    g = np.full(level.shape[0], two_axis_g) if two_axis_g else np.linalg.norm(level, axis=1)
-    tilts_deg = np.degrees(np.stack(level_axis_angles(level, g), axis=1))
+    tilts_deg = axis_tilts_deg(level, two_axis_g)
     pyplot, fig, axes = new_figure(2, f'inclino fit-level: gamma {installation.gamma_deg:.4f} '
                                       f'deg, beta {installation.beta_deg:.4f} deg')
     sample = np.arange(level.shape[0])

@@ -70,12 +70,14 @@ from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_common_arguments, add_still_options, AXIS_COLUMNS, finish_figure, has_topic, is_bag,
     load_existing, matrix_lines, new_figure, NODE_DEFAULTS, node_option, read_csv, read_topic,
-    Refused, report_paths, run_fit, sample_temperatures, save, tool_axes, write_text)
+    Refused, report_paths, report_residuals, run_fit, sample_temperatures, save, tool_axes,
+    write_text)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.options import between, node_parameter
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core.attitude import inclination
 from inclino_ros.core.stand import StandFitRefused
+from inclino_ros.io.report import Residual
 from inclino_ros.io.timing import pair_nearest
 import numpy as np
 
@@ -327,6 +329,12 @@ def fit_positions(args, readings, attitude_deg, times_s, stood_c, lines):
     lines.append(f'RMS inclination residual: {result.rms_inclination_deg:.6f} deg (raw '
                  f'{np.sqrt(np.mean(raw_deg ** 2)):.4f} deg); RMS residual '
                  f'{result.rms_residual_mps2:.3g} m/s^2')
+    report_residuals(args, lines, [
+        Residual(f'position {k + 1} (I {attitude[0]:.1f}, TF {attitude[1]:.1f} deg, {n} '
+                 'samples)', float(after), float(spread / np.sqrt(n)), 'deg')
+        for k, (attitude, n, spread, after) in enumerate(
+            zip(attitudes, counts, spread_deg, after_deg))],
+        "inclination residual of each position against its mean's noise (spread / sqrt(n))")
     return (solution.stage, solution.refusal,
             partial(plot_positions, raw_deg=raw_deg, after_deg=after_deg,
                     rms_deg=result.rms_inclination_deg))

@@ -49,13 +49,15 @@ from inclino_ros.calibration.temperature_fit import solve_temperature
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_common_arguments, AXIS_COLUMNS, finish_figure, is_bag, load_existing, matrix_lines,
-    new_figure, node_option, read_csv, read_topic, Refused, report_paths, run_fit,
+    new_figure, node_option, read_csv, read_topic, Refused, report_paths, report_residuals,
+    run_fit,
     sample_temperatures, save, tool_axes, write_text)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.options import between
 from inclino_ros.core.attitude import angle_between, inclination
 from inclino_ros.core.stillness import label_attitudes, SegmentLimits, StillLimits
 from inclino_ros.core.temperature import AXES, TemperatureFitRefused
+from inclino_ros.io.report import Residual
 import numpy as np
 
 #: Still segments of a heating log: slow (5 s windows, 10 s at least), and the readings drift
@@ -67,6 +69,8 @@ HEATING_SEGMENTS = SegmentLimits(window_s=5.0, min_s=10.0, whole=False, still=St
 #: Highest order of K_T(T) and B_T(T) (seed 001 fits order 2).
 MAX_ORDER = 6
 REPORT_NAME = 'fit_temperature'
+#: Width of a temperature bin of the residual table [C].
+TEMPERATURE_BIN_C = 5.0
 MAG_TOPIC = '/imu/mag'
 #: Per triad: CSV columns, reference columns, unit, calibration section, later stages.
 TRIADS = {
@@ -158,6 +162,8 @@ def fit(args, lines, outputs):
     lines.append(f'{what} over the run (vs each attitude at the stage reference): largest '
                  f'{np.abs(before).max():.4f} deg uncompensated, {np.abs(after).max():.4f} deg '
                  'compensated')
+    report_residuals(args, lines, temperature_residuals(temperature_c, before, after, what),
+                     f'{what} per {TEMPERATURE_BIN_C:g} C of the run, compensated')
     plot(outputs.path(png), temperature_c, result, before, after, what)
     lines.append(f'report: {png}')
     save(args, model, outputs)
@@ -167,6 +173,27 @@ def fit(args, lines, outputs):
                  f'{result.reference_temperature_c:g} C)'
                  + (f', {" and ".join(kept)} stage kept' if kept else ''))
     write_text(outputs.path(txt), lines)
+
+
+def temperature_residuals(temperature_c, before, after, what):
+    """
+    Return the Residual rows of each TEMPERATURE_BIN_C of the run: the RMS error compensated.
+
+    The fit states no per-sample noise of the angle, so the noise is NaN
+    (no ratio); the uncompensated RMS error of the bin is in the note.
+    """
+    rows = []
+    edges = np.arange(np.floor(temperature_c.min() / TEMPERATURE_BIN_C) * TEMPERATURE_BIN_C,
+                      temperature_c.max() + TEMPERATURE_BIN_C, TEMPERATURE_BIN_C)
+    for low in edges[:-1]:
+        inside = (temperature_c >= low) & (temperature_c < low + TEMPERATURE_BIN_C)
+        if inside.any():
+            rows.append(Residual(
+                f'{low:.0f} .. {low + TEMPERATURE_BIN_C:.0f} C ({int(inside.sum())} samples)',
+                float(np.sqrt(np.mean(after[inside] ** 2))), float('nan'), 'deg',
+                note=f'RMS {what} {np.sqrt(np.mean(before[inside] ** 2)):.4f} deg '
+                     'uncompensated'))
+    return rows
 
 
 def fit_lines(result, unit):
