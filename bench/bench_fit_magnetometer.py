@@ -59,7 +59,7 @@ def stand_model(tool, rng):
                                       np.full(500, azim), rng)
         positions.append(average_position(accel, incl, tf, StillLimits(), fields_nT=field,
                                           azimuth_deg=azim))
-    stand, field, _ = solve_positions(positions, 9.80665, 1.0, (50000.0, 60.0), 1.0)
+    stand, field, _, _ = solve_positions(positions, 9.80665, 1.0, (50000.0, 60.0), 1.0)
     return CalibrationModel(3, stand=stand, magnetometer=field.magnetometer,
                             magnetometer_alignment=field.alignment), None
 

@@ -257,6 +257,24 @@ class Probe:
         raise AssertionError(f'no {"paired " if paired else ""}survey of the samples stamped '
                              f'{sorted(sent)} in {timeout_s} s')
 
+    def wait_status(self, suffix, timeout_s=30.0):
+        """
+        Return (status, values dict) of the first diagnostics status named ``*suffix`` from now.
+
+        Earlier /diagnostics messages are forgotten first, so the status is one the node built
+        after the call (its state now); waits for it rather than for a fixed time (the
+        node's timer comes late on a loaded machine).
+        """
+        self.received['/diagnostics'].clear()
+
+        def found():
+            return next((status for array in self.received['/diagnostics']
+                         for status in array.status if status.name.endswith(suffix)), None)
+
+        self.spin_until(lambda: found() is not None, timeout_s)
+        status = found()
+        return status, {kv.key: kv.value for kv in status.values}
+
     def clear(self):
         """Forget the messages received so far."""
         for messages in self.received.values():

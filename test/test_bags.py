@@ -324,6 +324,8 @@ def test_process_summary(run_3axis):
     """The summary counts every sample and states the inclination and G-total statistics."""
     values = summary_values(run_3axis['stdout'])
     assert values['samples_in'] == values['accepted'] == '5400'
+    # A level bench cannot see the board's roll: the toolface is the board's (issue 19).
+    assert values['toolface_zero'] == 'board'
     assert all(values[f'dropped_{r}'] == '0'
                for r in ('non_finite', 'saturated', 'zero', 'over_g', 'dynamic',
                          'two_axis_range'))

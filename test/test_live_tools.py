@@ -137,11 +137,8 @@ def test_play_replays_every_sensor_topic_with_its_stamps(start_node, probe, tmp_
     assert stamps == (1_000_000_000 + np.arange(200) * 5_000_000).tolist()
     # Every sample after the first magnetometer reading has an azimuth.
     assert len(probe.wait_outputs('azimuth', 199)) == 199
-    probe.spin_for(1.2)
-    temperature = [kv.value for array in probe.received['/diagnostics'] for s in array.status
-                   if s.name.endswith(': temperature') for kv in s.values
-                   if kv.key == 'temperature_c']
-    assert temperature[-1] == '34.00'
+    _, values = probe.wait_status(': temperature')
+    assert values['temperature_c'] == '34.00'
 
 
 def test_ctrl_c_never_prints_a_traceback(start_node, probe, bench):

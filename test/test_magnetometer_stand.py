@@ -65,8 +65,8 @@ def test_stand_calibration_of_both_triads(preset, seed):
     max_azimuth_deg, max_inclination_deg = TARGETS[preset]
     rng = np.random.default_rng(seed)
     tool = shots_sim.tool(getattr(sensor_model, preset))
-    stand, field, note = solve_positions(stand_positions(tool, rng), 9.80665, 0.5, REFERENCE,
-                                         0.5)
+    stand, field, note, _ = solve_positions(stand_positions(tool, rng), 9.80665, 0.5,
+                                            REFERENCE, 0.5)
     assert note is None and field.magnetometer.method == 'stand'
     model = CalibrationModel(3, stand=stand, magnetometer=field.magnetometer,
                              magnetometer_alignment=field.alignment)
@@ -83,9 +83,11 @@ def test_positions_differing_in_azimuth_only_count_for_the_magnetometer():
     rng = np.random.default_rng(4)
     tool = shots_sim.tool(sensor_model.QUARTZ_FLUXGATE)
     positions = POSITIONS_DEG[:9] + ((90, 0, 180), (90, 90, 270), (45, 45, 225))
-    stand, field, _ = solve_positions(stand_positions(tool, rng, positions), 9.80665, 0.05,
-                                      REFERENCE, 0.1)
-    assert stand.positions == 9 and field.magnetometer.positions == 12
+    stand, field, _, repeats = solve_positions(stand_positions(tool, rng, positions), 9.80665,
+                                               0.05, REFERENCE, 0.1)
+    # Every position weighs in the accelerometer's fit, the three azimuth pairs as repeats.
+    assert stand.positions == 12 and field.magnetometer.positions == 12
+    assert repeats.startswith('9 distinct attitudes, 3 repeated: repeatability')
 
 
 def test_a_wrong_azimuth_is_refused():
@@ -96,7 +98,7 @@ def test_a_wrong_azimuth_is_refused():
     positions[4] = replace(positions[4], azimuth_deg=positions[4].azimuth_deg + 5.0)
     with pytest.raises(StandFitRefused, match='does not reproduce its positions'):
         solve_positions(positions, 9.80665, 0.05, REFERENCE, 0.1)
-    _, field, note = solve_positions(positions[:], 9.80665, 0.05, None, 0.1)
+    _, field, note, _ = solve_positions(positions[:], 9.80665, 0.05, None, 0.1)
     assert field is None and 'no reference field' in note
 
 

@@ -394,7 +394,7 @@ def calibration_stand(tool, rng):
                            field=sm.Field(*REFERENCE), rng=rng)
         positions.append(average_position(readings.accel_mps2, incl, toolface, StillLimits(),
                                           fields_nT=readings.mag_nT, azimuth_deg=azimuth))
-    stand, field, note = solve_positions(positions, G, 0.05, REFERENCE, 0.1)
+    stand, field, note, _ = solve_positions(positions, G, 0.05, REFERENCE, 0.1)
     assert note is None, note
     return CalibrationModel(3, stand=stand, magnetometer=field.magnetometer,
                             magnetometer_alignment=field.alignment)

@@ -41,14 +41,8 @@ def azimuths_of(probe, accel, field):
 
 
 def magnetics_status(probe):
-    """Return the newest 'magnetics' diagnostics status as (status, values dict)."""
-    probe.received['/diagnostics'].clear()
-    probe.spin_for(1.2)
-    for array in reversed(probe.received['/diagnostics']):
-        for status in array.status:
-            if status.name.endswith(': magnetics'):
-                return status, {kv.key: kv.value for kv in status.values}
-    raise AssertionError('no magnetics status')
+    """Return a 'magnetics' diagnostics status built after the call, as (status, values)."""
+    return probe.wait_status(': magnetics')
 
 
 @pytest.fixture

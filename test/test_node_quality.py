@@ -227,8 +227,7 @@ def test_stages_warn_when_old_and_captures_stamp_the_sensor(start_node, probe, t
     calibration_file(tmp_path, 'TOOL-A', 200.0, 4.0)
     start_node(sensor_id='TOOL-A', **{'level_capture.samples': 50})
     probe.wait_for_node()
-    probe.spin_for(1.2)
-    status = statuses(probe, ': calibration')[-1]
+    status, _ = probe.wait_status(': calibration')
     assert status.level == DiagnosticStatus.WARN
     assert 'stand is 200.0 days old (limit 180)' in status.message
     assert 'msa is 4.0 days old (limit 3)' in status.message

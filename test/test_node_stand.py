@@ -4,7 +4,7 @@ import math
 
 from diagnostic_msgs.msg import DiagnosticStatus
 from inclino_ros.calibration.model import (
-    CalibrationModel, load_model, save_model, Temperature, utc_now_iso)
+    CalibrationModel, load_model, save_model, Stand, Temperature, utc_now_iso)
 import numpy as np
 import pytest
 from ros_harness import G
@@ -70,10 +70,11 @@ def test_stand_positions_solve_into_a_correction(node_and_probe, tmp_path):
         assert answer.success, answer.message
         assert answer.message.startswith(f'position {number} captured')
 
-    # The same attitude again is refused before any sample is taken.
-    duplicate = probe.call('capture_position')
-    assert not duplicate.success and 'duplicate position' in duplicate.message
-    assert '9 positions kept' in duplicate.message
+    # The same attitude again is a repeat: captured, said, weighed by the solve (issue 18).
+    repeat = probe.calibrate(lambda i: sensor_reading(*POSITIONS_DEG[-1], rng),
+                             service='capture_position')
+    assert repeat.success, repeat.message
+    assert 'a repeat of position 9' in repeat.message and '10 positions held' in repeat.message
 
     # A tool that moves during the capture (0.1 deg a sample, 1 s apart) is refused.
     probe.set_parameters(stand__inclination_deg=30.0, stand__toolface_deg=10.0)
@@ -86,7 +87,9 @@ def test_stand_positions_solve_into_a_correction(node_and_probe, tmp_path):
     stand = load_model(tmp_path / 'calibration.json').stand
     assert np.max(np.abs(np.array(stand.scale_matrix) - TRUE_K)) < 1e-4
     assert np.max(np.abs(np.array(stand.bias_mps2) - TRUE_BIAS_MPS2)) < 5e-5 * G
-    assert stand.positions == len(POSITIONS_DEG)
+    assert stand.positions == len(POSITIONS_DEG) + 1
+    assert f'{len(POSITIONS_DEG)} distinct attitudes, 1 repeated: repeatability' \
+        in solved.message
 
     raw_errors_deg = []
     for incl_deg, tf_deg in ((2.0, 40.0), (33.0, 200.0), (75.0, 310.0), (120.0, 95.0)):
@@ -97,7 +100,7 @@ def test_stand_positions_solve_into_a_correction(node_and_probe, tmp_path):
                                                                abs=INCLINATION_TOL_DEG)
     assert max(raw_errors_deg) > 0.2  # the uncorrected sensor is visibly off
     cleared = probe.call('clear_positions')
-    assert cleared.success and cleared.message == 'cleared 9 stand positions'
+    assert cleared.success and cleared.message == 'cleared 10 stand positions'
     assert node.stop() == 0
 
 
@@ -114,14 +117,8 @@ def temperature_model(tmp_path):
 
 
 def diagnostics_status(probe, suffix):
-    """Return the newest diagnostics status whose name ends with ``suffix``."""
-    probe.received['/diagnostics'].clear()
-    probe.spin_for(1.2)
-    for array in reversed(probe.received['/diagnostics']):
-        for status in array.status:
-            if status.name.endswith(suffix):
-                return status
-    raise AssertionError(f'no status {suffix}')
+    """Return a diagnostics status whose name ends with ``suffix``, built after the call."""
+    return probe.wait_status(suffix)[0]
 
 
 def test_temperature_stage_uses_the_latest_temperature(node_and_probe, tmp_path):
@@ -165,3 +162,37 @@ def test_a_sensor_read_in_g_gives_no_capture_and_the_node_lives_on(node_and_prob
     assert 'no data: 0 of 20 samples' in answer.message and 'dynamic)' in answer.message
     assert not (tmp_path / 'calibration.json').exists()
     assert probe.call('clear_positions').message == 'cleared 0 stand positions'
+
+
+def test_a_multi_temperature_stand_is_applied_at_the_temperature(node_and_probe, tmp_path):
+    """
+    A stand with K(T) (issue 18): corrected at the latest temperature, clamped beyond its range.
+
+    Beyond the range the temperature diagnostics say so (WARN).
+    K(T) = diag(1 + s (T - 40)), s = (1e-3, -2e-3, 3e-3), b = 0, fitted over 20..60 C: a
+    reading scaled by K(T) reads its true inclination at T (rounding only), 0.1 deg off
+    at any other temperature of the range.
+    """
+    slope = np.array([1e-3, -2e-3, 3e-3])
+    terms = (((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)),
+             ((1e-3, 0.0, 0.0), (0.0, -2e-3, 0.0), (0.0, 0.0, 3e-3)))
+    stand = Stand(scale_matrix=terms[0], bias_mps2=(0.0, 0.0, 0.0), method='stand',
+                  condition_number=1.0, rms_inclination_deg=0.001, positions=18,
+                  fitted_at=utc_now_iso(), temperature_c=40.0, scale_coefficients=terms,
+                  bias_coefficients_mps2=((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)), t_min_c=20.0,
+                  t_max_c=60.0)
+    save_model(tmp_path / 'calibration.json', CalibrationModel(accelerometer_axes=3, stand=stand))
+    _, probe = node_and_probe()
+    f = specific_force(30.0, 70.0)
+    for temperature_c in (20.0, 55.0):
+        probe.publish_temperature(temperature_c)
+        probe.spin_for(0.3)
+        assert inclination_of(probe, f * (1.0 + slope * (temperature_c - 40.0))) == \
+            pytest.approx(30.0, abs=1e-9)
+    status = diagnostics_status(probe, ': temperature')
+    assert status.level == DiagnosticStatus.OK and status.message == '55.00 C'
+    probe.publish_temperature(75.0)   # beyond the range: K(60 C)
+    probe.spin_for(0.3)
+    assert inclination_of(probe, f * (1.0 + slope * 20.0)) == pytest.approx(30.0, abs=1e-9)
+    status = diagnostics_status(probe, ': temperature')
+    assert status.level == DiagnosticStatus.WARN and 'outside the fitted range' in status.message

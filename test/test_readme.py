@@ -29,7 +29,7 @@ FENCE = re.compile(r'^```(\w*)\n(.*?)^```$', re.M | re.S)
 #: Files of the project a block may use (the rest are not needed to run it).
 PROJECT = ('scripts', 'config', 'src', 'resource', 'setup.py', 'setup.cfg', 'package.xml',
            'requirements.txt', 'requirements-test.txt', 'requirements-colcon.txt',
-           'ros-constraints.txt', 'README.md')
+           'ros-constraints.txt', 'README.md', 'test/data')
 
 
 def blocks(text, language='bash'):

@@ -232,7 +232,9 @@ def test_a_hand_edited_calibration_is_refused_by_process(bench, tmp_path):
         '"accelerometer_axes": 3', '"accelerometer_axes": 3, "stand": {"scale_matrix": '
         '[[1, 0, 0], [0, 1, 0], [0, 0, 1]], "bias_mps2": [1e300, 0, 0], "method": "stand", '
         '"condition_number": 1.0, "rms_inclination_deg": 0.0, "positions": 9, '
-        '"fitted_at": "2026-03-01T10:20:30+00:00", "temperature_c": null}'))
+        '"fitted_at": "2026-03-01T10:20:30+00:00", "temperature_c": null, '
+        '"scale_coefficients": null, "bias_coefficients_mps2": null, "t_min_c": null, '
+        '"t_max_c": null}'))
     code, _, err = quiet(['process', sim, tmp_path / 'out', '--calibration', edited])
     assert code == 2 and 'stand.bias_mps2' in err
     assert not (tmp_path / 'out').exists()

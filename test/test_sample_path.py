@@ -13,10 +13,10 @@ import math
 from geometry_msgs.msg import Vector3Stamped
 from inclino_ros.core.magnetics import QcLimits
 from inclino_ros.io import bag
-from inclino_ros.node.outputs import outputs
 from inclino_ros.node.sample_path import decode_messages
 from inclino_ros.pipeline import imu_covariances, MagneticSettings, run, Settings
 from inclino_ros.sim import sensor_model as sm
+from inclino_ros.stream import outputs
 import numpy as np
 import pytest
 from rclpy.serialization import deserialize_message, serialize_message

@@ -611,10 +611,6 @@ def stand_rows(case):
     if case == 'too few positions':
         keep = stand.segment <= 5
         return attitudes[keep], readings[keep]
-    if case == 'repeated attitude':
-        extra = simulate_stand(StandRun(TOOL), ((90.0, 0.5),))
-        return (np.vstack([attitudes, [(90.0, 0.5)] * 100]),
-                np.vstack([readings, extra.raw_mps2]))
     if case == 'moving':
         moving = stand.segment == 7
         readings[moving] = sm.read(noise_free(TOOL), 45.0 + np.linspace(-1.0, 1.0, 100),
@@ -641,7 +637,6 @@ def refused_fit(case, tmp_path):
 
 @pytest.mark.parametrize('case, reason', [
     ('too few positions', 'only 5 stand position'),
-    ('repeated attitude', 'are one attitude'),
     ('moving', 'position 7: tool is moving'),
     ('wrong attitude', 'exceeds --max-rms-deg'),
     ('no 25 C', 'no reading within 1.0 deg C of 25.0'),
@@ -737,7 +732,7 @@ def test_stand_is_one_rule_for_the_node_and_the_command(tmp_path):
                           std_deg=0.01, samples=int(np.sum(segments == k)),
                           temperature_c=float(temperature_c[segments == k][0]))
                  for k in np.unique(segments)]
-    stage, field, _ = solve_positions(positions, G, 0.05, max_temperature_difference_c=2.0)
+    stage, field, _, _ = solve_positions(positions, G, 0.05, max_temperature_difference_c=2.0)
     node = with_stand(start, stage, field)
 
     assert node.installation is None and command.installation is None

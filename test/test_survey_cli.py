@@ -68,6 +68,8 @@ def test_fit_stand_then_survey(tmp_path):
     azimuth = np.array([float(r['azimuth_deg']) for r in rows])
     assert np.max(np.abs(angle_error_deg(azimuth, azim))) < 0.1
     assert all(r['qc_ok'] == '1' and r['status'] == 'ok' for r in rows)
+    # A stand calibration ties the toolface's zero to the tool (issue 19 item 6).
+    assert all(r['toolface_zero'] == 'stand' for r in rows)
     # The same core as the node and inclino process: pipeline.run gives the same numbers.
     survey = run(accel, model, Settings(), None, field, MagneticSettings(50000.0, 60.0))
     np.testing.assert_array_equal(azimuth, survey.magnetic.azimuth_deg)
@@ -92,6 +94,8 @@ def test_azimuth_written_where_qc_fails(tmp_path):
     azimuth = np.array([float(r['azimuth_deg']) for r in out[:-1]])
     assert np.max(np.abs(angle_error_deg(azimuth, azim))) < 1e-6
     assert out[-1]['status'] == 'non_finite' and out[-1]['azimuth_deg'] == 'nan'
+    # No stand stage: the toolface is the board's, and says so (issue 19 item 6).
+    assert [r['toolface_zero'] for r in out] == ['board'] * 20 + ['nan']
 
 
 def test_microtesla_input_is_named(tmp_path):

@@ -23,6 +23,7 @@ from inclino_ros.core.magnetics import (
     survey_qc, SurveyQc, true_azimuth_deg)
 from inclino_ros.core.mounting import axes_map_matrix, IDENTITY, keeps_axial, to_tool_axes
 from inclino_ros.core.screening import ACCEPTED, screen, screen_corrected
+from inclino_ros.core.stillness import assess, tangent_angles
 from inclino_ros.core.uncertainty import (
     azimuth_std_rad, dip_std_rad, inclination_std_rad, roll_pitch_covariance,
     specific_force_covariance, toolface_std_rad)
@@ -151,7 +152,7 @@ class Survey:
     toolface_deg: np.ndarray     # (M,), NaN where its 1 sigma exceeds the limit
     orientation_wxyz: np.ndarray  # (M, 4)
     g_total_mps2: np.ndarray     # (M,)
-    covariance_mps2: np.ndarray  # (M, 3, 3) of corrected_mps2 (sensor noise), read-only
+    covariance_mps2: np.ndarray  # (M, 3, 3) of corrected_mps2 (sensor noise, temperature fit)
     tilt_var_rad2: float         # variance of the tilt from the calibration itself
     toolface_std_deg: np.ndarray     # (M,) 1 sigma (inf for a vertical tool)
     magnetic: AzimuthSurvey = None  # when magnetometer readings were given
@@ -190,7 +191,8 @@ def resolve_azimuth(corrected_mps2, field_nT, model, settings, magnetic_settings
     001 Eq. 4.  Its 1 sigma (``uncertainty.azimuth_std_rad``) takes the
     accelerometer's covariance and calibration tilt, the magnetometer's noise
     (over ``field_averaged`` readings, default ``averaged``) and the MSA
-    interference's own 1 sigma (which holds the reference field's uncertainty).
+    interference's own 1 sigma (which holds the reference field's uncertainty) and the
+    magnetometer temperature fit's own (``CalibrationModel.temperature_covariance``).
     Defined (``defined_azimuth_deg``): a finite azimuth of a field above
     MIN_FIELD_NT whose sigma is within ``azimuth_max_std_deg`` (near vertical
     the azimuth is undefined).  Trusted:
@@ -208,6 +210,10 @@ def resolve_azimuth(corrected_mps2, field_nT, model, settings, magnetic_settings
     stage = model.magnetic
     if stage is not None and stage.interference_std_nT is not None:
         field_covariance = field_covariance + np.diag(np.square(stage.interference_std_nT))
+    if model.magnetometer_temperature is not None:   # its fit's own error, tool -> ISCWSA axes
+        to_iscwsa = np.diag([1.0, -1.0, -1.0])
+        field_covariance = field_covariance + to_iscwsa @ model.temperature_covariance(
+            field_nT, temperature_c, 'magnetometer') @ to_iscwsa
     std_deg = np.degrees(azimuth_std_rad(gravity, field, flip @ covariance_mps2 @ flip,
                                          field_covariance, tilt_var_rad2))
     precise = std_deg <= magnetic_settings.azimuth_max_std_deg   # NaN: False
@@ -309,6 +315,8 @@ def correct(tool_mps2, model, settings, temperature_c=None, field_nT=None,
     noise_mps2 = settings.noise_std_mps2 / np.sqrt(averaged)
     covariance = specific_force_covariance(sensor, np.reshape(noise_mps2, (-1, 1, 1)),
                                            settings.accelerometer_axes, model.linear_map)
+    if model.temperature is not None:
+        covariance = covariance + model.temperature_covariance(sensor, temperature_c)
     tilt_var = model.tilt_std_rad ** 2
     incl_deg = np.degrees(inclination(corrected))
     toolface_deg = np.degrees(TOOLFACE_CONVENTIONS[settings.toolface_convention](corrected))
@@ -323,6 +331,56 @@ def correct(tool_mps2, model, settings, temperature_c=None, field_nT=None,
                   magnetic=None if field_nT is None else resolve_azimuth(
                       corrected, field_nT, model, settings, magnetic_settings,
                       covariance, tilt_var, temperature_c, averaged, field_averaged))
+
+
+def effective_count(vectors, times_s, noise_floor):
+    """
+    Return the count of white samples of noise ``noise_floor`` a capture's mean is worth.
+
+    ``vectors`` (M, 3) of one still capture (readings of one sensor), ``times_s``
+    (M,) or None.  The capture's own noise (``stillness.assess``: per-sample
+    sigma of its direction times its length, and n_eff with its correlation,
+    ``core.correlated_noise``) gives the mean's 1 sigma ``sigma sqrt(F / M)``;
+    the configured per-sample noise is its floor: the count is
+    ``n_eff min(1, (noise_floor / sigma)^2)``, so that ``noise_floor /
+    sqrt(count)`` is the larger of the two.  Fewer than the still test's
+    samples: M (white noise at the floor).
+    """
+    vectors = np.asarray(vectors, dtype=float)
+    try:
+        stillness = assess(tangent_angles(vectors), times_s)
+    except ValueError:
+        return float(vectors.shape[0])
+    sigma = math.radians(stillness.noise_deg) * float(np.linalg.norm(vectors.mean(axis=0)))
+    ratio = 1.0 if not sigma > noise_floor else (noise_floor / sigma) ** 2
+    return stillness.effective_samples * ratio
+
+
+def capture_mean(tool_mps2, times_s, model, settings, temperature_c=None, field_nT=None,
+                 magnetic_settings=MagneticSettings()):
+    """
+    Return the Survey (one row) of the mean of a still capture, its 1 sigma from the capture.
+
+    ``tool_mps2`` (M, 3) accepted readings in the tool axes, ``times_s`` (M,)
+    or None, ``field_nT`` (M, 3) paired magnetometer readings (NaN rows
+    unpaired) or None.  Each sensor's mean counts as ``effective_count``
+    samples of its configured noise (``settings.noise_std_mps2``,
+    ``magnetic_settings.noise_std_nT``): correlated noise (a low-pass filter
+    below the output rate) widens every 1 sigma by sqrt(F), a noise above the
+    configured one by its ratio (issue 19 item 4).
+    """
+    tool_mps2 = np.asarray(tool_mps2, dtype=float).reshape(-1, 3)
+    count = effective_count(tool_mps2, times_s, settings.noise_std_mps2)
+    mean_field, field_count = None, None
+    if field_nT is not None:
+        field_nT = np.asarray(field_nT, dtype=float).reshape(-1, 3)
+        paired = np.isfinite(field_nT).all(axis=1)
+        times = None if times_s is None else np.asarray(times_s, dtype=float)[paired]
+        mean_field = field_nT[paired].mean(axis=0)[None]
+        field_count = [effective_count(field_nT[paired], times,
+                                       magnetic_settings.noise_std_nT)]
+    return correct(tool_mps2.mean(axis=0)[None], model, settings, temperature_c, mean_field,
+                   magnetic_settings, averaged=np.array([count]), field_averaged=field_count)
 
 
 def average(windows, model, settings, magnetic_settings=None):

@@ -75,6 +75,19 @@ class CalibrationModel:
         return tuple(name for name in STAGES if getattr(self, name) is not None)
 
     @property
+    def toolface_zero(self):
+        """
+        Return what the toolface's zero is tied to: ``'stand'`` or ``'board'`` (issue 19 item 6).
+
+        A stand calibration sees the tool at known toolfaces, so its correction
+        takes up the board's roll about the tool axis; a level bench, a rotation
+        or a magnetometer calibration cannot see that roll: the toolface is then
+        measured from the sensor board's x axis, off the tool's high side by the
+        roll whatever its 1 sigma says.
+        """
+        return 'stand' if self.stand is not None else 'board'
+
+    @property
     def magnetometer_stages(self):
         """Return the names of the magnetometer stages present (the mount included), in order."""
         return tuple(name for name in MAGNETOMETER_STAGES if getattr(self, name) is not None)
@@ -164,13 +177,62 @@ class CalibrationModel:
 
         The stages' own uncertainties, independent, added in quadrature: the
         installation capture's standard error, the stand fit's inclination
-        residual, the temperature fit's residual as an angle against g.
+        residual; a temperature stage's fit residual as an angle against g
+        only from a file that lacks the fit's parameter covariance (which
+        ``temperature_covariance`` propagates instead, per temperature).
         """
         variance = sum(stage.tilt_std_rad ** 2 for stage in (self.installation, self.stand)
                        if stage is not None)
-        if self.temperature is not None:
+        if self.temperature is not None and self.temperature.parameter_covariance is None:
             variance += self.temperature.residual_angle_rad(STANDARD_GRAVITY_MPS2) ** 2
         return math.sqrt(variance)
+
+    @property
+    def uncertainty_notes(self):
+        """Return what the 1 sigma of this model's angles leaves out or over-states (strings)."""
+        if self.temperature is None or self.temperature.parameter_covariance is not None:
+            return ()
+        return ('temperature: the file holds no parameter covariance of the fit (schema < 5): '
+                "the tilt 1 sigma takes the heating run's residual instead (over-stated many "
+                'times); fit the temperature stage again to record it',)
+
+    @cached_property
+    def magnetometer_linear_map(self):
+        """
+        Return the 3x3 matrix the magnetometer's stages after its temperature stage apply.
+
+        K_m^-1, ``magnetometer_rotation``, the mount's C^-1 and seed 002's W
+        on x, y (``apply_magnetic``; its offsets move no error), built once.
+        """
+        matrix = np.eye(3)
+        if self.magnetometer is not None:
+            matrix = np.linalg.inv(self.magnetometer.arrays[0]) @ matrix
+        if self.magnetometer_alignment is not None or self.stand is not None:
+            matrix = self.magnetometer_rotation @ matrix
+        for stage in (self.installation, self.tool_axis):
+            if stage is not None:
+                matrix = stage.inverse_matrix @ matrix
+        if self.magnetic is not None:
+            soft_iron = np.eye(3)
+            soft_iron[:2, :2] = self.magnetic.correction
+            matrix = soft_iron @ matrix
+        return matrix
+
+    def temperature_covariance(self, readings, temperature_c=None, triad='accelerometer'):
+        """
+        Return the covariance (M, 3, 3) a temperature fit's own error gives corrected readings.
+
+        ``readings`` (M, 3) of ``triad`` (``accelerometer``: sensor vectors
+        [m/s^2]; ``magnetometer``: raw fields in the tool axes [nT]); the
+        stage's ``compensation_covariance`` at ``temperature_c``, through
+        ``linear_map`` or ``magnetometer_linear_map``; zero without the stage.
+        """
+        readings = np.asarray(readings, dtype=float)
+        stage, matrix = ((self.temperature, self.linear_map) if triad == 'accelerometer' else
+                         (self.magnetometer_temperature, self.magnetometer_linear_map))
+        if stage is None:
+            return np.zeros(readings.shape + (3,))
+        return matrix @ stage.compensation_covariance(readings, temperature_c) @ matrix.T
 
     def to_dict(self):
         """Return the JSON-ready document of this model (``schema.model_to_dict``)."""

@@ -44,7 +44,9 @@ def solve_level_capture(samples, axes, limits, times_s=None, temperature_c=None)
     per-sample axis tilts of Eqs. 11-12); G-total within tolerance (three
     axes); the bench level (false tilt theta of Eq. 4 at most
     ``max_tilt_deg``).  ``std_deg`` of the stage is the per-sample noise of
-    one tilt, so ``std_deg / sqrt(sample_count)`` is the angles' 1 sigma.
+    one tilt (of correlated noise the white one of the same mean's standard
+    error, ``Stillness.white_noise_deg``), so ``std_deg / sqrt(sample_count)``
+    is the angles' 1 sigma.
     """
     samples = np.asarray(samples, dtype=float)
     if not np.isfinite(samples[:, :axes]).all():
@@ -70,4 +72,4 @@ def solve_level_capture(samples, axes, limits, times_s=None, temperature_c=None)
     return Installation(
         gamma_deg=math.degrees(float(gamma)), beta_deg=math.degrees(float(beta)),
         captured_at=utc_now_iso(), sample_count=int(samples.shape[0]),
-        std_deg=stillness.noise_deg, g_total_mps2=g_total, temperature_c=temperature_c)
+        std_deg=stillness.white_noise_deg, g_total_mps2=g_total, temperature_c=temperature_c)

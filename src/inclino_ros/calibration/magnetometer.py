@@ -14,7 +14,7 @@ from dataclasses import dataclass, replace
 import math
 
 from inclino_ros.calibration.model import (
-    Magnetometer, MagnetometerAlignment, Stand, ToolAxis, utc_now_iso)
+    Magnetometer, MagnetometerAlignment, readings_temperature_c, Stand, ToolAxis, utc_now_iso)
 from inclino_ros.core.attitude import angle_between
 from inclino_ros.core.constants import STANDARD_GRAVITY_MPS2
 from inclino_ros.core.installation import installation_matrix, to_tool_frame
@@ -59,7 +59,7 @@ class FieldStandFit:
 
 
 def fit_field_stand(fields_nT, attitudes_deg, reference_total_nT, reference_dip_deg, stand,
-                    max_rms_deg):
+                    max_rms_deg, temperature_c=None):
     """
     Return the FieldStandFit of the magnetometer at stand positions, or raise StandFitRefused.
 
@@ -71,7 +71,8 @@ def fit_field_stand(fields_nT, attitudes_deg, reference_total_nT, reference_dip_
     refusals.  ``stand`` is the accelerometer's new stand stage: the fitted
     K_m maps the readings into the tool frame, which is its frame.  Refused
     too when the RMS angle between corrected and expected fields over the
-    positions exceeds ``max_rms_deg``.
+    positions exceeds ``max_rms_deg``.  ``temperature_c``: what the readings
+    stood for (``provenance.readings_temperature_c``), recorded by both stages.
     """
     fields_nT = np.asarray(fields_nT, dtype=float).reshape(-1, 3)
     attitudes_deg = np.asarray(attitudes_deg, dtype=float).reshape(-1, 3)
@@ -100,39 +101,20 @@ def fit_field_stand(fields_nT, attitudes_deg, reference_total_nT, reference_dip_
             scale_matrix=_matrix(k_m), bias_nT=tuple(fit.bias_mps2.tolist()), method='stand',
             condition_number=float(fit.condition_number), rms_residual_nT=rms_nT,
             field_nT=float(reference_total_nT), positions=int(fields_nT.shape[0]),
-            fitted_at=now),
+            fitted_at=now, temperature_c=temperature_c),
         alignment=MagnetometerAlignment(
             rotation=_matrix(rotation), method='stand', dip_deg=None, dip_rms_deg=None,
-            shots=int(fields_nT.shape[0]), fitted_at=now),
+            shots=int(fields_nT.shape[0]), fitted_at=now, temperature_c=temperature_c),
         residual_deg=residual_deg, rms_residual_deg=rms_deg)
 
 
-def merge_repeated_attitudes(readings, attitudes_deg, min_separation_deg):
-    """
-    Return (readings, attitudes) with repeats of one accelerometer attitude averaged.
-
-    Stand positions that differ only in azimuth read the same specific force:
-    new attitudes for the magnetometer, repeats for the accelerometer.
-    ``attitudes_deg`` (P, 3): inclination, toolface, azimuth; positions whose
-    gravity directions lie within ``min_separation_deg`` and whose azimuths
-    differ are one.  A repeat of the whole attitude stays, for ``fit_stand``
-    to refuse.
-    """
-    readings = np.asarray(readings, dtype=float).reshape(-1, 3)
-    attitudes_deg = np.asarray(attitudes_deg, dtype=float).reshape(-1, 3)
-    i, t = np.radians(attitudes_deg[:, 0]), np.radians(attitudes_deg[:, 1])
-    unit = np.stack([np.sin(i) * np.cos(t), np.sin(i) * np.sin(t), np.cos(i)], axis=1)
-    owner = np.arange(len(unit))
-    for k in range(len(unit)):
-        near = np.flatnonzero(
-            (np.degrees(angle_between(unit[:k], unit[k])) < min_separation_deg)
-            & (np.abs((attitudes_deg[:k, 2] - attitudes_deg[k, 2] + 180.0) % 360.0 - 180.0)
-               >= min_separation_deg))
-        if near.size:
-            owner[k] = owner[near[0]]
-    kept = np.unique(owner)
-    means = np.array([readings[owner == k].mean(axis=0) for k in kept]).reshape(-1, 3)
-    return means, attitudes_deg[kept, :2]   # none: (0, 3), for fit_stand to refuse as too few
+def mean_temperature_c(temperature_c):
+    """Return the mean of the finite temperatures [deg C] given, None when there is none."""
+    if temperature_c is None:
+        return None
+    finite = np.asarray(temperature_c, dtype=float)
+    finite = finite[np.isfinite(finite)]
+    return float(finite.mean()) if finite.size else None
 
 
 #: What a shot calibration says when nothing measured the mount (issue 18).
@@ -196,7 +178,11 @@ def calibrate_from_shots(existing, accel_mps2, field_nT, roll_group=None, temper
     fit_accel = existing.stand is None
     accel = existing.apply(accel_mps2, temperature_c,
                            before='stand' if fit_accel else 'installation')
-    field = existing.apply_magnetic(field_nT, before='magnetometer')
+    field = existing.apply_magnetic(field_nT, temperature_c, before='magnetometer')
+    # What each triad's readings stood for: every new stage records it.
+    measured_c = mean_temperature_c(temperature_c)
+    accel_c = readings_temperature_c(existing.temperature, measured_c)
+    field_c = readings_temperature_c(existing.magnetometer_temperature, measured_c)
     fit = fit_shots(accel, field, roll_group, gravity_mps2, reference_total_nT, fit_accel, limits)
     notes = []
     if roll_group is None:   # a bag, or a file without the column: roll sets in the shots?
@@ -218,7 +204,7 @@ def calibrate_from_shots(existing, accel_mps2, field_nT, roll_group=None, temper
         stand = Stand(scale_matrix=_matrix(fit.accel_matrix),
                       bias_mps2=tuple(fit.accel_bias_mps2.tolist()), method='sphere',
                       condition_number=float(fit.condition_number), rms_inclination_deg=None,
-                      positions=int(fit.used.sum()), fitted_at=now)
+                      positions=int(fit.used.sum()), fitted_at=now, temperature_c=accel_c)
         notes.append('accelerometer fitted too (no stand stage in the file): stand stage, '
                      'method sphere')
         if installation is not None and fit.tool_axis is not None:
@@ -240,10 +226,12 @@ def calibrate_from_shots(existing, accel_mps2, field_nT, roll_group=None, temper
         scale_matrix=_matrix(k_m), bias_nT=tuple(fit.mag_bias_nT.tolist()), method='ellipsoid',
         condition_number=float(fit.condition_number),
         rms_residual_nT=float(np.sqrt(np.mean((fit.b_total_nT[fit.used] - fit.field_nT) ** 2))),
-        field_nT=float(fit.field_nT), positions=int(fit.used.sum()), fitted_at=now)
+        field_nT=float(fit.field_nT), positions=int(fit.used.sum()), fitted_at=now,
+        temperature_c=field_c)
     alignment = MagnetometerAlignment(
         rotation=_matrix(rotation), method='dip', dip_deg=float(fit.dip_deg),
-        dip_rms_deg=float(fit.dip_rms_deg), shots=int(fit.used.sum()), fitted_at=now)
+        dip_rms_deg=float(fit.dip_rms_deg), shots=int(fit.used.sum()), fitted_at=now,
+        temperature_c=field_c)
     tool_axis = existing.tool_axis
     if fit.tool_axis is not None:
         axis = fit.tool_axis if installation is None else to_tool_frame(
@@ -254,7 +242,7 @@ def calibrate_from_shots(existing, accel_mps2, field_nT, roll_group=None, temper
                              shots=int(np.sum(in_groups)),
                              axial_rms_deg=float(np.sqrt(np.mean(
                                  fit.axial_rms_deg[list(fit.groups)] ** 2))),
-                             fitted_at=now)
+                             fitted_at=now, temperature_c=accel_c)
     elif fit_accel and tool_axis is not None:
         tool_axis = None
         notes.append("tool_axis stage dropped: it was measured in the accelerometer's "

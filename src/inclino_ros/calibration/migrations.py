@@ -3,20 +3,25 @@ The calibration file's versions and how an older one is read.
 
 Version 1 files hold the installation stage only, version 2 files no
 magnetometer, tool-axis or magnetometer temperature stage and lack the fields
-version 3 added to theirs (``VERSION_3_FIELDS``): ``upgraded`` gives an older
-section those fields, with the value that says "unknown" or "none".
+version 3 added to theirs (``VERSION_3_FIELDS``), version 3 files the stand's
+temperature polynomial (``VERSION_4_FIELDS``): ``upgraded`` gives an older
+section those fields, with the value that says "unknown" or "none".  Version 4
+files lack the temperature fits' parameter covariance (``VERSION_5_FIELDS``;
+without it the residual stands for the fit's error, as before) and the
+temperature the magnetometer, its alignment and the tool axis stood for.
 """
 
 from inclino_ros.calibration.corrections import STAGES
 
-SCHEMA_VERSION = 3
+SCHEMA_VERSION = 5
 #: Versions load_model reads.
-READABLE_VERSIONS = (1, 2, 3)
+READABLE_VERSIONS = (1, 2, 3, 4, 5)
 #: Sections of each readable schema version.
 SECTIONS = {1: ('installation',),
             2: ('temperature', 'stand', 'installation', 'magnetic'),
             3: STAGES + ('magnetometer_temperature', 'magnetometer', 'magnetometer_alignment',
                          'magnetic')}
+SECTIONS[4] = SECTIONS[5] = SECTIONS[3]
 #: Fields version 3 added, with the value an older file's section gets.
 VERSION_3_FIELDS = {
     'installation': {'temperature_c': None},
@@ -26,8 +31,32 @@ VERSION_3_FIELDS = {
 }
 
 
+#: Fields version 4 added (a stand at several temperatures, issue 18).
+VERSION_4_FIELDS = {
+    'stand': {'scale_coefficients': None, 'bias_coefficients_mps2': None, 't_min_c': None,
+              't_max_c': None},
+}
+
+
+#: Fields version 5 added: the temperature fits' own uncertainty and the temperature of
+#: every magnetometer and mount stage (issue 19 items 2, 3, 8).
+VERSION_5_FIELDS = {
+    'temperature': {'parameter_covariance': None},
+    'magnetometer_temperature': {'parameter_covariance': None},
+    'magnetometer': {'temperature_c': None},
+    'magnetometer_alignment': {'temperature_c': None},
+    'tool_axis': {'temperature_c': None},
+}
+#: The fields each version added, in order.
+ADDED_FIELDS = ((3, VERSION_3_FIELDS), (4, VERSION_4_FIELDS), (5, VERSION_5_FIELDS))
+
+
 def upgraded(section, name, version):
-    """Return a section of an older file with the fields version 3 added (``VERSION_3_FIELDS``)."""
-    if version >= 3 or not isinstance(section, dict):
+    """Return a section of an older file with the fields later versions added."""
+    if not isinstance(section, dict):
         return section
-    return {**VERSION_3_FIELDS.get(name, {}), **section}
+    added = {}
+    for since, fields in ADDED_FIELDS:
+        if version < since:
+            added.update(fields.get(name, {}))
+    return {**added, **section}

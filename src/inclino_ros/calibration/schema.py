@@ -192,6 +192,26 @@ def _rows(section, name, key):
     return _array(*coefficients.shape)(section, name, key)
 
 
+def _parameter_covariance(section, name, key):
+    """Read 3 symmetric positive semi-definite covariances of the drift coefficients, or None."""
+    if section[key] is None:
+        return None
+    order = np.asarray(section['coefficients'], dtype=object).shape[-1] - 1
+    size = order * (1 if section[f'bias_coefficients_{_unit_of(name)}'] is None else 2)
+    value = _finite(section, name, key, (3, size, size))
+    if not (np.allclose(value, value.transpose(0, 2, 1), rtol=1e-9,
+                        atol=1e-12 * np.abs(value).max(initial=0.0))
+            and np.all(np.linalg.eigvalsh(0.5 * (value + value.transpose(0, 2, 1)))
+                       >= -1e-9 * np.abs(value).max(initial=0.0))):
+        raise ValueError(f'{name}.{key} is not 3 symmetric positive semi-definite matrices')
+    return tuple(tuple(map(tuple, axis)) for axis in value.tolist())
+
+
+def _unit_of(name):
+    """Return the unit suffix of the temperature stage ``name``'s fields."""
+    return 'nT' if name == 'magnetometer_temperature' else 'mps2'
+
+
 def _temperature_range(values, name):
     """Raise ValueError unless the fitted range is not empty and holds the reference."""
     t_min, t_max, t_ref = (values[key] for key in ('t_min_c', 't_max_c',
@@ -199,6 +219,38 @@ def _temperature_range(values, name):
     if not t_min <= t_ref <= t_max or t_min == t_max:
         raise ValueError(f'{name} range [{float(t_min)}, {float(t_max)}] C is empty or does '
                          f'not contain the reference {float(t_ref)} C')
+
+
+def _stand_polynomial(values, name):
+    """
+    Raise ValueError unless K(T), b(T) are all given or none, shaped and finite, T in range.
+
+    Coefficients (order + 1) x 3 x 3 and (order + 1) x 3 of ``T - temperature_c``,
+    ``t_min_c < t_max_c`` holding ``temperature_c``; all four None: constant K, b.
+    """
+    keys = ('scale_coefficients', 'bias_coefficients_mps2', 't_min_c', 't_max_c')
+    given = [values[key] is not None for key in keys]
+    if not any(given):
+        return
+    if not all(given) or values['temperature_c'] is None:
+        raise ValueError(f'{name}: {", ".join(keys)} and temperature_c are all given or none')
+    scale = np.asarray(values['scale_coefficients'], dtype=object)
+    if scale.ndim != 3 or scale.shape[1:] != (3, 3) or not 1 <= scale.shape[0] <= 8:
+        raise ValueError(f'{name}.scale_coefficients must be 1..8 terms of 3 x 3')
+    order = scale.shape[0]
+    values['scale_coefficients'] = tuple(tuple(map(tuple, term)) for term in _finite(
+        values, name, 'scale_coefficients', (order, 3, 3)).tolist())
+    values['bias_coefficients_mps2'] = tuple(map(tuple, _finite(
+        values, name, 'bias_coefficients_mps2', (order, 3)).tolist()))
+    if not np.allclose(values['scale_coefficients'][0], values['scale_matrix'], rtol=0,
+                       atol=1e-9) or not np.allclose(values['bias_coefficients_mps2'][0],
+                                                     values['bias_mps2'], rtol=0, atol=1e-9):
+        raise ValueError(f"{name}: scale_matrix and bias_mps2 must be the polynomials' first "
+                         'terms (their values at temperature_c)')
+    if not values['t_min_c'] <= values['temperature_c'] <= values['t_max_c'] \
+            or values['t_min_c'] == values['t_max_c']:
+        raise ValueError(f'{name} range [{values["t_min_c"]}, {values["t_max_c"]}] C is empty '
+                         f'or does not contain its temperature {values["temperature_c"]} C')
 
 
 def _msa(values, name):
@@ -214,7 +266,7 @@ def _temperature_fields(unit):
     return {'coefficients': _rows, f'bias_coefficients_{unit}': _optional(_rows),
             't_min_c': _number, 't_max_c': _number, 'reference_temperature_c': _number,
             f'rms_residual_{unit}': _array(3), 'samples': _count, 'attitudes': _count,
-            'fitted_at': _time}
+            'fitted_at': _time, 'parameter_covariance': _parameter_covariance}
 
 
 #: Each stage's section: its dataclass, a reader per field (which validates and
@@ -227,22 +279,27 @@ STAGE_FIELDS = {
         plausibility.check_installation),
     'tool_axis': (ToolAxis, {
         'gamma_deg': _number, 'beta_deg': _number, 'axial_rms_deg': _number,
-        'roll_groups': _count, 'shots': _count, 'fitted_at': _time}, (),
+        'roll_groups': _count, 'shots': _count, 'fitted_at': _time,
+        'temperature_c': _temperature}, (),
         plausibility.check_tool_axis),
     'stand': (Stand, {
         'scale_matrix': _array(3, 3), 'bias_mps2': _array(3), 'condition_number': _number,
         'method': _choice('stand', 'sphere'), 'rms_inclination_deg': _optional(_number),
-        'positions': _count, 'fitted_at': _time, 'temperature_c': _temperature}, (),
+        'positions': _count, 'fitted_at': _time, 'temperature_c': _temperature,
+        'scale_coefficients': _kept, 'bias_coefficients_mps2': _kept,
+        't_min_c': _optional(_number), 't_max_c': _optional(_number)}, (_stand_polynomial,),
         plausibility.check_stand),
     'magnetometer': (Magnetometer, {
         'scale_matrix': _array(3, 3), 'bias_nT': _array(3), 'condition_number': _number,
         'rms_residual_nT': _number, 'field_nT': _number,
-        'method': _choice('stand', 'ellipsoid'), 'positions': _count, 'fitted_at': _time}, (),
+        'method': _choice('stand', 'ellipsoid'), 'positions': _count, 'fitted_at': _time,
+        'temperature_c': _temperature}, (),
         plausibility.check_magnetometer),
     'magnetometer_alignment': (MagnetometerAlignment, {
         'rotation': _array(3, 3), 'method': _choice('dip', 'stand', 'given'),
         'dip_deg': _optional(_number), 'dip_rms_deg': _optional(_number), 'shots': _count,
-        'fitted_at': _time}, (), plausibility.check_magnetometer_alignment),
+        'fitted_at': _time, 'temperature_c': _temperature}, (),
+        plausibility.check_magnetometer_alignment),
     'temperature': (Temperature, _temperature_fields('mps2'), (_temperature_range,),
                     partial(plausibility.check_temperature, name='temperature')),
     'magnetometer_temperature': (

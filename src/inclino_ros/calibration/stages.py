@@ -14,7 +14,9 @@ from inclino_ros.core.cross_axial import apply_cross_axial
 from inclino_ros.core.installation import (
     inverse_installation_matrix, pseudo_inclination, to_tool_frame)
 from inclino_ros.core.stand import correct_stand, rotation_part
-from inclino_ros.core.temperature import compensate_temperature, TemperatureFit
+from inclino_ros.core.temperature import (
+    compensate_temperature, in_range, normalised_temperature, TemperatureFit)
+from inclino_ros.core.uncertainty import temperature_compensation_covariance
 import numpy as np
 
 
@@ -74,11 +76,22 @@ class ToolAxis(_SeedZeroRotation):
     shots: int
     axial_rms_deg: float       # what the fit leaves of the within-group axial spread
     fitted_at: str
+    temperature_c: float = None  # what the fitted readings stood for; None: unknown
 
 
 @dataclass(frozen=True)
 class Stand:
-    """Seed 001 scale/misalignment matrix K and bias b: ``G = K^-1 (A - b)``."""
+    """
+    Seed 001 scale/misalignment matrix K and bias b: ``G = K^-1 (A - b)``.
+
+    Fitted at two or more temperature plateaus (``core.stand.fit_stand_plateaus``)
+    every element of K and b is a polynomial of ``T - temperature_c``
+    (``scale_coefficients`` (order + 1) x 3 x 3, ``bias_coefficients_mps2``
+    (order + 1) x 3; ``scale_matrix`` and ``bias_mps2`` their values at
+    ``temperature_c``), valid over ``t_min_c`` .. ``t_max_c``: ``apply`` takes
+    K(T), b(T) at each reading's temperature, held at the nearer end of the
+    range beyond it (``outside_range`` counts those).
+    """
 
     scale_matrix: tuple        # K, 3 rows of 3, dimensionless
     bias_mps2: tuple           # b, 3 values
@@ -88,6 +101,10 @@ class Stand:
     positions: int             # positions (stand) or readings (sphere) fitted
     fitted_at: str
     temperature_c: float = None  # what the captured readings stood for; None: unknown
+    scale_coefficients: tuple = None      # K(T): powers of (T - temperature_c); None: constant
+    bias_coefficients_mps2: tuple = None  # b(T), likewise
+    t_min_c: float = None                 # the plateaus' range; None: constant K, b
+    t_max_c: float = None
 
     @property
     def tilt_std_rad(self):
@@ -95,8 +112,46 @@ class Stand:
         return math.radians(self.rms_inclination_deg or 0.0)
 
     def apply(self, f, temperature_c=None):
-        """Return ``K^-1 (f - b)`` (seed 001 Eq. 11) for ``f`` of shape (N, 3)."""
-        return correct_stand(f, self.arrays[0], self.arrays[1])
+        """
+        Return ``K^-1 (f - b)`` (seed 001 Eq. 11) for ``f`` of shape (N, 3).
+
+        With K(T), b(T) (a multi-temperature stand) at ``temperature_c``
+        (scalar or (N,), clamped to the fitted range; None: at the stage's
+        temperature).
+        """
+        if self.scale_coefficients is None or temperature_c is None:
+            return correct_stand(f, self.arrays[0], self.arrays[1])
+        f = np.asarray(f, dtype=float).reshape(-1, 3)
+        scale, bias = self.at(np.broadcast_to(np.asarray(temperature_c, dtype=float),
+                                              f.shape[:1]))
+        return np.linalg.solve(scale, (f - bias)[..., None])[..., 0]
+
+    def at(self, temperature_c):
+        """Return (K, b) at ``temperature_c`` (clamped to the range): (..., 3, 3), (..., 3)."""
+        if self.scale_coefficients is None:
+            return self.arrays
+        held = np.clip(np.asarray(temperature_c, dtype=float), self.t_min_c, self.t_max_c)
+        powers = np.power.outer(held - self.temperature_c,
+                                np.arange(len(self.scale_coefficients)))
+        return (np.tensordot(powers, np.array(self.scale_coefficients), axes=1),
+                np.tensordot(powers, np.array(self.bias_coefficients_mps2), axes=1))
+
+    def outside_range(self, temperature_c):
+        """Return which temperatures lie outside a multi-temperature stand's range (bool)."""
+        temperature_c = np.asarray(temperature_c, dtype=float)
+        if self.scale_coefficients is None:
+            return np.zeros(temperature_c.shape, dtype=bool)
+        return ~in_range(temperature_c, self)
+
+    @property
+    def reference_temperature_c(self):
+        """Return the temperature K and b stand for without a temperature input (the centre)."""
+        return self.temperature_c
+
+    @property
+    def temperature_dependent(self):
+        """Return whether K and b are polynomials of T (a multi-temperature stand)."""
+        return self.scale_coefficients is not None
 
     @cached_property
     def arrays(self):
@@ -135,6 +190,7 @@ class Magnetometer:
     field_nT: float            # the total field the scale refers to
     positions: int             # stand positions or shots
     fitted_at: str
+    temperature_c: float = None  # what the fitted readings stood for; None: unknown
 
     @cached_property
     def arrays(self):
@@ -164,6 +220,7 @@ class MagnetometerAlignment:
     dip_rms_deg: float
     shots: int
     fitted_at: str
+    temperature_c: float = None  # what the fitted readings stood for; None: unknown
 
     @cached_property
     def matrix(self):
@@ -194,7 +251,9 @@ class _TemperatureStage:
             t_max_c=self.t_max_c, reference_temperature_c=self.reference_temperature_c,
             rms_residual=np.array(self._rms_residual),
             bias_coefficients=None if bias is None else np.array(bias),
-            attitudes=self.attitudes)
+            attitudes=self.attitudes,
+            parameter_covariance=(None if self.parameter_covariance is None
+                                  else np.array(self.parameter_covariance)))
 
     def clamp(self, temperature_c):
         """Return the temperatures clamped to the fitted range; NaN is the reference one."""
@@ -215,6 +274,27 @@ class _TemperatureStage:
         temperature_c = np.broadcast_to(self.clamp(temperature_c), f.shape[:1])
         return compensate_temperature(f, temperature_c, self.fit)
 
+    def compensation_covariance(self, readings, temperature_c=None):
+        """
+        Return the covariance (M, 3, 3) of the compensated ``readings`` from the fit's own error.
+
+        ``uncertainty.temperature_compensation_covariance`` at the clamped
+        temperature (None or NaN: the reference, zero); zero for a file
+        without the fit's covariance (its error is the residual's, in
+        ``residual_angle_rad``).
+        """
+        readings = np.asarray(readings, dtype=float)
+        if self.parameter_covariance is None:
+            return np.zeros(readings.shape + (3,))
+        if temperature_c is None:
+            temperature_c = self.reference_temperature_c
+        temperature_c = np.broadcast_to(self.clamp(temperature_c), readings.shape[:1])
+        u, u_reference = (normalised_temperature(t, self.t_min_c, self.t_max_c)
+                          for t in (temperature_c, self.reference_temperature_c))
+        return temperature_compensation_covariance(
+            readings, u, u_reference, self.parameter_covariance,
+            self._bias_coefficients is not None)
+
     def residual_angle_rad(self, magnitude):
         """Return the fit's RMS residual as an angle against a vector of ``magnitude``."""
         return float(np.sqrt(np.mean(np.square(self._rms_residual)))) / magnitude
@@ -233,6 +313,8 @@ class Temperature(_TemperatureStage):
     fitted_at: str
     bias_coefficients_mps2: tuple = None  # 3 rows of b0..bn, 0 at the reference; None: none
     attitudes: int = 1           # 1: scale only (seed 001); >= 2: bias and scale
+    # 3 per-axis covariances of the drift coefficients (core.temperature); None: not recorded
+    parameter_covariance: tuple = None
 
     @property
     def _bias_coefficients(self):
@@ -256,6 +338,7 @@ class MagnetometerTemperature(_TemperatureStage):
     fitted_at: str
     bias_coefficients_nT: tuple = None
     attitudes: int = 1
+    parameter_covariance: tuple = None  # as Temperature's
 
     @property
     def _bias_coefficients(self):

@@ -16,7 +16,7 @@ import math
 
 from inclino_ros.calibration.magnetometer import fit_field_stand
 from inclino_ros.calibration.plausibility import check_accelerometer_readings
-from inclino_ros.calibration.stand_fit import solve_stand
+from inclino_ros.calibration.stand_fit import repeatability_note, solve_stand
 from inclino_ros.calibration.still_capture import (
     CaptureRefused, require_still, require_still_vectors)
 from inclino_ros.core.attitude import angle_between
@@ -33,7 +33,8 @@ class Position:
     inclination_deg: float
     toolface_deg: float
     reading_mps2: tuple  # mean of the temperature-compensated readings
-    std_deg: float       # per-sample noise of the direction, one component (still test)
+    std_deg: float       # per-sample noise of the direction, one component (still test;
+    #                      correlated: the white one of the same standard error)
     samples: int
     azimuth_deg: float = 0.0   # magnetic azimuth of the hole direction (as survey.z)
     field_nT: tuple = None     # mean raw magnetometer reading, None when not captured
@@ -41,18 +42,20 @@ class Position:
     temperature_c: float = None  # what the readings stood for; None: unknown
 
 
-def check_new_attitude(positions, inclination_deg, toolface_deg, azimuth_deg=0.0,
-                       reference=None):
+def repeated_position(positions, inclination_deg, toolface_deg, azimuth_deg=0.0,
+                      reference=None):
     """
-    Raise CaptureRefused when the attitude repeats one already captured.
+    Return the number (1-based) of the first captured position this attitude repeats, or None.
 
-    With ``reference`` (total nT, dip deg) a position that differs only in
-    azimuth is new (the magnetometer sees it); without, only the gravity
-    direction counts.
+    A repeat is welcome (``stand.fit_stand`` weighs every visit and reports
+    the stand's repeatability); the number lets the caller say so.  With
+    ``reference`` (total nT, dip deg) a position that differs only in azimuth
+    is new (the magnetometer sees it); without, only the gravity direction
+    counts.
     """
-    new = stand_specific_force(inclination_deg, toolface_deg, 1.0)
     for number, position in enumerate(positions, start=1):
         old = stand_specific_force(position.inclination_deg, position.toolface_deg, 1.0)
+        new = stand_specific_force(inclination_deg, toolface_deg, 1.0)
         apart_deg = math.degrees(float(angle_between(new, old)))
         if reference is not None:
             fields = expected_field_tool_nT(
@@ -61,11 +64,8 @@ def check_new_attitude(positions, inclination_deg, toolface_deg, azimuth_deg=0.0
                 [azimuth_deg, position.azimuth_deg], *reference)
             apart_deg = max(apart_deg, math.degrees(float(angle_between(*fields))))
         if apart_deg < MIN_SEPARATION_DEG:
-            raise CaptureRefused(
-                f'duplicate position: inclination {inclination_deg} deg, toolface '
-                f'{toolface_deg} deg, azimuth {azimuth_deg} deg is {apart_deg:.3f} deg from '
-                f'position {number}; set stand.inclination_deg / stand.toolface_deg / '
-                'stand.azimuth_deg to the next stand attitude')
+            return number
+    return None
 
 
 def average_position(samples, inclination_deg, toolface_deg, limits, times_s=None,
@@ -98,10 +98,10 @@ def average_position(samples, inclination_deg, toolface_deg, limits, times_s=Non
             except CaptureRefused as err:
                 raise CaptureRefused(f'magnetometer: {err}') from None
             field = tuple(fields_nT[paired].mean(axis=0).tolist())
-            field_std_deg = field_still.noise_deg
+            field_std_deg = field_still.white_noise_deg
     return Position(inclination_deg=float(inclination_deg), toolface_deg=float(toolface_deg),
                     reading_mps2=tuple(samples.mean(axis=0).tolist()),
-                    std_deg=stillness.noise_deg, samples=int(samples.shape[0]),
+                    std_deg=stillness.white_noise_deg, samples=int(samples.shape[0]),
                     azimuth_deg=float(azimuth_deg), field_nT=field, field_std_deg=field_std_deg,
                     temperature_c=temperature_c)
 
@@ -109,13 +109,14 @@ def average_position(samples, inclination_deg, toolface_deg, limits, times_s=Non
 def solve_positions(positions, gravity_mps2, max_rms_deg, reference=None,
                     max_field_rms_deg=None, max_temperature_difference_c=None):
     """
-    Return (Stand stage, FieldStandFit or None, note) of ``positions``, or raise StandFitRefused.
+    Return (Stand, FieldStandFit or None, note, repeats) of ``positions``; StandFitRefused.
 
     The stand fit of ``stand_fit.solve_stand`` (its refusals raised, the
-    limits named as the node's parameters); with ``reference`` (total nT, dip
-    deg) and a field at every position the magnetometer is fitted too
-    (``magnetometer.fit_field_stand``, refused beyond ``max_field_rms_deg``);
-    the note says why it was not otherwise.
+    limits named as the node's parameters; repeats weighed, ``repeats`` says
+    their repeatability: ``stand_fit.repeatability_note``); with
+    ``reference`` (total nT, dip deg) and a field at every position the
+    magnetometer is fitted too (``magnetometer.fit_field_stand``, refused
+    beyond ``max_field_rms_deg``); the note says why it was not otherwise.
     """
     readings = np.array([p.reading_mps2 for p in positions]).reshape(-1, 3)
     attitudes = np.array([(p.inclination_deg, p.toolface_deg, p.azimuth_deg)
@@ -125,10 +126,13 @@ def solve_positions(positions, gravity_mps2, max_rms_deg, reference=None,
     if solution.refusal:
         raise StandFitRefused(solution.refusal)
     stand = solution.stage
+    repeats = repeatability_note(solution.fit)
     without = [number for number, p in enumerate(positions, start=1) if p.field_nT is None]
     if reference is None:
-        return stand, None, 'magnetometer not fitted: no reference field'
+        return stand, None, 'magnetometer not fitted: no reference field', repeats
     if without:
-        return stand, None, f'magnetometer not fitted: no field at position(s) {without}'
+        return (stand, None, f'magnetometer not fitted: no field at position(s) {without}',
+                repeats)
     fields = np.array([p.field_nT for p in positions])
-    return stand, fit_field_stand(fields, attitudes, *reference, stand, max_field_rms_deg), None
+    return (stand, fit_field_stand(fields, attitudes, *reference, stand, max_field_rms_deg),
+            None, repeats)

@@ -4,14 +4,16 @@ The stand stage from stand positions or free readings: one rule for the node and
 ``~/solve_stand_calibration`` (positions captured one by one,
 ``stand_capture``) and ``inclino fit-stand`` (a recorded run) both end here:
 
-- the readings of one attitude are one position (``group_positions``), each
-  still (``position_noise_deg``);
+- consecutive readings of one attitude are one position (``group_positions``),
+  each still (``position_noise_deg``); a later visit of an attitude is a
+  position of its own (a repeat);
 - without a temperature stage, positions whose readings stood for
   temperatures more than a limit apart are refused (the drift would be taken
   for K: ``check_temperature_span``);
 - seed 001 Eq. 10 with a bias (``stand.fit_stand``) over the positions,
-  repeats of one accelerometer attitude averaged, refused when the fit does
-  not reproduce its own positions (``solve_stand``); or, without attitudes,
+  repeats of one accelerometer attitude weighed like any position and their
+  scatter reported (``repeatability_note``), refused when the fit does not
+  reproduce its own positions (``solve_stand``); or, without attitudes,
   ``|G| = g`` over every reading (``solve_sphere``);
 - the stage records the temperature its readings stood for, and a new stand
   drops the installation and tool-axis stages (``with_stand``): K holds the
@@ -21,12 +23,12 @@ The stand stage from stand positions or free readings: one rule for the node and
 
 from dataclasses import dataclass, replace
 
-from inclino_ros.calibration.magnetometer import merge_repeated_attitudes
 from inclino_ros.calibration.provenance import utc_now_iso
 from inclino_ros.calibration.stages import Stand
 from inclino_ros.calibration.still_capture import CaptureRefused, require_still_vectors
 from inclino_ros.core.stand import (
-    fit_sphere, fit_stand, MIN_SEPARATION_DEG, stand_specific_force, StandFitRefused)
+    attitude_numbers, fit_sphere, fit_stand, fit_stand_plateaus, MIN_POSITIONS, plateau_numbers,
+    plateau_stand_fit, stand_specific_force, StandFitRefused)
 from inclino_ros.core.stillness import MIN_SAMPLES
 import numpy as np
 
@@ -40,26 +42,26 @@ class StandSolution:
     readings: np.ndarray     # the positions' means (stand) or the readings (sphere)
     attitudes_deg: np.ndarray  # (P, 2) inclination, toolface of the positions; None: sphere
     refusal: str
+    plateaus: object = None  # core.stand.TemperatureStandFit of a multi-temperature stand
 
 
 def group_positions(readings, attitude_deg):
     """
     Return the positions: (attitudes (P, k), mean readings (P, 3), samples, position (N,)).
 
-    Samples of equal attitude (rows of ``attitude_deg`` (N, k)) form one
-    position, in the order of first appearance; ``position`` is the number of
-    each sample's position.
+    Consecutive samples of equal attitude (rows of ``attitude_deg`` (N, k))
+    form one position (one visit of the stand: a later visit of the same
+    attitude is a position of its own, a repeat ``stand.fit_stand`` weighs
+    and reports); ``position`` is the number of each sample's position.
     """
-    unique, first, inverse = np.unique(attitude_deg, axis=0, return_index=True,
-                                       return_inverse=True)
-    order = np.argsort(first)
-    rank = np.empty_like(order)
-    rank[order] = np.arange(order.size)
-    position = rank[inverse.reshape(-1)]
+    attitude_deg = np.asarray(attitude_deg, dtype=float)
+    changed = np.any(attitude_deg[1:] != attitude_deg[:-1], axis=1)
+    position = np.concatenate([[0], np.cumsum(changed)]).astype(int)
     counts = np.bincount(position)
     means = np.stack([np.bincount(position, weights=readings[:, axis]) for axis in range(3)],
                      axis=1) / counts[:, None]
-    return unique[order], means, counts, position
+    return attitude_deg[np.flatnonzero(np.concatenate([[True], changed]))], means, counts, \
+        position
 
 
 def position_noise_deg(readings, times_s, position, count, limits, what=''):
@@ -132,8 +134,9 @@ def solve_stand(readings, attitudes_deg, gravity_mps2, max_rms_deg, temperatures
     stage, if any); ``attitudes_deg`` (P, 3): inclination, toolface, azimuth;
     ``temperatures_c`` (P,): what each stood for (None entries: unknown).
     Positions that differ only in azimuth are one attitude for the
-    accelerometer (averaged).  StandFitRefused as ``stand.fit_stand`` refuses
-    (too few, repeated or ill-posed positions) and on a temperature span
+    accelerometer (repeats, weighed and reported by ``stand.fit_stand``).
+    StandFitRefused as ``stand.fit_stand`` refuses (fewer than six distinct
+    attitudes, an ill-posed set) and on a temperature span
     beyond ``max_temperature_difference_c`` (``check_temperature_span``); a
     fit whose inclination residual RMS over its own positions exceeds
     ``max_rms_deg`` (a position mislabelled, the tool moved or not seated the
@@ -141,11 +144,18 @@ def solve_stand(readings, attitudes_deg, gravity_mps2, max_rms_deg, temperatures
     name the two limits.
     """
     rms_name, temperature_name = names
-    if max_temperature_difference_c is not None:
-        check_temperature_span(temperatures_c, max_temperature_difference_c, temperature_name)
-    readings, attitudes = merge_repeated_attitudes(readings, attitudes_deg, MIN_SEPARATION_DEG)
-    truth = stand_specific_force(attitudes[:, 0], attitudes[:, 1], gravity_mps2)
-    fit = fit_stand(readings, np.reshape(truth, (-1, 3)))
+    readings = np.asarray(readings, dtype=float).reshape(-1, 3)
+    attitudes = np.asarray(attitudes_deg, dtype=float).reshape(-1, 3)[:, :2]
+    truth = np.reshape(stand_specific_force(attitudes[:, 0], attitudes[:, 1], gravity_mps2),
+                       (-1, 3))
+    plateaus = temperature_plateaus(readings, truth, temperatures_c)
+    if plateaus is not None:
+        fit = plateau_stand_fit(plateaus, readings, truth, temperatures_c)
+    else:
+        if max_temperature_difference_c is not None:
+            check_temperature_span(temperatures_c, max_temperature_difference_c,
+                                   temperature_name)
+        fit = fit_stand(readings, truth)
     refusal = None
     if fit.rms_inclination_deg > max_rms_deg:
         worst = int(np.argmax(np.abs(fit.inclination_residual_deg)))
@@ -155,8 +165,46 @@ def solve_stand(readings, attitudes_deg, gravity_mps2, max_rms_deg, temperatures
                    'deg: a wrong attitude, or the tool moved)')
     stage = stand_stage(fit, 'stand', fit.rms_inclination_deg, len(readings),
                         stood_for_c(temperatures_c))
+    if plateaus is not None:
+        stage = replace(
+            stage, temperature_c=plateaus.centre_c,
+            scale_coefficients=tuple(tuple(map(tuple, term))
+                                     for term in plateaus.scale_coefficients.tolist()),
+            bias_coefficients_mps2=tuple(map(tuple, plateaus.bias_coefficients.tolist())),
+            t_min_c=plateaus.range_c[0], t_max_c=plateaus.range_c[1])
     return StandSolution(stage=stage, fit=fit, readings=readings, attitudes_deg=attitudes,
-                         refusal=refusal)
+                         refusal=refusal, plateaus=plateaus)
+
+
+def temperature_plateaus(readings, truth, temperatures_c):
+    """
+    Return the TemperatureStandFit of positions at two or more plateaus, else None.
+
+    Positions whose temperatures (each known) fall in two or more plateaus
+    (``stand.plateau_numbers``), each with MIN_POSITIONS distinct attitudes,
+    are a multi-temperature stand (``stand.fit_stand_plateaus``: K(T), b(T));
+    otherwise (one temperature, an unknown one, or a plateau too small to fit
+    alone) None: one K and b, the temperature span checked as before.
+    """
+    if temperatures_c is None or len(temperatures_c) == 0 or None in list(temperatures_c):
+        return None
+    temperatures_c = np.asarray(temperatures_c, dtype=float)
+    plateau = plateau_numbers(temperatures_c)
+    if plateau.max() < 1 or any(
+            attitude_numbers(truth[plateau == k]).max() + 1 < MIN_POSITIONS
+            for k in range(plateau.max() + 1)):
+        return None
+    return fit_stand_plateaus(readings, truth, temperatures_c)
+
+
+def repeatability_note(fit):
+    """Return what a stand fit's repeats showed, in words (``stand.repeatability``)."""
+    repeated = np.flatnonzero(np.isfinite(fit.repeatability_deg))
+    if not repeated.size:
+        return f'{fit.attitudes} distinct attitudes, none repeated'
+    return (f'{fit.attitudes} distinct attitudes, {repeated.size} repeated: repeatability '
+            f'{fit.rms_repeatability_deg:.4f} deg RMS (per repeated attitude: '
+            + ', '.join(f'{a + 1}: {fit.repeatability_deg[a]:.4f}' for a in repeated) + ')')
 
 
 def solve_sphere(readings, gravity_mps2, max_rms_deg, temperature_c=None,

@@ -10,8 +10,9 @@ attitude and wrong at every other.  The reference of a one-attitude fit is
 the given one, else the mean reading within a window of 25 deg C.
 
 The stage compensates the readings to the temperature the later stages'
-readings stood for (stand and installation; for the magnetometer the rotation
-fit), when they record one: a stand captured at 35 deg C keeps working.
+readings stood for (stand and installation; for the magnetometer the stage it
+feeds: its own ``magnetometer`` stage, else the rotation fit), when they
+record one: a stand captured at 35 deg C keeps working.
 """
 
 from inclino_ros.calibration.provenance import common_stage_temperature, utc_now_iso
@@ -23,8 +24,12 @@ import numpy as np
 #: Per triad: the calibration section of its temperature stage, and its later stages.
 TRIAD_STAGES = {
     'accelerometer': ('temperature', ('stand', 'installation')),
-    'magnetometer': ('magnetometer_temperature', ('magnetic',)),
+    'magnetometer': ('magnetometer_temperature', ('magnetometer', 'magnetic')),
 }
+#: Triads whose temperature stage targets only the first of its later stages present
+#: (the one it feeds: the magnetometer's K_m, fitted on its readings; the rotation fit
+#: came after K_m and stood for whatever K_m's readings did).
+FEEDS_FIRST = ('magnetometer',)
 
 #: What a one-attitude fit cannot see (said in every report of one).
 ONE_ATTITUDE_NOTE = (
@@ -89,7 +94,9 @@ def stage_of(triad, result, samples):
               't_min_c': float(result.t_min_c), 't_max_c': float(result.t_max_c),
               'reference_temperature_c': float(result.reference_temperature_c),
               'samples': int(samples), 'fitted_at': utc_now_iso(),
-              'attitudes': int(result.attitudes)}
+              'attitudes': int(result.attitudes),
+              'parameter_covariance': tuple(tuple(map(tuple, axis))
+                                            for axis in result.parameter_covariance.tolist())}
     rms = tuple(result.rms_residual.tolist())
     if triad == 'accelerometer':
         return Temperature(**common, rms_residual_mps2=rms, bias_coefficients_mps2=bias)
@@ -110,6 +117,8 @@ def solve_temperature(model, triad, temperature_c, readings, attitude, order, re
     """
     notes = []
     later = TRIAD_STAGES[triad][1]
+    if triad in FEEDS_FIRST:
+        later = next(((name,) for name in later if getattr(model, name) is not None), later)
     if reference is None and heated_attitudes(temperature_c, attitude, order) >= 2:
         result = fit_temperature_drift(temperature_c, readings, attitude, order)
         notes.append(f'{result.attitudes} attitudes heated: bias and scale drift per axis '

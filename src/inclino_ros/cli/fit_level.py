@@ -8,9 +8,12 @@ with the same checks as the node (still, plausible G-total, bench level).
 Input: a bag (the raw sensor on ``/imu/data_raw``, the samples from
 ``--start-s`` to ``--end-s`` seconds after its first message) or a CSV with
 the columns ``ax, ay, az`` (m/s^2, sensor axes) and optionally ``time_s``
-and ``temperature_c``.  The stages already in the file (temperature, stand) are
-applied first, as the node does; the installation stage is replaced, every
-other stage kept, the file written atomically.
+and ``temperature_c``.  A CSV with ``time_s`` that moves is a continuous
+log (optionally with the gyro, ``wx, wy, wz`` rad/s): its longest still
+segment is the capture (``continuous_log.longest_still_part``), said.
+The stages already in the file (temperature, stand) are applied first, as
+the node does; the installation stage is replaced, every other stage kept,
+the file written atomically.
 
 Refused (exit 1, the calibration file untouched): the tool moved or the mean
 is not precise enough (``still_capture``), an implausible G-total, a bench
@@ -19,7 +22,10 @@ that is not level, or a temperature far from the stand stage's.
 
 from dataclasses import replace
 import math
+import sys
 
+from inclino_ros.calibration.continuous_log import (
+    GYRO_COLUMNS, longest_still_part, segment_limits, TIME_COLUMN)
 from inclino_ros.calibration.level_capture import (
     CaptureRefused, LevelLimits, solve_level_capture)
 from inclino_ros.calibration.model import readings_temperature_c, temperature_conflict
@@ -27,13 +33,15 @@ from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_common_arguments, add_still_options, axes_maps, AXIS_COLUMNS, finish_figure, has_topic,
     is_bag, load_existing, new_figure, NODE_DEFAULTS, node_option, read_csv, read_topic, Refused,
-    report_paths, run_fit, sample_temperatures, save, tool_axes, write_text)
+    report_paths, report_residuals, run_fit, sample_temperatures, save, tool_axes, write_text)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.play import in_window
 from inclino_ros.core.installation import level_axis_angles
-from inclino_ros.core.stillness import StillLimits
+from inclino_ros.io.report import Residual
 import numpy as np
 
+#: Parts the level capture is cut into for the residual table.
+BLOCKS = 5
 REPORT_NAME = 'fit_level'
 
 
@@ -88,9 +96,23 @@ def load_input(args):
     ``time_s``: the samples in order).
     """
     if not is_bag(args.input):
-        table = read_csv(args.input, AXIS_COLUMNS, optional=('temperature_c', 'time_s'))
-        return (np.column_stack([table[name] for name in AXIS_COLUMNS]),
-                table.get('temperature_c'), table.get('time_s'))
+        table = read_csv(args.input, AXIS_COLUMNS,
+                         optional=('temperature_c', TIME_COLUMN) + GYRO_COLUMNS)
+        readings = np.column_stack([table[name] for name in AXIS_COLUMNS])
+        temperature_c, times_s = table.get('temperature_c'), table.get(TIME_COLUMN)
+        if times_s is None:
+            return readings, temperature_c, times_s
+        gyro = (np.column_stack([table[name] for name in GYRO_COLUMNS])
+                if all(name in table for name in GYRO_COLUMNS) else None)
+        try:
+            taken, note = longest_still_part(times_s, readings, gyro, segment_limits(
+                args.max_drift_deg_per_s, args.max_sem_deg))
+        except ValueError as err:
+            raise Refused(f'{args.input}: {err}') from None
+        if note:
+            print(f'inclino fit-level: {note}', file=sys.stderr)
+        return (readings[taken], None if temperature_c is None else temperature_c[taken],
+                times_s[taken])
     imu = read_topic(args.input, args.raw_topic)
     window = in_window(imu.stamps_ns, args.start_s, args.end_s)
     if not window.any():
@@ -116,9 +138,7 @@ def fit(args, lines, outputs):
     limits = LevelLimits(
         max_tilt_deg=args.max_tilt_deg, gravity_mps2=args.gravity_mps2,
         g_total_tolerance_mps2=args.g_total_tolerance_mps2,
-        still=StillLimits(max_drift_deg_per_s=args.max_drift_deg_per_s,
-                          max_sem_deg=args.max_sem_deg, drift_name='--max-drift-deg-per-s',
-                          sem_name='--max-sem-deg'))
+        still=segment_limits(args.max_drift_deg_per_s, args.max_sem_deg).still)
     stood_for_c = readings_temperature_c(
         existing.temperature, None if temperature_c is None else float(np.mean(temperature_c)))
     reason = temperature_conflict(existing, stood_for_c, args.max_temperature_difference_c,
@@ -137,9 +157,11 @@ def fit(args, lines, outputs):
         f'theta_deg={installation.theta_deg:.4f} (noise {installation.std_deg:.4f} deg per '
         f'sample, 1 sigma of the angles {math.degrees(installation.tilt_std_rad):.4f} deg, '
         f'G-total {installation.g_total_mps2:.4f} m/s^2)']
+    g_mps2 = args.gravity_mps2 if axes == 2 else None
+    report_residuals(args, lines, block_residuals(level, installation, g_mps2),
+                     f"tilt of each {BLOCKS}th of the capture minus the whole capture's")
     png, txt = report_paths(args, REPORT_NAME)
-    plot_level(outputs.path(png), level, installation,
-               args.gravity_mps2 if axes == 2 else None)
+    plot_level(outputs.path(png), level, installation, g_mps2)
     # The level bench measures the whole mount: a tool axis on top would count twice.
     save(args, replace(existing, installation=installation, tool_axis=None), outputs)
     lines += [f'wrote {args.calibration}: installation stage'
@@ -148,10 +170,37 @@ def fit(args, lines, outputs):
     write_text(outputs.path(txt), lines)
 
 
+def axis_tilts_deg(level, two_axis_g):
+    """Return the tilts theta'_x1, theta'_y1 (N, 2) [deg] of each sample (seed 000 Eqs. 11-12)."""
+    g = np.full(level.shape[0], two_axis_g) if two_axis_g else np.linalg.norm(level, axis=1)
+    return np.degrees(np.stack(level_axis_angles(level, g), axis=1))
+
+
+def block_residuals(level, installation, two_axis_g):
+    """
+    Return the Residual rows of the capture cut in BLOCKS: each axis tilt's mean minus the whole's.
+
+    The stated noise of a block's mean is the stage's per-sample noise
+    ``std_deg`` over the square root of the block's samples: a block far
+    above it is a drift or a knock the stillness check let through.
+    """
+    tilts_deg = axis_tilts_deg(level, two_axis_g)
+    rows = []
+    for number, block in enumerate(np.array_split(np.arange(level.shape[0]), BLOCKS)):
+        if block.size == 0:
+            continue
+        noise_deg = installation.std_deg / math.sqrt(block.size)
+        for column, name in enumerate(("theta'_x1", "theta'_y1")):
+            rows.append(Residual(
+                f'block {number + 1}/{BLOCKS} ({block.size} samples) {name}',
+                float(tilts_deg[block, column].mean() - tilts_deg[:, column].mean()),
+                noise_deg, 'deg'))
+    return rows
+
+
 def plot_level(path, level, installation, two_axis_g):
     """Plot the axis tilts of every sample and their mean (seed 000 Eqs. 11-12)."""
-    g = np.full(level.shape[0], two_axis_g) if two_axis_g else np.linalg.norm(level, axis=1)
-    tilts_deg = np.degrees(np.stack(level_axis_angles(level, g), axis=1))
+    tilts_deg = axis_tilts_deg(level, two_axis_g)
     pyplot, fig, axes = new_figure(2, f'inclino fit-level: gamma {installation.gamma_deg:.4f} '
                                       f'deg, beta {installation.beta_deg:.4f} deg')
     sample = np.arange(level.shape[0])

@@ -51,7 +51,7 @@ from inclino_ros.calibration.plausibility import check_field_unit, Implausible
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_file_arguments, finish_figure, is_bag, load_existing, new_figure, read_topic, Refused,
-    report_paths, run_fit, save, TEMPERATURE_TOPIC, write_text)
+    report_paths, report_residuals, run_fit, save, TEMPERATURE_TOPIC, write_text)
 from inclino_ros.cli.fitting import NODE_DEFAULTS
 from inclino_ros.cli.options import between, node_parameter, positive
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
@@ -59,6 +59,7 @@ from inclino_ros.core import magnetics
 from inclino_ros.core import stillness
 from inclino_ros.core.shots import ShotFitRefused, ShotLimits
 from inclino_ros.io import tables
+from inclino_ros.io.report import REFUSED, Residual, USED
 from inclino_ros.io.timing import pair_nearest
 import numpy as np
 
@@ -187,6 +188,8 @@ def fit(args, lines, outputs):
                                          model.apply_magnetic(field, before='magnetic'))
                      for model in (existing, result.model))
     lines += summary_lines(result, labels, before, after, total_nT, dip_ref, source)
+    report_residuals(args, lines, shot_residuals(result.fit, labels),
+                     '|B| of each shot after the fit minus the fitted field')
     png, txt = report_paths(args, REPORT_NAME)
     if args.plot:
         plot_report(outputs.path(png), labels, before, after, result.fit.field_nT,
@@ -227,6 +230,23 @@ def robust_lines(fit, labels):
     lines += [f'roll group {k + 1}: pointing wander {fit.axial_rms_deg[k]:.3f} deg RMS along '
               'the tool axis (its weight in the fit)' for k in fit.groups]
     return lines
+
+
+def shot_residuals(fit, labels):
+    """
+    Return the Residual rows of each shot: its |B| after the fit minus the fitted field [nT].
+
+    Against the noise the fit found per shot (``noise_nT``); an outlier shot
+    left out of the fit is refused, with how many robust sigma it stood off.
+    """
+    outliers, rows = dict(fit.outliers), []
+    for i, b_total_nT in enumerate(fit.b_total_nT):
+        group = '' if labels is None or labels[i] < 0 else f' (roll group {labels[i] + 1})'
+        note = '' if fit.used[i] else (f'outlier, {outliers.get(i, float("nan")):.1f} robust '
+                                       'sigma from the others: left out')
+        rows.append(Residual(f'shot {i + 1}{group}', float(b_total_nT - fit.field_nT),
+                             float(fit.noise_nT), 'nT', USED if fit.used[i] else REFUSED, note))
+    return rows
 
 
 def fit_table_lines(fit, labels):

@@ -15,8 +15,8 @@ The magnetic stage of the calibration file gets ``hard_iron_nT``,
 optional ``temperature_c`` column, a bag's ``--temperature-topic``), as
 ``~/capture_rotation`` does (one rule: ``rotation.solve_rotation``); its
 interference is reset, as it was solved on the old cross-axial correction;
-every other stage is kept.  Report: the readings before and after with the fitted ellipse and
-circle (seed 002 Fig. 4) in ``fit_rotation.png`` and the summary in
+every other stage is kept.  Report: the radial residual and the cross-axial direction error
+against the rotation angle, before and after, in ``fit_rotation.png``, the summary in
 ``fit_rotation.txt``.
 
 Readings without a value (NaN, as some drivers publish between two
@@ -32,19 +32,21 @@ from inclino_ros.calibration.rotation import solve_rotation
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_file_arguments, axes_maps, finish_figure, has_topic, is_bag, load_existing, new_figure,
-    read_csv, read_topic, Refused, report_paths, run_fit, sample_temperatures, save,
+    read_csv, read_topic, Refused, report_paths, report_residuals, run_fit, sample_temperatures,
+    save,
     TEMPERATURE_TOPIC, tool_axes, write_text)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.mounting import add_axes_map_arguments
 from inclino_ros.cli.options import finite
 from inclino_ros.core.cross_axial import apply_cross_axial, RotationFitRefused
+from inclino_ros.io.report import Residual
 import numpy as np
 
 MAG_TOPIC = '/imu/mag'
 FIELD_COLUMNS = ('bx', 'by', 'bz')
 REPORT_NAME = 'fit_rotation'
-#: Points of the drawn ellipse and circle.
-CURVE_POINTS = 361
+#: Width of a sector of the turn in the residual table [deg].
+SECTOR_DEG = 45
 
 
 def register(subparsers):
@@ -63,9 +65,10 @@ def register(subparsers):
         'The drill-string interference of a multi-station analysis is reset (it was solved on '
         'the old cross-axial correction: run inclino msa again); every other stage is kept, '
         'and the stage records the temperature the readings stood for (a CSV column '
-        'temperature_c, or --temperature-topic). The report, fit_rotation.png (the readings, '
-        'and the distance of each from the circle before and after the correction) and '
-        'fit_rotation.txt, goes beside the file or to --report-dir.',
+        'temperature_c, or --temperature-topic). The report, fit_rotation.png (the radial '
+        'residual and the cross-axial direction error against the rotation angle, before and '
+        'after the correction), fit_rotation.txt and the calibration certificate '
+        'fit_rotation_certificate.html, goes beside the file or to --report-dir.',
         'Refused (exit 1, the file untouched): less than 270 deg of the turn covered, too flat '
         'or too noisy an ellipse, too few readings. Exit 2: unusable input.')
     add_file_arguments(parser, 'CSV file with bx, by, bz [nT]')
@@ -132,6 +135,13 @@ def fit(args, lines, outputs):
     result, readings = solution.fit, solution.readings_nT
     corrected = apply_cross_axial(readings, result)
     lines += summary_lines(result, readings)
+    angle_deg, _, after_nT, error_deg = rotation_angles(readings, corrected, result)
+    lines.append(f'cross-axial direction error the fit removes: up to '
+                 f'{np.max(np.abs(error_deg)):.3f} deg (RMS '
+                 f'{np.sqrt(np.mean(error_deg ** 2)):.3f} deg); left after it: noise RMSE / r = '
+                 f'{np.degrees(result.rmse_nT / result.radius_nT):.4f} deg')
+    report_residuals(args, lines, sector_residuals(angle_deg, after_nT, result),
+                     'radial residual per 45 deg sector of the turn')
     png, txt = report_paths(args, REPORT_NAME)
     plot_rotation(outputs.path(png), readings, corrected, result)
     save(args, solution.model, outputs)
@@ -160,42 +170,77 @@ def summary_lines(result, readings):
         f'{np.std(radial_nT):.2f} nT)']
 
 
+def rotation_angles(readings, corrected, result):
+    """
+    Return per reading: the rotation angle, radial residual before and after, direction error.
+
+    The angle [deg, 0..360) is the direction of the corrected cross-axial
+    field; the radial residuals [nT] are the reading's radius minus the
+    circle's, before (about the origin: the raw magnetometer) and after the
+    correction (the fit's residual); the direction error [deg] is how far
+    the raw reading's cross-axial direction is from the corrected one: what
+    the fit removes from the toolface and, through it, from the azimuth.
+    """
+    angle_deg = np.degrees(np.arctan2(corrected[:, 1], corrected[:, 0])) % 360.0
+    before_nT = np.hypot(readings[:, 0], readings[:, 1]) - result.radius_nT
+    after_nT = np.hypot(corrected[:, 0], corrected[:, 1]) - result.radius_nT
+    raw_deg = np.degrees(np.arctan2(readings[:, 1], readings[:, 0]))
+    error_deg = (raw_deg - angle_deg + 180.0) % 360.0 - 180.0
+    return angle_deg, before_nT, after_nT, error_deg
+
+
+def sector_residuals(angle_deg, after_nT, result):
+    """
+    Return the Residual rows of each 45 deg sector of the turn the readings cover.
+
+    Per sector the RMS radial residual after the correction [nT] against the
+    fit's radial RMSE (its stated noise): a sector far above it is a part of
+    the turn the ellipse does not describe (a magnetised spot, a jerk).
+    """
+    rows = []
+    for start in range(0, 360, SECTOR_DEG):
+        inside = (angle_deg >= start) & (angle_deg < start + SECTOR_DEG)
+        if inside.any():
+            rows.append(Residual(
+                f'{start:3d}-{start + SECTOR_DEG:3d} deg ({int(inside.sum())} readings)',
+                float(np.sqrt(np.mean(after_nT[inside] ** 2))), float(result.rmse_nT), 'nT'))
+    return rows
+
+
 def plot_rotation(path, readings, corrected, result):
     """
-    Plot the rotation: the cross-axial readings, then their distance from the circle.
+    Plot what the fit changes against the rotation angle, before and after.
 
-    On the first panel the correction (tens of nT on a circle of tens of
-    thousands) cannot be seen; the second shows, per reading, its radius minus
-    the circle's before (about the origin: what the raw magnetometer gives) and
-    after the correction (the fit's residual), against the angle it was read at.
+    The readings and the circle are not drawn: a centre of tens of nT and an
+    axis ratio near 1 cannot be seen on a circle of tens of thousands.  The
+    first panel shows each reading's radial residual (its radius minus the
+    circle's), the second the error of its cross-axial direction, which the
+    toolface and the azimuth inherit; the band is the fit's noise (radial RMSE,
+    and RMSE / r in angle).
     """
-    pyplot, fig, axes = new_figure(2, 'inclino fit-rotation: cross-axial readings of one '
-                                      'rotation (seed 002 Fig. 4)')
-    fig.set_size_inches(8, 12)
-    angle = np.linspace(0.0, 2.0 * np.pi, CURVE_POINTS)
-    unit = np.stack([np.cos(angle), np.sin(angle)], axis=1) * result.radius_nT
-    ellipse = result.offset_nT + unit @ np.linalg.inv(result.correction).T
-    axes[0].plot(readings[:, 0], readings[:, 1], '.', color='tab:red', markersize=3,
-                 label='raw readings')
-    axes[0].plot(ellipse[:, 0], ellipse[:, 1], color='black', linewidth=1,
-                 label=f'fitted ellipse, axis ratio {result.axis_ratio:.4f}')
-    axes[0].plot(*result.offset_nT, 'k+', markersize=12,
-                 label=f'centre c = ({result.offset_nT[0]:.1f}, {result.offset_nT[1]:.1f}) nT')
-    axes[0].plot(corrected[:, 0], corrected[:, 1], '.', color='tab:green', markersize=2,
-                 label='corrected, W (m - c)')
-    axes[0].set_aspect('equal', adjustable='datalim')
-    axes[0].set_xlabel('Bx (tool) [nT]')
-    axes[0].set_ylabel('By (tool) [nT]')
-    read_at_deg = np.degrees(np.arctan2(corrected[:, 1], corrected[:, 0])) % 360.0
-    before = np.hypot(readings[:, 0], readings[:, 1]) - result.radius_nT
-    after = np.hypot(corrected[:, 0], corrected[:, 1]) - result.radius_nT
-    axes[1].plot(read_at_deg, before, '.', color='tab:red', markersize=3,
-                 label=f'raw: |m| - r (hard iron |c| = {np.hypot(*result.offset_nT):.1f} nT)')
-    axes[1].plot(read_at_deg, after, '.', color='tab:green', markersize=3,
-                 label=f'corrected: |W (m - c)| - r, residual RMSE {result.rmse_nT:.1f} nT')
-    axes[1].axhline(0.0, color='black', linewidth=0.8)
-    axes[1].set_xlim(0.0, 360.0)
-    axes[1].set_xticks(np.arange(0, 361, 45))
-    axes[1].set_xlabel('direction of the corrected cross-axial field [deg]')
-    axes[1].set_ylabel(f'distance from the circle r = {result.radius_nT:.0f} nT [nT]')
+    angle_deg, before_nT, after_nT, error_deg = rotation_angles(readings, corrected, result)
+    noise_deg = np.degrees(result.rmse_nT / result.radius_nT)
+    pyplot, fig, axes = new_figure(
+        2, f'inclino fit-rotation: hard iron |c| {np.hypot(*result.offset_nT):.1f} nT, '
+           f'axis ratio {result.axis_ratio:.4f}, radius {result.radius_nT:.0f} nT')
+    order = np.argsort(angle_deg)
+    panels = ((before_nT, after_nT, result.rmse_nT, 'nT',
+               'radial residual |B_xy| - r [nT]'),
+              (error_deg, np.zeros_like(error_deg), noise_deg, 'deg',
+               'cross-axial direction error [deg]'))
+    for ax, (before, after, noise, unit, ylabel) in zip(axes, panels):
+        ax.axhspan(-noise, noise, color='tab:green', alpha=0.15,
+                   label=f'fit noise +-{noise:.3g} {unit} (1 sigma)')
+        ax.plot(angle_deg[order], before[order], '.', color='tab:red', markersize=3,
+                label=f'before: raw readings (largest {np.max(np.abs(before)):.3g} {unit})')
+        ax.axhline(0.0, color='black', linewidth=0.8)
+        ax.set_xlim(0.0, 360.0)
+        ax.set_xticks(np.arange(0, 361, 45))
+        ax.set_xlabel('rotation angle: direction of the corrected cross-axial field [deg]')
+        ax.set_ylabel(ylabel)
+    axes[0].plot(angle_deg[order], after_nT[order], '.', color='tab:green', markersize=3,
+                 label=f'after: W (m - c), RMSE {result.rmse_nT:.2f} nT')
+    axes[1].plot([], [], '.', color='tab:green',
+                 label=f'after: the corrected direction is the reference; its noise '
+                       f'RMSE / r = {noise_deg:.3g} deg')
     finish_figure(pyplot, fig, axes, path)

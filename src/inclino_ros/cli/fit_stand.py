@@ -9,8 +9,18 @@ bz`` [nT, tool frame]; or a bag with the raw sensor on ``/imu/data_raw``,
 the stand attitude on ``/stand/attitude`` (Vector3Stamped: x
 inclination_deg, y seed-000 toolface_deg, z azimuth_deg; each Imu sample
 takes the latest attitude at or before its stamp), optionally
-``/imu/temperature`` and ``--mag-topic``.  Samples of one attitude are
-averaged into one position.
+``/imu/temperature`` and ``--mag-topic``.  Consecutive samples of one
+attitude are averaged into one position; a later visit of an attitude (its
+rows after another attitude's, or less than 1 deg from it) is a repeat:
+weighed in the fit like any position, and the scatter of the visits is
+reported as the stand's repeatability (deg, per attitude and overall).
+
+A CSV with ``time_s`` and no attitude columns is a continuous log
+(optionally with the gyro, ``wx, wy, wz`` rad/s): its still segments
+(``continuous_log.log_segments``) are the readings of a sphere fit, one a
+segment, the samples between them left out.  Every still sample of such a
+log, in turn and without times, is grouped by pose
+(``continuous_log.sphere_readings``).
 
 With a reference field (``--reference-total-nT`` and
 ``--reference-dip-deg``, or ``--site``) and magnetometer readings, the
@@ -18,7 +28,7 @@ magnetometer's K_m and bias are fitted too (seed 001 Eq. 12: the same fit
 against the field expected at each position), into the stages
 ``magnetometer`` and ``magnetometer_alignment``; refused beyond
 ``--max-field-rms-deg``.  Positions that differ only in azimuth are one
-attitude for the accelerometer (averaged).
+attitude for the accelerometer (repeats).
 
 ``--method stand`` fits ``A = K G + b`` to the positions (``stand.fit_stand``);
 ``--method sphere`` needs no attitude and fits every sample to ``|G| = g``
@@ -32,7 +42,7 @@ must be measured again on the stand-corrected readings.
 
 Refused (exit 1, the calibration file untouched): readings that are not
 those of a still tool in m/s^2 (``plausibility.check_accelerometer_readings``:
-g or mg named), a fit ``stand`` refuses (too few positions, repeated
+g or mg named), a fit ``stand`` refuses (fewer than six distinct
 attitudes, an ill-posed set), a position where the tool moved (its mean
 drifts faster than ``--max-drift-deg-per-s`` against its own noise, or is
 not steady) or whose mean misses ``--max-sem-deg`` (``still_capture``:
@@ -47,24 +57,27 @@ reference, else their mean temperature).
 
 from functools import partial
 
-from inclino_ros.calibration.magnetometer import fit_field_stand
+from inclino_ros.calibration.continuous_log import (
+    GYRO_COLUMNS, log_segments, segment_limits, sphere_readings, TIME_COLUMN)
+from inclino_ros.calibration.magnetometer import fit_field_stand, mean_temperature_c
 from inclino_ros.calibration.model import CalibrationModel, readings_temperature_c
 from inclino_ros.calibration.plausibility import check_accelerometer_readings
 from inclino_ros.calibration.stand_fit import (
-    check_temperature_span, group_positions, position_noise_deg, solve_sphere, solve_stand,
-    stood_for_c, with_stand)
+    check_temperature_span, group_positions, position_noise_deg, repeatability_note,
+    solve_sphere, solve_stand, stood_for_c, with_stand)
 from inclino_ros.calibration.still_capture import CaptureRefused
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_common_arguments, add_still_options, axes_maps, AXIS_COLUMNS, finish_figure, has_topic,
     is_bag, load_existing, matrix_lines, new_figure, NODE_DEFAULTS, node_option, read_csv,
-    read_topic, Refused, report_paths, run_fit, sample_temperatures, save, tool_axes, write_text)
+    read_topic, Refused, report_paths, report_residuals, run_fit, sample_temperatures, save,
+    tool_axes, write_text)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.options import between, node_parameter
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core.attitude import inclination
 from inclino_ros.core.stand import StandFitRefused
-from inclino_ros.core.stillness import StillLimits
+from inclino_ros.io.report import Residual
 from inclino_ros.io.timing import pair_nearest
 import numpy as np
 
@@ -87,18 +100,21 @@ def register(subparsers):
         'spread; nine are typical): a bag with the raw sensor on /imu/data_raw and the stand '
         'attitude on /stand/attitude (what inclino simulate --stand writes), or a CSV with the '
         'columns inclination_deg, toolface_deg, ax, ay, az (m/s^2, one row per sample or per '
-        'averaged position; optional temperature_c). Samples of one attitude are averaged into '
-        'one position.',
+        'averaged position; optional temperature_c). Consecutive samples of one attitude are '
+        'averaged into one position; an attitude visited again is a repeat, fitted too, and '
+        "the scatter of its visits reported as the stand's repeatability.",
         '--method sphere needs no attitudes: it fits |G| = g over readings in many '
         'orientations. It cannot see how the sensor is turned in the tool: calibrate the '
-        'level bench afterwards.',
+        'level bench afterwards. A CSV with time_s and no attitude columns is a continuous log '
+        '(optional gyro wx, wy, wz in rad/s): its still segments are found and the mean of '
+        'each is a reading of a sphere fit.',
         'A temperature stage already in the file is applied to the readings first. The stand '
         'stage replaces the old one and drops the level-bench stage (K holds the mounting '
         'error). The report, fit_stand.png and fit_stand.txt, goes beside the file or to '
         '--report-dir.',
-        'Refused (exit 1, the file untouched): too few or repeated positions, the tool moved '
-        'at a position (a mean drifting beyond --max-drift-deg-per-s, or less precise than '
-        '--max-sem-deg), or the fit does not reproduce its '
+        'Refused (exit 1, the file untouched): fewer than six distinct attitudes, the tool '
+        'moved at a position (a mean drifting beyond --max-drift-deg-per-s, or less precise '
+        'than --max-sem-deg), or the fit does not reproduce its '
         'positions within --max-rms-deg. Exit 2: unusable input.')
     add_common_arguments(parser)
     parser.add_argument('--method', choices=('stand', 'sphere'), default='stand',
@@ -136,8 +152,12 @@ def run(args):
 def fit(args, lines, outputs):
     """Fit the stand stage of ``args.input`` into ``args.calibration``; see ``run_fit``."""
     existing = load_existing(args.calibration, args.sensor_id, maps=axes_maps(args))
-    readings, attitude_deg, temperature_c, times_s, fields = load_input(args)
+    readings, attitude_deg, temperature_c, times_s, fields, gyro = load_input(args)
     readings, fields = tool_axes(args, readings), tool_axes(args, fields, 'magnetometer')
+    segment = None
+    if attitude_deg is None and gyro is not False:   # a continuous log: its still samples
+        segment, readings, temperature_c, times_s = still_samples(
+            args, readings, gyro, temperature_c, times_s, lines)
     check_accelerometer_readings(readings, args.gravity_mps2)
     # What each reading stood for: the temperature stage's reference, else its own.
     stood_c = (None if existing.temperature is None and temperature_c is None else
@@ -157,7 +177,7 @@ def fit(args, lines, outputs):
             field = fit_magnetometer(args, existing, fields, attitude_deg, times_s,
                                      temperature_c, stage, lines)
     else:
-        stage, refusal, draw = fit_readings(args, readings, stood_c, lines)
+        stage, refusal, draw = fit_readings(args, readings, stood_c, lines, segment)
     stood_for_c = stage.temperature_c
     lines.append('the readings stood for ' + ('an unknown temperature' if stood_for_c is None
                                               else f'{stood_for_c:.2f} C'))
@@ -185,31 +205,48 @@ def fit(args, lines, outputs):
 
 def load_input(args):
     """
-    Return (readings (N, 3), attitude_deg (N, 3) or None, temperature_c, times_s, fields).
+    Return (readings (N, 3), attitude_deg, temperature_c, times_s, fields, gyro).
 
-    The attitude (inclination, toolface, azimuth: 0 without the column) is
-    required for ``--method stand`` only; ``temperature_c`` (N,) or None;
-    ``times_s`` (N,) or None (a CSV without ``time_s``); ``fields`` (N, 3)
-    [nT] the paired magnetometer readings when the input has them, else None.
+    The attitude (N, 3: inclination, toolface, azimuth: 0 without the
+    column) is read for ``--method stand``, None for a sphere fit or a CSV
+    without attitude columns; ``temperature_c`` (N,) or None; ``times_s``
+    (N,) or None (a CSV without ``time_s``); ``fields`` (N, 3) [nT] the
+    paired magnetometer readings when the input has them, else None;
+    ``gyro``: a continuous log (a CSV with ``time_s`` and no attitude
+    columns) gives its ``wx, wy, wz`` [rad/s] (N, 3) or None without them;
+    False: not a continuous log.
     """
     need_attitude = args.method == 'stand'
     if not is_bag(args.input):
-        table = read_csv(args.input, (ATTITUDE_COLUMNS if need_attitude else ()) + AXIS_COLUMNS,
-                         optional=('temperature_c', 'time_s', AZIMUTH_COLUMN) + FIELD_COLUMNS)
+        table = read_csv(args.input, AXIS_COLUMNS,
+                         optional=ATTITUDE_COLUMNS + ('temperature_c', TIME_COLUMN,
+                                                      AZIMUTH_COLUMN) + FIELD_COLUMNS
+                         + GYRO_COLUMNS)
         readings = np.column_stack([table[name] for name in AXIS_COLUMNS])
+        has_attitude = all(name in table for name in ATTITUDE_COLUMNS)
+        if need_attitude and not has_attitude and TIME_COLUMN not in table:
+            missing = [name for name in ATTITUDE_COLUMNS if name not in table]
+            raise CommandError(f'{args.input} lacks the column(s) {", ".join(missing)} (the '
+                               f'stand attitudes), and has no {TIME_COLUMN} column (a '
+                               'continuous log, whose still segments a sphere fit takes)')
         attitude_deg = (np.column_stack(
             [table[name] for name in ATTITUDE_COLUMNS]
-            + [table.get(AZIMUTH_COLUMN, np.zeros(len(readings)))]) if need_attitude else None)
+            + [table.get(AZIMUTH_COLUMN, np.zeros(len(readings)))])
+            if need_attitude and has_attitude else None)
         fields = (np.column_stack([table[name] for name in FIELD_COLUMNS])
                   if all(name in table for name in FIELD_COLUMNS) else None)
-        return (readings, attitude_deg, table.get('temperature_c'), table.get('time_s'),
-                fields)
+        gyro = False
+        if not has_attitude and TIME_COLUMN in table:
+            gyro = (np.column_stack([table[name] for name in GYRO_COLUMNS])
+                    if all(name in table for name in GYRO_COLUMNS) else None)
+        return (readings, attitude_deg, table.get('temperature_c'), table.get(TIME_COLUMN),
+                fields, gyro)
     imu = read_topic(args.input, args.raw_topic)
     temperature_c = (sample_temperatures(imu, args.input, args.temperature_topic)[0]
                      if has_topic(args.input, args.temperature_topic) else None)
     times_s = imu.stamps_ns * 1e-9
     if not need_attitude:
-        return imu.linear_acceleration_mps2, None, temperature_c, times_s, None
+        return imu.linear_acceleration_mps2, None, temperature_c, times_s, None, False
     fields = None
     if has_topic(args.input, args.mag_topic):
         mag = read_topic(args.input, args.mag_topic)
@@ -226,14 +263,36 @@ def load_input(args):
     attitude_deg[~np.isfinite(attitude_deg[:, 2]), 2] = 0.0   # z NaN: no azimuth known
     return (imu.linear_acceleration_mps2[held], attitude_deg,
             None if temperature_c is None else temperature_c[held], times_s[held],
-            None if fields is None else fields[held])
+            None if fields is None else fields[held], False)
+
+
+def still_samples(args, readings, gyro, temperature_c, times_s, lines):
+    """
+    Return (segment (M,), readings, temperature_c, times_s) of a log's still samples only.
+
+    The still segments (``continuous_log.log_segments`` with the command's
+    still limits) are what a sphere fit takes, one reading a segment; the
+    samples between them (the tool turned by hand) are left out.
+    """
+    try:
+        found = log_segments(times_s, readings, gyro, temperature_c,
+                             segment_limits(args.max_drift_deg_per_s, args.max_sem_deg))
+    except ValueError as err:
+        raise CommandError(f'{args.input}: {err}') from None
+    lines.extend(found.lines(f'log {args.input}'))
+    lines.append("no attitude columns: a continuous log; each still segment's mean is one "
+                 'reading of a sphere fit (--method sphere)' + (
+                     ', the gyro (wx, wy, wz) checked too' if gyro is not None else
+                     ' (no gyro columns: the accelerometer alone tells still from moving)'))
+    args.method = 'sphere'
+    still = found.still
+    return (found.segment[still], readings[still],
+            None if temperature_c is None else temperature_c[still], times_s[still])
 
 
 def still_limits(args):
     """Return the still test of a position from --max-drift-deg-per-s and --max-sem-deg."""
-    return StillLimits(max_drift_deg_per_s=args.max_drift_deg_per_s,
-                       max_sem_deg=args.max_sem_deg, drift_name='--max-drift-deg-per-s',
-                       sem_name='--max-sem-deg')
+    return segment_limits(args.max_drift_deg_per_s, args.max_sem_deg).still
 
 
 def fit_positions(args, readings, attitude_deg, times_s, stood_c, lines):
@@ -255,21 +314,44 @@ def fit_positions(args, readings, attitude_deg, times_s, stood_c, lines):
                                ('--max-rms-deg', '--max-temperature-difference-c'))
     except (CaptureRefused, StandFitRefused) as err:
         raise Refused(str(err)) from None
-    result, means, attitudes = solution.fit, solution.readings, solution.attitudes_deg
+    result, means = solution.fit, solution.readings
     raw_deg = np.degrees(inclination(means)) - attitudes[:, 0]
     after_deg = result.inclination_residual_deg
     lines += geometry_lines(result)
-    lines.append(f'{"pos":>3} {"incl_deg":>9} {"tf_deg":>8} {"samples":>7} {"noise_deg":>10} '
-                 f'{"raw_err_deg":>11} {"residual_deg":>12}')
-    lines += [f'{k + 1:>3} {incl:9.3f} {tf:8.3f} {n:>7} {s:10.4f} {before:11.4f} {after:12.6f}'
-              for k, ((incl, tf), n, s, before, after) in enumerate(
-                  zip(attitudes, counts, spread_deg, raw_deg, after_deg))]
+    lines.append(f'{"pos":>3} {"att":>3} {"incl_deg":>9} {"tf_deg":>8} {"az_deg":>7} '
+                 f'{"samples":>7} {"noise_deg":>10} {"raw_err_deg":>11} {"residual_deg":>12}')
+    lines += [f'{k + 1:>3} {a + 1:>3} {incl:9.3f} {tf:8.3f} {az:7.2f} {n:>7} {s:10.4f} '
+              f'{before:11.4f} {after:12.6f}'
+              for k, ((incl, tf, az), a, n, s, before, after) in enumerate(
+                  zip(attitudes, result.attitude, counts, spread_deg, raw_deg, after_deg))]
+    lines.append(repeatability_note(result))
+    if solution.plateaus is not None:
+        lines += plateau_lines(solution.plateaus)
     lines.append(f'RMS inclination residual: {result.rms_inclination_deg:.6f} deg (raw '
                  f'{np.sqrt(np.mean(raw_deg ** 2)):.4f} deg); RMS residual '
                  f'{result.rms_residual_mps2:.3g} m/s^2')
+    report_residuals(args, lines, [
+        Residual(f'position {k + 1} (I {attitude[0]:.1f}, TF {attitude[1]:.1f} deg, {n} '
+                 'samples)', float(after), float(spread / np.sqrt(n)), 'deg')
+        for k, (attitude, n, spread, after) in enumerate(
+            zip(attitudes, counts, spread_deg, after_deg))],
+        "inclination residual of each position against its mean's noise (spread / sqrt(n))")
     return (solution.stage, solution.refusal,
             partial(plot_positions, raw_deg=raw_deg, after_deg=after_deg,
                     rms_deg=result.rms_inclination_deg))
+
+
+def plateau_lines(plateaus):
+    """Return a multi-temperature stand's plateaus, order, residual and 1 sigma as text lines."""
+    return [f'positions at {len(plateaus.fits)} temperature plateaus: K(T) and b(T), every '
+            f'element a polynomial of T of order {plateaus.order} (chi-square per order tried: '
+            + ', '.join(f'{order}: {chi:.3g} for {dof} dof' for order, chi, dof
+                        in plateaus.chi_square)
+            + f'), valid over {plateaus.range_c[0]:.1f} .. {plateaus.range_c[1]:.1f} C'] + [
+        f'  plateau {t:6.2f} C: {fit.attitude.size} positions, RMS inclination residual '
+        f'{fit.rms_inclination_deg:.5f} deg, 1 sigma of K elements <= {sigma[:9].max():.2g}, '
+        f'of b <= {sigma[9:].max():.2g} m/s^2'
+        for t, fit, sigma in zip(plateaus.plateaus_c, plateaus.fits, plateaus.element_sigma)]
 
 
 def fit_magnetometer(args, existing, fields, attitude_deg, times_s, temperature_c, stand,
@@ -299,7 +381,10 @@ def fit_magnetometer(args, existing, fields, attitude_deg, times_s, temperature_
         position_noise_deg(fields, None if times_s is None else times_s[paired], position,
                            len(means), still_limits(args), ' (magnetometer)')
         fit = fit_field_stand(means, positions, total_nT, dip_deg, stand,
-                              args.max_field_rms_deg)
+                              args.max_field_rms_deg, readings_temperature_c(
+                                  existing.magnetometer_temperature, mean_temperature_c(
+                                      None if temperature_c is None
+                                      else temperature_c[paired])))
     except (CaptureRefused, StandFitRefused) as err:
         raise Refused(str(err)) from None
     lines.append(f'magnetometer (seed 001 Eq. 12) against {total_nT:.1f} nT, dip '
@@ -312,8 +397,16 @@ def fit_magnetometer(args, existing, fields, attitude_deg, times_s, temperature_
     return fit
 
 
-def fit_readings(args, readings, stood_c, lines):
-    """Return (Stand stage, refusal reason or None, draw) of a sphere fit of every reading."""
+def fit_readings(args, readings, stood_c, lines, segment=None):
+    """
+    Return (Stand stage, refusal reason or None, draw) of a sphere fit of every reading.
+
+    ``segment`` (N,): each reading's still segment of a continuous log, or
+    None; one reading a pose (``continuous_log.sphere_readings``).
+    """
+    readings, stood_c, note = sphere_readings(readings, segment, stood_c)
+    if note:
+        lines.append(note)
     try:
         check_temperature_span(stood_c, args.max_temperature_difference_c,
                                '--max-temperature-difference-c')

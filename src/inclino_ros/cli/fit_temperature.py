@@ -3,14 +3,17 @@
 
 Input: a CSV with the columns ``temperature_c, ax, ay, az`` (m/s^2; with
 ``--triad magnetometer``: ``bx, by, bz`` in nT) and optionally ``attitude``
-(a label per row: rows of one label share one attitude) or the reference
+(a label per row, any text: rows of one label share one attitude) or the reference
 columns ``ref_ax, ref_ay, ref_az`` (``ref_bx, ...``); or a bag with the raw
 sensor on ``/imu/data_raw`` (``--mag-topic`` /imu/mag for the magnetometer)
 and sensor_msgs/Temperature on ``/imu/temperature``, the temperature
 interpolated linearly to each stamp (samples outside the span of the
 temperature messages are left out), the attitudes told apart by the
 direction of the readings (``--attitude-separation-deg``).  The tool is held
-still at each attitude while it heats.
+still at each attitude while it heats.  A CSV with ``time_s`` and neither
+attitude nor reference columns is a continuous log (optionally with the
+gyro ``wx, wy, wz`` rad/s): its still segments are kept
+(``continuous_log.log_segments``), the attitudes told apart as for a bag.
 
 Heated at two or more attitudes (where every axis reads differently), each
 axis gets a bias AND a scale drift, ``A_T = K_T(T) A + B_T(T)``
@@ -36,26 +39,38 @@ different temperatures, or their temperature outside the heated range.
 """
 
 from dataclasses import replace
+import sys
 
+from inclino_ros.calibration.continuous_log import GYRO_COLUMNS, log_segments, TIME_COLUMN
 from inclino_ros.calibration.plausibility import (
     check_accelerometer_readings, check_field_readings, check_temperatures,
     STANDARD_GRAVITY_MPS2)
 from inclino_ros.calibration.temperature_fit import solve_temperature
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
-    add_common_arguments, axes_maps, finish_figure, is_bag, load_existing, matrix_lines,
-    new_figure, node_option, read_csv, read_topic, Refused, report_paths, run_fit,
+    add_common_arguments, axes_maps, AXIS_COLUMNS, finish_figure, is_bag, load_existing,
+    matrix_lines, new_figure, node_option, read_csv, read_topic, Refused, report_paths,
+    report_residuals, run_fit,
     sample_temperatures, save, tool_axes, write_text)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.options import between
 from inclino_ros.core.attitude import angle_between, inclination
-from inclino_ros.core.stillness import label_attitudes
+from inclino_ros.core.stillness import label_attitudes, SegmentLimits, StillLimits
 from inclino_ros.core.temperature import AXES, TemperatureFitRefused
+from inclino_ros.io.report import Residual
 import numpy as np
 
+#: Still segments of a heating log: slow (5 s windows, 10 s at least), and the readings drift
+#: with the temperature (a few hundredths of a degree a second): each window must be still,
+#: not a whole segment, and a window moves only beyond 0.1 deg/s or 0.5 deg within it (a
+#: hand turning the tool moves it by degrees).
+HEATING_SEGMENTS = SegmentLimits(window_s=5.0, min_s=10.0, whole=False, still=StillLimits(
+    max_drift_deg_per_s=0.1, max_sem_deg=0.5))
 #: Highest order of K_T(T) and B_T(T) (seed 001 fits order 2).
 MAX_ORDER = 6
 REPORT_NAME = 'fit_temperature'
+#: Width of a temperature bin of the residual table [C].
+TEMPERATURE_BIN_C = 5.0
 MAG_TOPIC = '/imu/mag'
 #: Per triad: CSV columns, reference columns, unit, calibration section, later stages.
 TRIADS = {
@@ -80,9 +95,9 @@ def register(subparsers):
         'bag with the raw sensor on /imu/data_raw (--mag-topic for the magnetometer) and '
         'sensor_msgs/Temperature on /imu/temperature (what inclino simulate --heating writes), '
         'or a CSV with the columns temperature_c, ax, ay, az (bx, by, bz in nT for the '
-        'magnetometer), optional attitude (a label per row) or ref_ax, ref_ay, ref_az (the '
-        'reading at 25 C). Without them a one-attitude reference is the mean reading within '
-        '--reference-window-c of 25 C.',
+        'magnetometer), optional attitude (a label per row, any text such as up or 3) or '
+        'ref_ax, ref_ay, ref_az (the reading at 25 C). Without them a one-attitude reference '
+        'is the mean reading within --reference-window-c of 25 C.',
         'The stage compensates to the temperature the later stages stood for; it replaces the '
         'old one of its triad, every other stage is kept. The report, fit_temperature.png and '
         'fit_temperature.txt, goes beside the file or to --report-dir.',
@@ -147,6 +162,8 @@ def fit(args, lines, outputs):
     lines.append(f'{what} over the run (vs each attitude at the stage reference): largest '
                  f'{np.abs(before).max():.4f} deg uncompensated, {np.abs(after).max():.4f} deg '
                  'compensated')
+    report_residuals(args, lines, temperature_residuals(temperature_c, before, after, what),
+                     f'{what} per {TEMPERATURE_BIN_C:g} C of the run, compensated')
     plot(outputs.path(png), temperature_c, result, before, after, what)
     lines.append(f'report: {png}')
     save(args, model, outputs)
@@ -156,6 +173,27 @@ def fit(args, lines, outputs):
                  f'{result.reference_temperature_c:g} C)'
                  + (f', {" and ".join(kept)} stage kept' if kept else ''))
     write_text(outputs.path(txt), lines)
+
+
+def temperature_residuals(temperature_c, before, after, what):
+    """
+    Return the Residual rows of each TEMPERATURE_BIN_C of the run: the RMS error compensated.
+
+    The fit states no per-sample noise of the angle, so the noise is NaN
+    (no ratio); the uncompensated RMS error of the bin is in the note.
+    """
+    rows = []
+    edges = np.arange(np.floor(temperature_c.min() / TEMPERATURE_BIN_C) * TEMPERATURE_BIN_C,
+                      temperature_c.max() + TEMPERATURE_BIN_C, TEMPERATURE_BIN_C)
+    for low in edges[:-1]:
+        inside = (temperature_c >= low) & (temperature_c < low + TEMPERATURE_BIN_C)
+        if inside.any():
+            rows.append(Residual(
+                f'{low:.0f} .. {low + TEMPERATURE_BIN_C:.0f} C ({int(inside.sum())} samples)',
+                float(np.sqrt(np.mean(after[inside] ** 2))), float('nan'), 'deg',
+                note=f'RMS {what} {np.sqrt(np.mean(before[inside] ** 2)):.4f} deg '
+                     'uncompensated'))
+    return rows
 
 
 def fit_lines(result, unit):
@@ -210,7 +248,9 @@ def load_input(args):
     columns, reference_columns, _, _, _ = TRIADS[args.triad]
     if not is_bag(args.input):
         table = read_csv(args.input, ('temperature_c',) + columns,
-                         optional=reference_columns + ('attitude',))
+                         optional=reference_columns + (TIME_COLUMN,) + GYRO_COLUMNS + tuple(
+                             name for name in AXIS_COLUMNS if name not in columns),
+                         text=('attitude',))
         given = [name for name in reference_columns if name in table]
         if given and len(given) != 3:
             raise CommandError(f'{args.input} has {", ".join(given)}: give all of '
@@ -218,7 +258,13 @@ def load_input(args):
         readings = np.column_stack([table[name] for name in columns])
         reference = (np.column_stack([table[name] for name in reference_columns])
                      if given else None)
-        attitude = table.get('attitude', np.zeros(readings.shape[0]))
+        if TIME_COLUMN in table and 'attitude' not in table and not given:
+            return log_still_samples(args, table, readings)
+        labels = table.get('attitude', [''] * readings.shape[0])
+        # Any text is a label (a number, 'up', 'A3'): rows of one label share one attitude,
+        # numbered in the order they first appear.
+        first = {label: number for number, label in enumerate(dict.fromkeys(labels))}
+        attitude = np.array([first[label] for label in labels])
         return table['temperature_c'], readings, reference, attitude
     if args.triad == 'accelerometer':
         series = read_topic(args.input, args.raw_topic)
@@ -233,6 +279,33 @@ def load_input(args):
     readings = readings[inside]
     return (temperature_c[inside], readings, None,
             label_attitudes(readings, args.attitude_separation_deg))
+
+
+def log_still_samples(args, table, readings):
+    """
+    Return (temperature_c, readings, None, attitude) of a continuous log's still samples.
+
+    A CSV with ``time_s`` and no attitude or reference columns: the still
+    segments of the accelerometer (``continuous_log.log_segments``, with the
+    gyro ``wx, wy, wz`` when given; for the magnetometer triad too, which
+    turns with it) are kept, the samples of a tool being turned left out;
+    the attitudes are told apart by direction as for a bag.
+    """
+    accel = (np.column_stack([table[name] for name in AXIS_COLUMNS])
+             if all(name in table for name in AXIS_COLUMNS) else readings)
+    gyro = (np.column_stack([table[name] for name in GYRO_COLUMNS])
+            if all(name in table for name in GYRO_COLUMNS) else None)
+    try:
+        found = log_segments(table[TIME_COLUMN], accel, gyro, limits=HEATING_SEGMENTS)
+    except ValueError as err:
+        raise CommandError(f'{args.input}: {err}') from None
+    if not found.ranges:
+        raise CommandError(f'{args.input}: a continuous log (time_s) with no still segment')
+    still = found.still
+    print(f'inclino fit-temperature: {found.lines("log")[0]}; the samples between them left '
+          'out', file=sys.stderr)
+    return (table['temperature_c'][still], readings[still], None,
+            label_attitudes(readings[still], args.attitude_separation_deg))
 
 
 def plot(path, temperature_c, result, before, after, what):

@@ -22,6 +22,7 @@ from inclino_ros.calibration.model import (
     CalibrationChanged, CalibrationFileError, CalibrationModel, check_axes_maps, check_sensor,
     load_model, save_model)
 from inclino_ros.calibration.plausibility import Implausible
+from inclino_ros.calibration.provenance import utc_now_iso
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.mounting import add_axes_map_arguments, axes_matrix
 from inclino_ros.cli.options import node_parameter
@@ -29,8 +30,10 @@ from inclino_ros.core.mounting import to_tool_axes
 from inclino_ros.core.refusal import Refused
 from inclino_ros.io import tables
 from inclino_ros.io.bag import BagError, concatenate, read, topic_info
-from inclino_ros.io.files import Outputs
+from inclino_ros.io.files import Outputs, write_text as write_file
+from inclino_ros.io.report import certificate_html, residual_lines
 from inclino_ros.node.parameters import PARAMETERS
+import numpy as np
 
 RAW_TOPIC = '/imu/data_raw'
 TEMPERATURE_TOPIC = '/imu/temperature'
@@ -75,10 +78,10 @@ def is_bag(path):
     return os.path.isdir(path)
 
 
-def read_csv(path, required, optional=(), max_rows=tables.MAX_ROWS):
+def read_csv(path, required, optional=(), text=(), max_rows=tables.MAX_ROWS):
     """Return the columns of a CSV file (``tables.read_csv``); CommandError if unusable."""
     try:
-        return tables.read_csv(path, required, optional, max_rows=max_rows)
+        return tables.read_csv(path, required, optional, text, max_rows=max_rows)
     except tables.TableError as err:
         raise CommandError(str(err)) from None
 
@@ -216,6 +219,7 @@ def save(args, model, outputs):
     implausible result) or the file changed since ``begin_update``,
     CommandError when the file cannot be written.
     """
+    args.saved_model = model
     try:
         save_model(args.calibration, model, args.writer, outputs, args.calibration_sha256)
     except ValueError as err:
@@ -230,6 +234,42 @@ def report_paths(args, name):
         os.path.expanduser(args.calibration)))
     os.makedirs(folder, exist_ok=True)
     return os.path.join(folder, f'{name}.png'), os.path.join(folder, f'{name}.txt')
+
+
+def report_residuals(args, lines, rows, title='residuals'):
+    """
+    Add the fit's residual rows (``io.report.Residual``) to its text report and certificate.
+
+    ``lines`` gets one line per row and those down-weighted or refused
+    (``io.report.residual_lines``); the certificate ``run_fit`` writes the
+    same rows.
+    """
+    args.residual_rows = list(getattr(args, 'residual_rows', [])) + list(rows)
+    lines += residual_lines(rows, title)
+
+
+def write_certificate(command, args, lines, outputs, path=None):
+    """
+    Write the fit's calibration certificate as one of ``outputs``; nothing if none was saved.
+
+    ``path``: ``fit_NAME_certificate.html`` beside the other reports
+    (``report_paths``) unless given; the text report, written already, does
+    not name it (what a fit prints is its text report).  It holds the calibration file as saved
+    (``save``), the residual rows (``report_residuals``), the PNG figures
+    among ``outputs`` and the text report (``io.report.certificate_html``).
+    """
+    model = getattr(args, 'saved_model', None)
+    if model is None:
+        return
+    if path is None:
+        name = command.replace('-', '_')
+        path = os.path.join(os.path.dirname(report_paths(args, name)[0]),
+                            f'{name}_certificate.html')
+    figures = [(os.path.basename(final), temporary)
+               for final, temporary in outputs.pending('.png')]
+    page = certificate_html(command, os.path.abspath(args.calibration), model.to_dict(),
+                            getattr(args, 'residual_rows', []), figures, lines, utc_now_iso())
+    write_file(path, page, outputs=outputs)
 
 
 def new_figure(rows, title):
@@ -273,6 +313,7 @@ def run_fit(command, args, fit):
         with Outputs(inputs=[args.input, args.calibration], force=True) as outputs:
             try:
                 fit(args, lines, outputs)
+                write_certificate(command, args, lines, outputs)
             except (Refused, Implausible) as err:
                 refusal = err
     except CalibrationChanged as err:  # at the commit: nothing of this command was written
@@ -296,3 +337,15 @@ def write_text(path, lines):
 def matrix_lines(name, matrix, fmt):
     """Return a 3x3 matrix as indented text lines under ``name``."""
     return [f'{name}:'] + ['  ' + ' '.join(format(v, fmt) for v in row) for row in matrix]
+
+
+def warn_outside_range(model, temperature_c, command):
+    """Say on stderr how many temperatures lie outside a multi-temperature stand's range."""
+    if model.stand is None or temperature_c is None:
+        return
+    outside = int(np.count_nonzero(model.stand.outside_range(temperature_c)))
+    if outside:
+        print(f'{command}: warning: {outside} of {np.size(temperature_c)} temperature readings '
+              f"lie outside the stand stage's fitted range {model.stand.t_min_c:g} .. "
+              f'{model.stand.t_max_c:g} C: K and b held at the nearer end there',
+              file=sys.stderr)

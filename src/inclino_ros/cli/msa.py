@@ -72,7 +72,7 @@ from inclino_ros.calibration.stations import (
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_sensor_argument, begin_update, finish_figure, load_existing, new_figure, read_csv,
-    Refused, save)
+    Refused, report_residuals, save, write_certificate)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.options import add_force_argument, between, non_negative, report_path
 from inclino_ros.cli.process import add_limit_arguments
@@ -83,6 +83,7 @@ from inclino_ros.core.msa import (
 from inclino_ros.core.uncertainty import toolface_std_rad
 from inclino_ros.io import tables
 from inclino_ros.io.files import Outputs
+from inclino_ros.io.report import REFUSED, Residual, USED
 from inclino_ros.io.tables import write_csv
 import numpy as np
 
@@ -152,7 +153,8 @@ def run(args):
     """Correct, write OUT and OUT.msa.json, print the corrections; return the exit code."""
     lines = []
     outputs = Outputs(inputs=[args.stations, args.calibration], force=args.force)
-    for path in (args.output, f'{args.output}.msa.json', args.report):
+    certificate = None if args.calibration is None else f'{args.output}.certificate.html'
+    for path in (args.output, f'{args.output}.msa.json', args.report, certificate):
         if path is not None:
             outputs.check(path)
     if args.calibration is not None:
@@ -166,6 +168,8 @@ def run(args):
             write_outputs(args, table, output, lines, outputs)
             if model is not None:
                 store(args, model, output[0], lines, outputs)
+                write_certificate('msa', args, lines, outputs, certificate)
+                lines.append(f'certificate: {certificate}')
     except (MsaRefused, Refused, Implausible, CalibrationChanged) as err:
         print('\n'.join(lines + [f'inclino msa: refused: {err}; nothing written']),
               file=sys.stderr)
@@ -231,6 +235,32 @@ def store(args, model, result, lines, outputs):
     lines.append('wrote the interference (tool x, y, z: '
                  + ', '.join(f'{v:.1f}' for v in model.magnetic.interference_nT)
                  + f' nT) to {args.calibration}')
+    report_residuals(args, lines, station_residuals(args, result),
+                     'B total and dip of each station after the correction')
+
+
+def station_residuals(args, result):
+    """
+    Return the Residual rows of each station: B total and dip after the correction.
+
+    Against the stated noise of the reference (``--reference-total-std-nT``,
+    ``--reference-dip-std-deg``); a station left out of the solve (QC,
+    ``--exclude-failing``) is refused, one whose azimuth is NaN (near east or
+    west for the short collar) too.
+    """
+    qc, rows = result.qc, []
+    used = getattr(result, 'used', None)
+    for i, (delta_nT, delta_deg) in enumerate(zip(qc.b_total_delta_nT, qc.dip_delta_deg)):
+        status, note = USED, ''
+        if i in getattr(result, 'excluded', ()) or used is not None and not used[i]:
+            status, note = REFUSED, 'left out of the solve (QC)'
+        elif hasattr(result, 'east_west') and result.east_west[i]:
+            status, note = REFUSED, 'near east/west: no azimuth'
+        rows += [Residual(f'station {i + 1} B total', float(delta_nT),
+                          float(args.reference_total_std_nT), 'nT', status, note),
+                 Residual(f'station {i + 1} dip', float(delta_deg),
+                          float(args.reference_dip_std_deg), 'deg', status, note)]
+    return rows
 
 
 def correct(args, table, lines):

@@ -44,32 +44,46 @@ error of the mean (``pipeline.average``); windows of a tool that moved are
 not written, and the samples of the window still open at the end are not
 either (both counted).
 
+IN may also be a continuous log: a CSV file (``*.csv``) with ``time_s`` [s,
+increasing], ``ax, ay, az`` [m/s^2], optionally ``wx, wy, wz`` [rad/s] and
+``temperature_c`` (then the temperature and stand stages get each row's
+temperature, ``--temperature-topic`` not needed); each row is one sample,
+stamped ``time_s`` (frame ``csv``).  A CSV has no magnetometer topic: for
+the azimuth of a CSV use ``inclino survey``.  Temperatures outside a
+multi-temperature stand's fitted range are counted on stderr.
+
 OUT is written under a temporary name and renamed when complete; an OUT
 that exists is refused unless ``--force``, and IN or the calibration file
 never (``io.files.Outputs``).  A damaged IN (a read that fails or yields
 fewer messages than the bag says) is an error and leaves no OUT.
 """
 
+from dataclasses import fields
 from functools import partial
+import os
 import sys
 
+from inclino_ros.calibration.continuous_log import GYRO_COLUMNS, TIME_COLUMN
 from inclino_ros.calibration.model import CalibrationFileError, check_axes_maps
 from inclino_ros.calibration.plausibility import (
     check_for_sensor, Implausible, temperature_ok)
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
-    add_sensor_argument, load_calibration, NODE_DEFAULTS, node_option)
+    add_sensor_argument, AXIS_COLUMNS, load_calibration, NODE_DEFAULTS, node_option,
+    warn_outside_range)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.mounting import add_axes_map_arguments, settings_maps
 from inclino_ros.cli.options import add_force_argument, between, node_parameter
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core.averaging import Averager
+from inclino_ros.io import tables
 from inclino_ros.io.bag import (
-    BagWriter, CHUNK_SIZE, concatenate, IMU, MAGNETIC_FIELD, read, STORAGES, TEMPERATURE,
-    TemperatureSeries, topic_info, VECTOR3_STAMPED)
+    BagWriter, CHUNK_SIZE, concatenate, IMU, ImuSeries, MAGNETIC_FIELD, read, STORAGES,
+    TEMPERATURE, TemperatureSeries, topic_info, VECTOR3_STAMPED)
 from inclino_ros.io.files import Outputs
 from inclino_ros.pipeline import MagneticSettings, Settings
 from inclino_ros.stream import Magnetometer, replay, Summary
+import numpy as np
 from tqdm import tqdm
 
 SURVEY_TOPIC = '/survey'
@@ -97,7 +111,9 @@ def register(subparsers):
         'G-total) of --reference-total-nT and --reference-dip-deg, of --site, or of the '
         'multi-station analysis in the calibration file; with no reference there is none.',
         'Exit 0 done, 1 no sample accepted (nothing written), 2 unusable input.')
-    parser.add_argument('input', metavar='IN', help='input bag (mcap or sqlite3)')
+    parser.add_argument('input', metavar='IN',
+                        help='input bag (mcap or sqlite3), or a CSV log (*.csv: time_s, ax, '
+                             'ay, az; optional wx, wy, wz, temperature_c)')
     parser.add_argument('output', metavar='OUT', help='output bag to create')
     parser.add_argument('--calibration', required=True, metavar='FILE',
                         help='calibration file (as written by the node or inclino calibrate)')
@@ -174,13 +190,17 @@ def run(args):
     try:
         with Outputs(inputs=[args.input, args.calibration], force=args.force) as outputs:
             output = outputs.path(args.output)
-            model, settings, count, temperature = _prepare(args)
+            log = read_log(args) if is_csv(args.input) else None
+            model, settings, count, temperature = _prepare(args, log)
+            if temperature is not None:
+                warn_outside_range(model, temperature.temperature_c, 'inclino process')
             magnetometer = _magnetometer(args, model)
             averager = (Averager(args.average_samples, args.output_rate_hz)
                         if args.average_samples > 1 or args.output_rate_hz > 0 else None)
             with BagWriter(output, args.storage) as out:
                 summary = process(args.input, args.topic, out, model, settings,
-                                  args.chunk_size, count, temperature, magnetometer, averager)
+                                  args.chunk_size, count, temperature, magnetometer, averager,
+                                  None if log is None else log[0])
             if summary.accepted == 0:
                 raise _NothingAccepted()   # an empty OUT is not left behind
     except _NothingAccepted:
@@ -191,6 +211,8 @@ def run(args):
     print(f'wrote {args.output} ({args.storage}): {summary.written} messages on each of '
           f'{SURVEY_TOPIC} and {IMU_TOPIC}')
     print('\n'.join(summary.lines(magnetometer)))
+    # 'board': the toolface written is the sensor board's, not the tool's (issue 19 item 6).
+    print(f'toolface_zero: {model.toolface_zero}')
     loud = summary.mostly_dropped()
     if loud is not None:
         print(f'inclino process: ERROR: {loud}', file=sys.stderr)
@@ -202,8 +224,52 @@ class _NothingAccepted(Exception):
     """No sample was accepted: the output is discarded (``Outputs`` removes it)."""
 
 
-def _prepare(args):
-    """Return (model, settings, message count, TemperatureSeries or None) or raise CommandError."""
+def is_csv(path):
+    """Return whether IN names a CSV log (a file ending in .csv) rather than a bag."""
+    return os.path.isfile(path) and path.lower().endswith('.csv')
+
+
+def read_log(args):
+    """
+    Return (ImuSeries, TemperatureSeries or None) of a CSV log; CommandError if unusable.
+
+    Each row is one sample stamped ``time_s`` (ns, frame ``csv``); the gyro
+    columns go to the angular velocity (zero without them), the temperature
+    column to a series of one value per row.
+    """
+    try:
+        table = tables.read_csv(args.input, (TIME_COLUMN,) + AXIS_COLUMNS,
+                                optional=GYRO_COLUMNS + ('temperature_c',))
+    except tables.TableError as err:
+        raise CommandError(str(err)) from None
+    if args.mag_topic is not None:
+        raise CommandError(f'{args.input} is a CSV log: it has no --mag-topic (for the '
+                           'azimuth of a CSV use inclino survey)')
+    times_s = table[TIME_COLUMN]
+    if not (np.all(np.isfinite(times_s)) and np.all(np.diff(times_s) > 0.0)
+            and np.all(np.abs(times_s) < 9.2e9)):
+        raise CommandError(f'{args.input}: {TIME_COLUMN} must hold finite, increasing times '
+                           '[s] (a continuous log in the order it was recorded)')
+    stamps_ns = np.round(times_s * 1e9).astype(np.int64)
+    count = stamps_ns.size
+    frames = np.full(count, 'csv', dtype=object)
+    gyro = (np.column_stack([table[name] for name in GYRO_COLUMNS])
+            if all(name in table for name in GYRO_COLUMNS) else np.zeros((count, 3)))
+    imu = ImuSeries(stamps_ns, frames, np.tile([0.0, 0.0, 0.0, 1.0], (count, 1)),
+                    np.zeros((count, 9)), gyro, np.zeros((count, 9)),
+                    np.column_stack([table[name] for name in AXIS_COLUMNS]),
+                    np.zeros((count, 9)))
+    temperature = (None if 'temperature_c' not in table else TemperatureSeries(
+        stamps_ns, frames, table['temperature_c'], np.zeros(count)))
+    return imu, temperature
+
+
+def _prepare(args, log=None):
+    """
+    Return (model, settings, message count, TemperatureSeries or None) or raise CommandError.
+
+    ``log``: the (ImuSeries, TemperatureSeries or None) of a CSV log, else None (a bag).
+    """
     model = load_calibration(args.calibration, args.sensor_id)
     if not model.calibrated:
         print(f'inclino process: warning: {args.calibration} holds no accelerometer '
@@ -212,6 +278,8 @@ def _prepare(args):
                   ', and the azimuth uses the raw gravity direction (calibrate the level bench '
                   'first: inclino fit-level or inclino calibrate)'
                   if model.magnetic is not None else ''), file=sys.stderr)
+    for note in model.uncertainty_notes:
+        print(f'inclino process: warning: {args.calibration}: {note}', file=sys.stderr)
     axes = args.axes or model.accelerometer_axes
     if axes != model.accelerometer_axes:
         raise CommandError(f'{args.calibration} is for a {model.accelerometer_axes}-axis '
@@ -233,6 +301,14 @@ def _prepare(args):
                         args.calibration)
     except (ValueError, CalibrationFileError) as err:
         raise CommandError(str(err)) from None
+    if log is not None:
+        imu, series = log
+        if series is None and model.temperature is not None:
+            print(f'inclino process: warning: {args.calibration} has a temperature stage but '
+                  f'{args.input} has no temperature_c column: compensating at '
+                  f'{model.temperature.reference_temperature_c} deg C', file=sys.stderr)
+        return model, settings, imu.stamps_ns.size, None if series is None else \
+            _known_temperatures(series, args)
     msgtype, count = topic_info(args.input, args.topic)
     if msgtype != IMU:
         raise CommandError(f'{args.topic} in {args.input} holds {msgtype}, not {IMU}')
@@ -246,14 +322,18 @@ def _prepare(args):
     if msgtype != TEMPERATURE or temperatures == 0:
         raise CommandError(f'{args.temperature_topic} in {args.input} holds {temperatures} '
                            f'{msgtype} messages, not {TEMPERATURE} ones')
-    series = concatenate(read(args.input, args.temperature_topic))
+    return model, settings, count, _known_temperatures(
+        concatenate(read(args.input, args.temperature_topic)), args)
+
+
+def _known_temperatures(series, args):
+    """Return the TemperatureSeries of the readings a sensor gives; CommandError if none."""
     kept = temperature_ok(series.temperature_c)
     if not kept.any():
-        raise CommandError(f'{args.temperature_topic} in {args.input} holds no temperature a '
-                           'sensor reads')
-    return model, settings, count, TemperatureSeries(
-        series.stamps_ns[kept], series.frame_ids[kept], series.temperature_c[kept],
-        series.variance[kept])
+        raise CommandError(f'{args.temperature_topic or "temperature_c"} in {args.input} holds '
+                           'no temperature a sensor reads')
+    return TemperatureSeries(series.stamps_ns[kept], series.frame_ids[kept],
+                             series.temperature_c[kept], series.variance[kept])
 
 
 def _magnetometer(args, model):
@@ -288,7 +368,7 @@ def _magnetometer(args, model):
 
 
 def process(in_path, topic, out, model, settings, chunk_size, count=None, temperature=None,
-            magnetometer=None, averager=None):
+            magnetometer=None, averager=None, imu=None):
     """
     Correct ``topic`` of the bag ``in_path`` into the open BagWriter ``out``.
 
@@ -296,6 +376,7 @@ def process(in_path, topic, out, model, settings, chunk_size, count=None, temper
     temperature, ``magnetometer`` (a Magnetometer or None) its field; with
     an ``averager`` (``core.averaging.Averager``) the windows it closes are
     written instead of the samples.
+    ``imu``: the ImuSeries of a CSV log, read instead of ``topic`` of the bag.
     Returns the Summary; shows a progress bar of ``count`` messages on stderr.
     """
     out.add_topic(SURVEY_TOPIC, VECTOR3_STAMPED)
@@ -303,8 +384,12 @@ def process(in_path, topic, out, model, settings, chunk_size, count=None, temper
     summary = Summary(settings.gravity_mps2)
     with tqdm(total=count, unit='msg', desc='inclino process', file=sys.stderr) as progress:
         try:
-            replay(read(in_path, topic, chunk_size), partial(_write, out), model, settings,
-                   summary, temperature, magnetometer, averager, progress)
+            batches = (read(in_path, topic, chunk_size) if imu is None else
+                       (ImuSeries(*(getattr(imu, f.name)[start:start + chunk_size]
+                                    for f in fields(imu)))
+                        for start in range(0, imu.stamps_ns.size, chunk_size)))
+            replay(batches, partial(_write, out), model, settings, summary, temperature,
+                   magnetometer, averager, progress)
         except KeyboardInterrupt:
             raise KeyboardInterrupt(f'after {summary.samples_in} of {count} messages') from None
     if averager is not None:

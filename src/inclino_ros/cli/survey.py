@@ -2,18 +2,24 @@
 ``inclino survey``: inclination, toolface and azimuth of each shot of a CSV file.
 
 Input: a CSV with ``ax, ay, az`` (m/s^2, REP 145 specific force, tool frame)
-and ``bx, by, bz`` (nT, same frame), optionally ``temperature_c`` and
+and optionally ``bx, by, bz`` (nT, same frame), ``temperature_c`` and
 ``samples``: the count of readings a row is the mean of (a station), whose
 noise is then the per-sample noise / sqrt(samples) (default 1: each row one
-reading); any other columns are carried through.  Every row goes through ``pipeline.run`` with
-the calibration file, as in the node and ``inclino process``.
+reading); any other columns are carried through.  Every row goes through
+``pipeline.run`` with the calibration file, as in the node and ``inclino
+process``; without ``--calibration`` the raw readings give the raw angles.
+Without ``bx, by, bz`` (an accelerometer-only tool) the output has
+inclination and toolface, no azimuth columns, and says so once.
 
 Output: the input columns (one whose name the output uses is kept as
 ``input_<name>``) plus ``inclination_deg``, ``toolface_deg``, ``azimuth_deg``,
 ``g_total_mps2``, ``b_total_nT``, ``dip_deg``, the 1 sigma of each
 (``inclination_std_deg``, ``toolface_std_deg``, ``azimuth_std_deg``,
 ``g_total_std_mps2``, ``b_total_std_nT``, ``dip_std_deg``: the sensor noise
-and the calibration's tilt, as ``pipeline.run`` propagates them) and ``status`` (``ok`` or why
+and the calibration's tilt, as ``pipeline.run`` propagates them),
+``toolface_zero`` (``stand``: the toolface is the tool's, its zero
+calibrated on a stand; ``board``: measured from the sensor board's x axis,
+off the tool's high side by the board's unknown roll) and ``status`` (``ok`` or why
 the row gave no angles: ``non_finite``, ``saturated``, ``zero``; or
 ``temperature_outside_fit``: a temperature outside the calibration's fitted
 range).  The
@@ -35,10 +41,12 @@ calibration file).
 import math
 import sys
 
+from inclino_ros.calibration.model import CalibrationModel
 from inclino_ros.calibration.plausibility import (
     check_acceleration_unit, check_field_unit, check_temperatures, Implausible)
 from inclino_ros.cli.errors import CommandError
-from inclino_ros.cli.fitting import load_calibration, NODE_DEFAULTS, node_option
+from inclino_ros.cli.fitting import (
+    load_calibration, NODE_DEFAULTS, node_option, warn_outside_range)
 from inclino_ros.cli.options import add_force_argument, node_parameter
 from inclino_ros.cli.process import add_limit_arguments
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
@@ -50,7 +58,8 @@ from inclino_ros.io.files import Outputs
 from inclino_ros.pipeline import MagneticSettings, run as run_pipeline, Settings
 import numpy as np
 
-INPUT_COLUMNS = ('ax', 'ay', 'az', 'bx', 'by', 'bz')
+ACCEL_COLUMNS = ('ax', 'ay', 'az')
+FIELD_COLUMNS = ('bx', 'by', 'bz')
 ANGLE_COLUMNS = ('inclination_deg', 'toolface_deg', 'azimuth_deg', 'g_total_mps2',
                  'b_total_nT', 'dip_deg', 'inclination_std_deg', 'toolface_std_deg',
                  'azimuth_std_deg', 'g_total_std_mps2', 'b_total_std_nT', 'dip_std_deg')
@@ -67,10 +76,11 @@ def register(subparsers):
     parser = subparsers.add_parser(
         'survey', help='inclination, toolface, azimuth and QC of each shot of a CSV file',
         description=__doc__.split('\n\n', 1)[1])
-    parser.add_argument('input', metavar='IN', help='CSV file (ax, ay, az, bx, by, bz)')
+    parser.add_argument('input', metavar='IN',
+                        help='CSV file (ax, ay, az; optional bx, by, bz and temperature_c)')
     parser.add_argument('-o', '--output', required=True, metavar='OUT', help='CSV file to write')
-    parser.add_argument('--calibration', required=True, metavar='FILE',
-                        help='calibration file to apply')
+    parser.add_argument('--calibration', metavar='FILE',
+                        help='calibration file to apply (default: none, the raw angles)')
     parser.add_argument('--toolface-convention', choices=('seed000', 'iscwsa_highside'),
                         default=NODE_DEFAULTS['toolface_convention'],
                         help='gravity toolface definition (default: %(default)s)')
@@ -90,11 +100,13 @@ def register(subparsers):
 
 def run(args):
     """Write the survey of IN to OUT; return the exit code."""
-    outputs = Outputs(inputs=[args.input, args.calibration], force=args.force)
+    outputs = Outputs(inputs=[args.input] + ([args.calibration] if args.calibration else []),
+                      force=args.force)
     outputs.check(args.output)
     with outputs:
         rows, written = survey(args, outputs)
-    print(f'wrote {args.output}: {rows} rows, {written} with an azimuth')
+    print(f'wrote {args.output}: {rows} rows'
+          + ('' if written is None else f', {written} with an azimuth'))
     return 0
 
 
@@ -117,9 +129,10 @@ def _samples(path, rows, header):
     counts = _numbers(rows, header, SAMPLES_COLUMN)
     bad = np.flatnonzero(~((counts >= 1) & (np.mod(counts, 1.0) == 0.0)))
     if bad.size:
-        value = rows[bad[0]][header.index(SAMPLES_COLUMN)]
+        row, index = rows[bad[0]], header.index(SAMPLES_COLUMN)
+        cell = row[index] if index < len(row) else ''
         raise CommandError(f'{path}: column {SAMPLES_COLUMN} must be a whole count >= 1 '
-                           f'(row {bad[0] + 1} has {value!r})')
+                           f'(row {bad[0] + 1} has {cell!r})')
     return counts
 
 
@@ -164,29 +177,52 @@ def _outside_fit(model, temperature_c):
     return outside
 
 
+def _model(path):
+    """
+    Return the calibration model of ``path`` (``fitting.load_calibration``, any sensor).
+
+    None (no ``--calibration``): the empty model, every stage absent: the raw
+    angles (said on stderr).
+    """
+    if path is None:
+        print('inclino survey: no --calibration: raw angles (no correction applied)',
+              file=sys.stderr)
+        return CalibrationModel(3)
+    return load_calibration(path, any_sensor=True)
+
+
 def survey(args, outputs):
-    """Compute and write the survey; return (rows, rows with an azimuth)."""
+    """Compute and write the survey; return (rows, rows with an azimuth or None: no field)."""
     try:
         header, rows = tables.read_rows(args.input)
     except tables.TableError as err:
         raise CommandError(str(err)) from None
-    missing = [name for name in INPUT_COLUMNS if name not in header]
+    has_field = [name in header for name in FIELD_COLUMNS]
+    missing = [name for name in ACCEL_COLUMNS if name not in header] + (
+        [name for name, has in zip(FIELD_COLUMNS, has_field) if not has]
+        if any(has_field) else [])
     if missing:
         raise CommandError(f'{args.input} lacks the column(s) {", ".join(missing)}; it has '
                            f'{", ".join(header)}')
-    raw, field = (np.column_stack([_numbers(rows, header, n) for n in names])
-                  for names in (INPUT_COLUMNS[:3], INPUT_COLUMNS[3:]))
+    raw = np.column_stack([_numbers(rows, header, n) for n in ACCEL_COLUMNS])
+    field = (np.column_stack([_numbers(rows, header, n) for n in FIELD_COLUMNS])
+             if any(has_field) else None)
     averaged = _samples(args.input, rows, header)
+    if field is None:
+        print(f'inclino survey: no bx, by, bz in {args.input}: inclination and toolface '
+              'only (an accelerometer-only tool: no azimuth columns)', file=sys.stderr)
     try:
         check_acceleration_unit(raw, args.gravity_mps2, 'ax, ay, az')
-        check_field_unit(field, 'bx, by, bz')
+        if field is not None:
+            check_field_unit(field, 'bx, by, bz')
     except Implausible as err:
         raise CommandError(err.reason) from None
-    model = load_calibration(args.calibration, any_sensor=True)
+    model = _model(args.calibration)
     if model.accelerometer_axes != 3:
         raise CommandError(f'{args.calibration} is for a two-axis accelerometer: a survey '
                            'needs three axes')
     temperature_c = _temperatures(args, header, rows, model)
+    warn_outside_range(model, temperature_c, 'inclino survey')
     try:
         total_nT, dip_deg, declination_deg, _ = resolve_reference(args, model)
         settings = Settings(gravity_mps2=args.gravity_mps2,
@@ -205,16 +241,25 @@ def survey(args, outputs):
                                 noise_std_nT=args.mag_noise_nT,
                                 azimuth_max_std_deg=args.azimuth_max_std_deg)
     result = run_pipeline(raw, model, settings, temperature_c, field, magnetic, averaged)
-    columns = output_columns(result, declination_deg, total_nT is not None)
+    columns = output_columns(result, declination_deg, total_nT is not None,
+                             model.toolface_zero)
     outside = _outside_fit(model, temperature_c)
     write(outputs.path(args.output), header, rows, result.codes, columns, outside)
+    if field is None:
+        return len(rows), None
     return len(rows), int(np.isfinite(columns['azimuth_deg'][1]).sum())
 
 
-def output_columns(result, declination_deg, with_qc):
+def output_columns(result, declination_deg, with_qc, toolface_zero):
     """Return ``{name: (accepted mask, values of the accepted rows)}`` of the output."""
     accepted = result.accepted
     azimuth = result.magnetic
+    if azimuth is None:    # no magnetometer: no azimuth, no field QC
+        values = {'inclination_deg': result.inclination_deg,
+                  'toolface_deg': result.toolface_deg, 'g_total_mps2': result.g_total_mps2,
+                  'inclination_std_deg': result.inclination_std_deg,
+                  'toolface_std_deg': result.toolface_std_deg}
+        return {name: (accepted, value) for name, value in values.items()}
     values = {'inclination_deg': result.inclination_deg, 'toolface_deg': result.toolface_deg,
               'azimuth_deg': azimuth.defined_azimuth_deg, 'g_total_mps2': result.g_total_mps2,
               'b_total_nT': azimuth.b_total_nT, 'dip_deg': azimuth.dip_deg,
@@ -223,6 +268,7 @@ def output_columns(result, declination_deg, with_qc):
               'azimuth_std_deg': azimuth.azimuth_std_deg,
               'g_total_std_mps2': azimuth.g_total_std_mps2,
               'b_total_std_nT': azimuth.b_total_std_nT, 'dip_std_deg': azimuth.dip_std_deg}
+    values['toolface_zero'] = [toolface_zero] * int(np.count_nonzero(accepted))
     if declination_deg is not None:
         values['true_azimuth_deg'] = true_azimuth_deg(azimuth.defined_azimuth_deg,
                                                       declination_deg)

@@ -16,7 +16,7 @@ Vectors are REP 145 specific force in the z-up tool frame of seed 000 (see
 non-orthogonality from ``|G| = g`` alone (no rotation: see its docstring).
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 import math
 
 from inclino_ros.core.attitude import angle_between, as_vectors, inclination, specific_force
@@ -27,7 +27,7 @@ from scipy.linalg import polar
 #: Least stand positions: 12 unknowns (K and b), three equations per position,
 #: and six is the classic six-position set (each axis up and down).
 MIN_POSITIONS = 6
-#: Truth vectors closer than this [deg] are one attitude repeated.
+#: Truth vectors closer than this [deg] are one attitude visited again (a repeat).
 MIN_SEPARATION_DEG = 1.0
 #: Largest condition number (2-norm) of the stand design ``[G / |G|, 1]``, of
 #: the fitted K, and of the sphere design: noise is amplified up to this much.
@@ -84,6 +84,14 @@ class StandFit(_LinearSensor):
     inclination_residual_deg: np.ndarray  # (N,) inclination of K^-1 (A - b) minus the true one
     rms_residual_mps2: float              # over all positions and axes
     rms_inclination_deg: float
+    attitude: np.ndarray = None           # (N,) attitude number of each position (repeats share)
+    repeatability_deg: np.ndarray = None  # (P,) per attitude (``repeatability``); NaN: one visit
+    rms_repeatability_deg: float = math.nan  # over every repeated attitude; NaN: no repeat
+
+    @property
+    def attitudes(self):
+        """Return the number of distinct attitudes among the positions."""
+        return int(self.repeatability_deg.size)
 
 
 @dataclass(frozen=True)
@@ -122,12 +130,17 @@ def fit_stand(readings, truth, min_separation_deg=MIN_SEPARATION_DEG):
     Each row of K and b is an independent linear least-squares problem on the
     design ``[G / |G|, 1]``, solved together by ``numpy.linalg.lstsq``.
 
+    A position may repeat an attitude (truth vectors less than
+    ``min_separation_deg`` apart, ``attitude_numbers``): a real stand visits
+    attitudes again.  Every visit is one more equation of the least squares (an
+    attitude visited twice weighs twice; its visits average their noise), and
+    the scatter of the visits is reported (``repeatability``).
+
     Raises StandFitRefused, with the reason, for: fewer than MIN_POSITIONS
-    positions; non-finite values; truth vectors not of one gravity, or readings
-    beyond MAX_READING_RATIO times it (checked before any arithmetic); two
-    positions whose truth vectors are less than ``min_separation_deg`` apart
-    (a repeat adds no attitude); a design or a fitted K with condition number
-    above MAX_CONDITION_NUMBER; a numerical failure of the solve.
+    distinct attitudes; non-finite values; truth vectors not of one gravity,
+    or readings beyond MAX_READING_RATIO times it (checked before any
+    arithmetic); a design or a fitted K with condition number above
+    MAX_CONDITION_NUMBER; a numerical failure of the solve.
     """
     readings, truth = as_vectors(readings, 'readings'), as_vectors(truth, 'truth')
     if readings.shape != truth.shape:
@@ -144,11 +157,67 @@ def fit_stand(readings, truth, min_separation_deg=MIN_SEPARATION_DEG):
         raise StandFitRefused(f'the truth vectors are not of one gravity (median |G| '
                               f'{g_scale:.4g}): every stand attitude has |G| = g')
     _refuse_beyond(readings, g_scale)
-    _refuse_repeated_attitudes(truth, min_separation_deg)
+    attitude = attitude_numbers(truth, min_separation_deg)
+    distinct = int(attitude.max()) + 1
+    if distinct < MIN_POSITIONS:
+        raise StandFitRefused(
+            f'only {distinct} stand position(s) of distinct attitude ({count} with repeats), '
+            f'need at least {MIN_POSITIONS} (K and b have 12 unknowns; e.g. each axis up and '
+            'down)')
     try:
-        return _fit_stand(readings, truth, g_scale)
+        fit = _fit_stand(readings, truth, g_scale)
     except np.linalg.LinAlgError as err:
         raise StandFitRefused(f'numerical failure of the fit ({err})') from None
+    per_attitude, overall = repeatability(fit.apply(readings), truth, attitude)
+    return replace(fit, attitude=attitude, repeatability_deg=per_attitude,
+                   rms_repeatability_deg=overall)
+
+
+def attitude_numbers(truth, min_separation_deg=MIN_SEPARATION_DEG):
+    """
+    Return the attitude number (0, 1, ...) of each truth vector (N, 3), in order of appearance.
+
+    A vector less than ``min_separation_deg`` from an earlier one repeats its
+    attitude (shares its number): the stand visited it again.
+    """
+    truth = as_vectors(truth, 'truth')
+    near = np.degrees(angle_between(truth[:, None, :], truth[None, :, :])) < min_separation_deg
+    near |= np.eye(len(truth), dtype=bool)
+    owner = np.argmax(near, axis=1)          # the first position near each (itself at least)
+    while np.any(owner[owner] != owner):     # a chain of repeats belongs to its first visit
+        owner = owner[owner]
+    number = np.unique(owner, return_inverse=True)[1]
+    return number.reshape(-1).astype(int)
+
+
+def repeatability(corrected, truth, attitude):
+    """
+    Return (per attitude, overall) repeatability [deg] of the visits of each attitude.
+
+    The error of a visit is the difference of unit vectors ``corrected/|corrected|
+    - truth/|truth|`` (its angle from the truth, in radians, with its direction);
+    an attitude's repeatability is the sample standard deviation of its
+    visits' errors, ``sqrt(sum |e - mean e|^2 / (n - 1))``, as an angle (NaN for
+    an attitude visited once); the overall figure pools every repeated
+    attitude, ``sqrt(sum of squares / sum (n - 1))`` (NaN without a repeat).
+    Comparing errors, not readings, lets two visits of one attitude stand a
+    little apart (0.012 deg on a real stand) without that counting as scatter.
+    """
+    corrected, truth = as_vectors(corrected, 'corrected'), as_vectors(truth, 'truth')
+    attitude = np.asarray(attitude, dtype=int).reshape(-1)
+    error = (corrected / np.linalg.norm(corrected, axis=1)[:, None]
+             - truth / np.linalg.norm(truth, axis=1)[:, None])
+    counts = np.bincount(attitude).astype(float)
+    mean = np.stack([np.bincount(attitude, weights=error[:, axis]) for axis in range(3)],
+                    axis=1) / counts[:, None]
+    squares = np.bincount(attitude, weights=np.sum((error - mean[attitude]) ** 2, axis=1))
+    repeated = counts > 1
+    per_attitude = np.full(counts.size, math.nan)
+    per_attitude[repeated] = np.degrees(np.sqrt(squares[repeated] / (counts[repeated] - 1)))
+    freedom = np.sum(counts[repeated] - 1)
+    overall = (math.degrees(math.sqrt(np.sum(squares[repeated]) / freedom)) if freedom
+               else math.nan)
+    return per_attitude, overall
 
 
 def _fit_stand(readings, truth, g_scale):
@@ -245,6 +314,35 @@ def _fit_sphere(readings, g):
                      residual_mps2=residual, rms_residual_mps2=_rms(residual))
 
 
+def consecutive_poses(readings, min_samples=6, jump_ratio=10.0, min_jump_deg=1.0):
+    """
+    Return the pose number of each reading (N,) when they are samples of still poses, or None.
+
+    Readings in the order taken, the samples of each still pose together (a
+    log's still samples, the motion between them cut out): consecutive
+    samples of one pose turn by their noise, a change of pose by much more.
+    A pose ends where the direction jumps by more than ``jump_ratio`` times
+    the median turn between consecutive readings (and ``min_jump_deg``).
+    None when the readings are not such samples: fewer than
+    MIN_SPHERE_READINGS poses of at least ``min_samples`` samples holding at
+    least half the readings (single readings in many attitudes).  Poses of
+    fewer samples are numbered -1 (left out).
+    """
+    readings = as_vectors(readings, 'readings')
+    if readings.shape[0] < MIN_SPHERE_READINGS * min_samples:
+        return None
+    turn_deg = np.degrees(angle_between(readings[1:], readings[:-1]))
+    jump = turn_deg > max(min_jump_deg, jump_ratio * float(np.median(turn_deg)))
+    pose = np.concatenate([[0], np.cumsum(jump)])
+    counts = np.bincount(pose)
+    kept = counts >= min_samples
+    if kept.sum() < MIN_SPHERE_READINGS or counts[kept].sum() < 0.5 * readings.shape[0]:
+        return None
+    number = np.full(counts.size, -1)
+    number[kept] = np.arange(kept.sum())
+    return number[pose]
+
+
 def rotation_part(matrix):
     """
     Return the rotation nearest ``matrix`` (3x3): the orthogonal factor of its polar decomposition.
@@ -282,18 +380,6 @@ def _refuse_beyond(readings, g):
             f'(largest |A| {_norms(readings).max():.4g}): not a still sensor, or another unit')
 
 
-def _refuse_repeated_attitudes(truth, min_separation_deg):
-    """Raise StandFitRefused for two truth vectors less than the separation apart."""
-    apart_deg = np.degrees(angle_between(truth[:, None, :], truth[None, :, :]))
-    first, second = np.nonzero(np.triu(apart_deg < min_separation_deg, k=1))
-    if first.size:
-        i, j = first[0], second[0]
-        raise StandFitRefused(
-            f'positions {i + 1} and {j + 1} are one attitude ({apart_deg[i, j]:.3f} deg apart, '
-            f'limit {min_separation_deg:g} deg): a repeat adds no information on K; '
-            f'{first.size} such pair(s) in all')
-
-
 def _condition_number(matrix):
     """Return the 2-norm condition number, infinity for a rank-deficient matrix."""
     singular = np.linalg.svd(matrix, compute_uv=False)
@@ -313,3 +399,152 @@ def _refuse_singular(scale_matrix):
 def _rms(values):
     """Return the root mean square of all elements."""
     return float(np.sqrt(np.mean(np.square(values))))
+
+
+#: Stand positions whose temperatures lie closer than this [deg C] are one plateau.
+PLATEAU_GAP_C = 2.0
+
+
+@dataclass(frozen=True)
+class TemperatureStandFit:
+    """
+    A stand calibration at two or more temperature plateaus: K(T), b(T), element by element.
+
+    Each plateau is fitted alone (``fit_stand``: its own K and b, with their
+    residual); every element of K and b is then a polynomial of T, in powers of
+    ``(T - centre_c)``, of the lowest ``order`` (at most plateaus - 1) whose
+    values at the plateaus agree with the plateau fits within their noise
+    (``fit_stand_plateaus``).  Valid over ``range_c`` only.
+    """
+
+    plateaus_c: np.ndarray           # (P,) mean temperature of each plateau
+    fits: tuple                      # the StandFit of each plateau
+    order: int
+    centre_c: float
+    scale_coefficients: np.ndarray   # (order + 1, 3, 3), powers of (T - centre_c)
+    bias_coefficients: np.ndarray    # (order + 1, 3)
+    element_sigma: np.ndarray        # (P, 12) 1 sigma of K and b of each plateau fit
+    chi_square: tuple                # per order tried: (order, chi-square, degrees of freedom)
+
+    @property
+    def range_c(self):
+        """Return (lowest, highest) plateau temperature: the range the fit holds."""
+        return float(self.plateaus_c.min()), float(self.plateaus_c.max())
+
+    def at(self, temperature_c):
+        """Return (K, b) at the temperature(s) ``temperature_c``: shapes (..., 3, 3), (..., 3)."""
+        powers = np.power.outer(np.asarray(temperature_c, dtype=float) - self.centre_c,
+                                np.arange(self.order + 1))
+        return (np.tensordot(powers, self.scale_coefficients, axes=1),
+                np.tensordot(powers, self.bias_coefficients, axes=1))
+
+    def apply(self, readings, temperature_c):
+        """Return ``K(T)^-1 (A - b(T))`` of readings (N, 3) at their temperatures (N,)."""
+        readings = as_vectors(readings, 'readings')
+        scale, bias = self.at(np.broadcast_to(temperature_c, readings.shape[:1]))
+        return np.linalg.solve(scale, (readings - bias)[..., None])[..., 0]
+
+
+def plateau_numbers(temperatures_c, gap_c=PLATEAU_GAP_C):
+    """Return the plateau number (0, 1, ... by temperature) of each position's temperature."""
+    temperatures_c = np.asarray(temperatures_c, dtype=float).reshape(-1)
+    order = np.argsort(temperatures_c, kind='stable')
+    steps = np.diff(temperatures_c[order]) > gap_c
+    number = np.empty(temperatures_c.size, dtype=int)
+    number[order] = np.concatenate([[0], np.cumsum(steps)])
+    return number
+
+
+def fit_stand_plateaus(readings, truth, temperatures_c, gap_c=PLATEAU_GAP_C,
+                       significance=1e-3):
+    """
+    Return the TemperatureStandFit of stand positions at two or more temperature plateaus.
+
+    ``readings``, ``truth`` (N, 3) as ``fit_stand``; ``temperatures_c`` (N,)
+    each position's temperature: positions closer than ``gap_c`` in
+    temperature form one plateau, each fitted by ``fit_stand`` (its
+    refusals, named with the plateau).  The 12 elements of K and b of each
+    plateau carry the least-squares 1 sigma ``s (X^T X)^-1/2`` of their fit
+    (s: its residual RMS per axis, at least 1e-9 of g so an exact fit does
+    not divide by zero).  Order k = 0, 1, ..., P - 1 of the polynomial in T
+    is tried in turn (weighted least squares over the plateaus); the first
+    whose chi-square stays below its ``1 - significance`` quantile is taken
+    (P - 1 interpolates and always passes).  Raises StandFitRefused for fewer
+    than two plateaus.
+    """
+    from scipy.stats import chi2
+
+    readings, truth = as_vectors(readings, 'readings'), as_vectors(truth, 'truth')
+    plateau = plateau_numbers(temperatures_c, gap_c)
+    temperatures_c = np.asarray(temperatures_c, dtype=float).reshape(-1)
+    count = int(plateau.max()) + 1
+    if count < 2:
+        raise StandFitRefused(
+            f'the positions stand at one temperature plateau ({temperatures_c.min():.1f} .. '
+            f'{temperatures_c.max():.1f} C): a temperature-dependent stand needs two or more '
+            f'plateaus more than {gap_c:g} C apart')
+    fits, values, sigma, centres = [], [], [], []
+    for number in range(count):
+        mine = plateau == number
+        try:
+            fit = fit_stand(readings[mine], truth[mine])
+        except StandFitRefused as err:
+            raise StandFitRefused(f'plateau {number + 1} '
+                                  f'({temperatures_c[mine].mean():.1f} C): {err.reason}') from None
+        g_scale = float(np.median(_norms(truth[mine])))
+        design = np.column_stack([truth[mine] / g_scale, np.ones(mine.sum())])
+        spread = np.sqrt(np.diag(np.linalg.inv(design.T @ design)))   # per unit residual
+        noise = np.maximum(np.sqrt(np.mean(fit.residual_mps2 ** 2, axis=0)), 1e-9 * g_scale)
+        # K row i = coefficients[:3, i] / g: its sigma noise_i * spread[:3] / g; b_i: spread[3].
+        sigma.append(np.concatenate([(noise[:, None] * spread[None, :3] / g_scale).ravel(),
+                                     noise * spread[3]]))
+        values.append(np.concatenate([fit.scale_matrix.ravel(), fit.bias_mps2]))
+        fits.append(fit)
+        centres.append(temperatures_c[mine].mean())
+    values, sigma, centres = np.array(values), np.array(sigma), np.array(centres)
+    centre = float(centres.mean())
+    tried = []
+    for order in range(count):
+        design = np.power.outer(centres - centre, np.arange(order + 1))
+        coefficients = np.empty((order + 1, 12))
+        chi_square = 0.0
+        for element in range(12):
+            weights = 1.0 / sigma[:, element]
+            solution = np.linalg.lstsq(design * weights[:, None], values[:, element] * weights,
+                                       rcond=None)[0]
+            coefficients[:, element] = solution
+            chi_square += float(np.sum(((design @ solution - values[:, element]) * weights)
+                                       ** 2))
+        freedom = 12 * (count - order - 1)
+        tried.append((order, chi_square, freedom))
+        if freedom == 0 or chi_square <= chi2.ppf(1.0 - significance, freedom):
+            break
+    return TemperatureStandFit(
+        plateaus_c=centres, fits=tuple(fits), order=order, centre_c=centre,
+        scale_coefficients=coefficients[:, :9].reshape(-1, 3, 3),
+        bias_coefficients=coefficients[:, 9:], element_sigma=sigma, chi_square=tuple(tried))
+
+
+def plateau_stand_fit(plateaus, readings, truth, temperatures_c):
+    """
+    Return the StandFit view of a TemperatureStandFit over all its positions.
+
+    K and b at the plateaus' centre; each position's residual against K(T),
+    b(T) at its own temperature; the attitudes (plateaus visit the same ones:
+    repeats) and their repeatability as ``fit_stand`` reports them.
+    """
+    readings, truth = as_vectors(readings, 'readings'), as_vectors(truth, 'truth')
+    temperatures_c = np.asarray(temperatures_c, dtype=float).reshape(-1)
+    scale, bias = plateaus.at(temperatures_c)
+    residual = readings - (np.einsum('nij,nj->ni', scale, truth) + bias)
+    corrected = plateaus.apply(readings, temperatures_c)
+    inclination_residual_deg = np.degrees(inclination(corrected) - inclination(truth))
+    attitude = attitude_numbers(truth)
+    per_attitude, overall = repeatability(corrected, truth, attitude)
+    centre_scale, centre_bias = plateaus.at(plateaus.centre_c)
+    return StandFit(
+        scale_matrix=centre_scale, bias_mps2=centre_bias,
+        condition_number=max(fit.condition_number for fit in plateaus.fits),
+        residual_mps2=residual, inclination_residual_deg=inclination_residual_deg,
+        rms_residual_mps2=_rms(residual), rms_inclination_deg=_rms(inclination_residual_deg),
+        attitude=attitude, repeatability_deg=per_attitude, rms_repeatability_deg=overall)

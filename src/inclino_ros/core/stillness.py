@@ -31,11 +31,22 @@ s^2)`` follow Fisher's F(k, nu) and F(k (B - 2), nu) exactly, whatever N.
 A test refuses when its statistic's tail probability under that law is below
 FALSE_MOTION_P AND the motion is large enough to matter (``StillLimits``).
 Angles are in radians in, degrees in the result.
+
+Correlated noise (a low-pass filter below the output rate, issue 19 item 4):
+the noise is measured from the capture's within-block residuals with its
+autocorrelation (``correlated_noise.estimate``): sigma^2 is the per-sample
+variance, a block mean's variance is ``sigma^2 F(n_b) / n_b`` and the mean's
+standard error ``sigma sqrt(F(N) / N)`` (``n_eff = N / F(N)``).  Both F
+ratios then take ``sigma^2 F(n_b)`` for the white ``sigma^2`` and the
+degrees of freedom of the estimate (``correlated_noise.dof``): approximate
+laws, exact again for white noise (rho = 0, which the estimate keeps in
+~98 % of white captures).
 """
 
 from dataclasses import dataclass
 import math
 
+from inclino_ros.core import correlated_noise
 from inclino_ros.core.attitude import angle_between
 import numpy as np
 from scipy.stats import f as fisher_f
@@ -57,10 +68,12 @@ class StillLimits:
     """
     When a capture is still enough and precise enough (``judge``).
 
-    ``max_drift_deg_per_s``: a significant drift slower than this is accepted
-    (a tool settling on its stand, a warming sensor);
-    ``max_sem_deg``: the standard error of the mean the capture must reach; a
-    significant unsteadiness that moves the mean less than it is accepted too.
+    ``max_drift_deg_per_s``: a significant drift faster than this is refused
+    whatever the capture's length;
+    ``max_sem_deg``: the standard error of the mean the capture must reach,
+    and how far the mean may lie from the attitude at any part of the
+    capture: a significant drift or unsteadiness within it is accepted (a
+    tool settling on its stand, a warming sensor), beyond it refused.
     ``drift_name``, ``sem_name``: how the messages name the two limits.
     """
 
@@ -78,12 +91,26 @@ class Stillness:
     duration_s: float           # NaN when the capture has no times
     noise_deg: float            # per-sample 1 sigma of one component (within blocks)
     sem_deg: float              # standard error of the mean, one component
+    effective_samples: float    # n_eff: the white-noise samples the mean is worth
     drift_deg_per_s: float      # |slope|; per sample when the capture has no times
     drift_sigma: float          # |slope| / its standard error
     drift_p: float              # tail probability of F_drift for a still sensor
     scatter_ratio: float        # F_steady: X / (k (B - 2) s^2), about 1 for white noise
     scatter_p: float            # tail probability of F_steady for a still sensor
     motion_deg: float           # RMS of the block means' motion beyond the noise
+    part_offset_deg: float = 0.0  # largest distance of a block's attitude from the mean
+
+    @property
+    def white_noise_deg(self):
+        """
+        Return the white per-sample noise whose mean has this capture's standard error.
+
+        ``sem_deg sqrt(samples)``: noise_deg for white noise, ``noise_deg
+        sqrt(F(N))`` for correlated (``core.correlated_noise``); a stage that
+        keeps a per-sample noise and its sample count (``std / sqrt(N)``)
+        keeps this one.
+        """
+        return self.sem_deg * math.sqrt(self.samples)
 
     def samples_needed(self, max_sem_deg):
         """Return the samples that bring the standard error to ``max_sem_deg``."""
@@ -145,8 +172,12 @@ def assess(angles_rad, times_s=None):
     n_b = np.bincount(block).astype(float)
     means = np.stack([np.bincount(block, weights=angles[:, j]) for j in range(k)], axis=1)
     means /= n_b[:, None]
-    noise_dof = k * (count - blocks)
-    noise_var = np.sum((angles - means[block]) ** 2) / noise_dof
+    noise = correlated_noise.estimate(angles, block)
+    noise_var = noise.variance
+    # Correlated noise: a block mean varies F(n_b) times a white one (the mean over the
+    # blocks, nearly equal); the noise is known to ``correlated_noise.dof``.
+    inflation = float(np.mean(noise.inflation(n_b)))
+    noise_dof = correlated_noise.dof(noise, count)
     t_mean = t.mean()
     a_mean = angles.mean(axis=0)
     t_b = np.bincount(block, weights=t) / n_b - t_mean
@@ -156,45 +187,61 @@ def assess(angles_rad, times_s=None):
     off_line = means - a_mean - np.outer(t_b, slope)
     scatter = float(np.sum(n_b * np.sum(off_line ** 2, axis=1)))
     dof = k * (blocks - 2)
-    noise = math.sqrt(noise_var)
+    sigma = math.sqrt(noise_var)
+    block_var = noise_var * inflation
     with np.errstate(divide='ignore', invalid='ignore'):
-        drift_f = slope_norm ** 2 * s_tt / (k * noise_var) if noise > 0 else (
+        drift_f = slope_norm ** 2 * s_tt / (k * block_var) if sigma > 0 else (
             math.inf if slope_norm > 0 else 0.0)
-        ratio = scatter / noise_var / dof if noise > 0 else (math.inf if scatter > 0 else 0.0)
-    motion_var = np.mean(np.sum(off_line ** 2, axis=1) / k - noise_var / n_b)
+        ratio = scatter / block_var / dof if sigma > 0 else (math.inf if scatter > 0 else 0.0)
+    motion_var = np.mean(np.sum(off_line ** 2, axis=1) / k - noise.mean_variance(n_b))
+    # Each block's attitude against the capture's mean, its noise taken out:
+    # var(m_b - a) = var(m_b) (1 - n_b / N) per component for independent blocks.
+    offset = (np.sum((means - a_mean) ** 2, axis=1)
+              - k * noise.mean_variance(n_b) * (1.0 - n_b / count))
     return Stillness(
         samples=count, duration_s=float(np.ptp(t)) if timed else math.nan,
-        noise_deg=math.degrees(noise), sem_deg=math.degrees(noise / math.sqrt(count)),
+        noise_deg=math.degrees(sigma),
+        sem_deg=math.degrees(math.sqrt(float(noise.mean_variance(count)))),
+        effective_samples=float(noise.effective_samples(count)),
         drift_deg_per_s=math.degrees(slope_norm), drift_sigma=math.sqrt(k * drift_f),
         drift_p=float(fisher_f.sf(drift_f, k, noise_dof)), scatter_ratio=float(ratio),
         scatter_p=float(fisher_f.sf(ratio, dof, noise_dof)),
-        motion_deg=math.degrees(math.sqrt(max(motion_var, 0.0))))
+        motion_deg=math.degrees(math.sqrt(max(motion_var, 0.0))),
+        part_offset_deg=math.degrees(math.sqrt(max(float(offset.max()), 0.0))))
 
 
 def motion(stillness, limits, steady=True):
     """
     Return why a capture moves, or None for a still one.
 
-    Moving: a drift significant (tail probability below FALSE_MOTION_P) and
-    faster than ``limits.max_drift_deg_per_s`` (without times: one that moves
-    the mean by more than ``max_sem_deg`` over half the capture), or
-    (``steady``) block means off their trend, significant likewise, by more
-    than ``max_sem_deg`` RMS.
+    One rule, timed or not (issue 19 item 5): the capture's mean must lie
+    within ``limits.max_sem_deg`` of the attitude at every part of it.
+    Moving: a drift significant (tail probability below FALSE_MOTION_P)
+    whose line puts the ends further than that from the mean
+    (``drift_offset_deg``, its noise taken out), or (timed) faster than
+    ``limits.max_drift_deg_per_s`` whatever the capture's length; or
+    (``steady``) block means off their trend, significant likewise, one of
+    them further than that from the mean (``part_offset_deg``, the largest,
+    its noise taken out).
     """
     s = stillness
+    far = s.part_offset_deg > limits.max_sem_deg
+    where = (f'a part of the capture is {s.part_offset_deg:.4f} deg from its mean, beyond '
+             f'{limits.sem_name} {limits.max_sem_deg} deg')
     if math.isnan(s.duration_s):
-        drifting = s.drift_deg_per_s * s.samples / 2.0 > limits.max_sem_deg
+        fast = False
         rate = f'{s.drift_deg_per_s * s.samples:.4f} deg over the capture'
     else:
-        drifting = s.drift_deg_per_s > limits.max_drift_deg_per_s
+        fast = s.drift_deg_per_s > limits.max_drift_deg_per_s
         rate = f'{s.drift_deg_per_s:.4f} deg/s'
-    if s.drift_p < FALSE_MOTION_P and drifting:
+    if s.drift_p < FALSE_MOTION_P and (far or fast):
         return (f'tool is moving (drift {rate}, {s.drift_sigma:.0f} sigma of the noise; '
-                f'{limits.drift_name} {limits.max_drift_deg_per_s} deg/s)')
-    if steady and s.scatter_p < FALSE_MOTION_P and s.motion_deg > limits.max_sem_deg:
+                + (where if far else
+                   f'{limits.drift_name} {limits.max_drift_deg_per_s} deg/s') + ')')
+    if steady and s.scatter_p < FALSE_MOTION_P and far:
         return (f'tool is moving (not steady: the means of its blocks scatter '
                 f'{math.sqrt(s.scatter_ratio):.1f}x the noise about their trend, '
-                f'{s.motion_deg:.4f} deg RMS)')
+                f'{s.motion_deg:.4f} deg RMS; {where})')
     return None
 
 
@@ -212,6 +259,77 @@ def judge(stillness, limits):
                   f'{stillness.samples} samples of noise {stillness.noise_deg:.3f} deg exceeds '
                   f'{limits.sem_name} {limits.max_sem_deg} deg)')
     return reason
+
+
+@dataclass(frozen=True)
+class SegmentLimits:
+    """
+    How still segments are found in a continuous log (``find_still_segments``).
+
+    ``window_s``: the log is judged in windows of this length; a window is
+    still when its accelerometer direction does not move (``motion`` with
+    ``still``, the same test every capture passes) and, with a gyro, its RMS
+    turn rate about the log's median rate (the gyro's bias: a still log is
+    mostly still) stays below ``max_rate_deg_per_s``: a turn about the
+    vertical, which gravity does not show, is seen there.  Consecutive still
+    windows join; the first and last window of a run are left out (the tool
+    settling after the hand lets go, the hand taking it); what is left, at
+    least ``min_s`` long and still as a whole (``motion``: a slow settling
+    that no window shows shows there; not tested with ``whole`` False, for
+    a heating run whose readings drift with the temperature), is a segment.
+    """
+
+    window_s: float = 0.5
+    min_s: float = 1.0
+    max_rate_deg_per_s: float = 2.0
+    still: StillLimits = StillLimits()
+    whole: bool = True
+
+
+def find_still_segments(times_s, vectors, gyro_radps=None, limits=SegmentLimits()):
+    """
+    Return [(start, end)] sample ranges of the still segments of a continuous log.
+
+    ``times_s`` (N,) increasing sample times, ``vectors`` (N, 3) the
+    accelerometer readings, ``gyro_radps`` (N, 3) or None.  Each window of
+    ``limits.window_s`` (at least MIN_SAMPLES samples, else not still) is
+    judged by ``assess`` and ``motion`` on the directions of its readings
+    (``tangent_angles``), and by the gyro's RMS rate (``SegmentLimits``).
+    """
+    times_s = np.asarray(times_s, dtype=float).reshape(-1)
+    vectors = np.asarray(vectors, dtype=float).reshape(-1, 3)
+    if times_s.size < MIN_SAMPLES:
+        return []
+    if gyro_radps is not None:
+        gyro_radps = np.asarray(gyro_radps, dtype=float).reshape(-1, 3)
+        gyro_radps = gyro_radps - np.nanmedian(gyro_radps, axis=0)
+    window = np.floor((times_s - times_s[0]) / limits.window_s).astype(int)
+    edges = np.flatnonzero(np.diff(window)) + 1
+    starts, ends = np.append(0, edges), np.append(edges, times_s.size)
+    still = np.zeros(starts.size, dtype=bool)
+    for k, (start, end) in enumerate(zip(starts, ends)):
+        if end - start < MIN_SAMPLES or not np.all(np.isfinite(vectors[start:end])):
+            continue
+        if gyro_radps is not None:
+            rate = np.degrees(np.sqrt(np.mean(np.sum(gyro_radps[start:end] ** 2, axis=1))))
+            if not rate < limits.max_rate_deg_per_s:
+                continue
+        still[k] = motion(assess(tangent_angles(vectors[start:end]), times_s[start:end]),
+                          limits.still) is None
+    segments = []
+    change = np.flatnonzero(np.diff(np.concatenate([[0], still.astype(int), [0]])))
+    for first, after in zip(change[::2], change[1::2]):
+        # The tool settles after the hand lets go, the hand takes it before it turns: a
+        # run's first and last window are left out.
+        first, after = first + 1, after - 1
+        if after <= first:
+            continue
+        start, end = starts[first], ends[after - 1]
+        if times_s[end - 1] - times_s[start] >= limits.min_s and (not limits.whole or motion(
+                assess(tangent_angles(vectors[start:end]), times_s[start:end]),
+                limits.still) is None):
+            segments.append((int(start), int(end)))
+    return segments
 
 
 def label_attitudes(readings, separation_deg):

@@ -42,6 +42,16 @@ readings (the model is bilinear in A and c).  Compensation:
 depends on the unit: the same fit serves the accelerometer (m/s^2) and the
 magnetometer (nT; seed 001 §3.2: "the magnetometer is compensated the same
 way").
+
+The fit's own uncertainty (``parameter_covariance``): the least-squares
+covariance ``s^2 (J^T J)^-1`` of each axis's drift coefficients, from the
+fit's Jacobian J at the solution and its residual variance ``s^2 = SSR / (M
+- p)``, expressed in powers ``u^k``, k = 1..n, of the normalised temperature
+``u = (T - T_mid) / T_half`` over the fitted range (``normalised_temperature``):
+scale then bias coefficients.  The constant term is left out: it is fixed by
+``K_T = 1, B_T = 0`` at the reference, so a compensation to T_s errs by
+``(K_T(T) - K_T(T_s)) A + B_T(T) - B_T(T_s)``, which needs only ``u^k -
+u_s^k`` (``uncertainty.temperature_compensation_covariance``).
 """
 
 from dataclasses import dataclass, replace
@@ -95,6 +105,7 @@ class TemperatureFit:
     bias_coefficients: np.ndarray = None  # (3, order + 1): B_T(T) = b0 + b1 T + ...
     attitudes: int = 1
     references: np.ndarray = None
+    parameter_covariance: np.ndarray = None  # (3, p, p) in powers of u (module docstring)
 
     def scale_factor(self, temperature_c):
         """Return K_T per axis at each temperature, shape (N, 3)."""
@@ -123,6 +134,21 @@ class TemperatureFit:
             bias = self.bias_coefficients - coefficients * self.bias(temperature_c)[:, None]
         return replace(self, coefficients=coefficients, bias_coefficients=bias,
                        reference_temperature_c=float(temperature_c))
+
+
+def normalised_temperature(temperature_c, t_min_c, t_max_c):
+    """Return ``u = (T - T_mid) / T_half`` of the fitted range [t_min_c, t_max_c] (in -1..1)."""
+    half = 0.5 * (t_max_c - t_min_c)
+    return (np.asarray(temperature_c, dtype=float) - (t_min_c + half)) / half
+
+
+def _least_squares_covariance(jacobian, residual):
+    """Return ``s^2 (J^T J)^-1``, ``s^2 = SSR / (M - p)``, of a least-squares solution."""
+    count, params = jacobian.shape
+    scale = np.linalg.norm(jacobian, axis=0)
+    inverse = np.linalg.pinv((jacobian / scale).T @ (jacobian / scale)) / np.outer(scale, scale)
+    inverse = 0.5 * (inverse + inverse.T)
+    return inverse * float(residual @ residual) / max(count - params, 1)
 
 
 def fit_temperature(temperature_c, readings, reference, order,
@@ -174,15 +200,22 @@ def fit_temperature(temperature_c, readings, reference, order,
 def _fit_axes(temperature_c, readings, reference, order, reference_temperature_c, t_min_c,
               t_max_c):
     """Return the TemperatureFit of checked, finite data (see ``fit_temperature``)."""
-    coefficients, rms = [], []
+    coefficients, rms, covariance = [], [], []
+    # Polynomial.fit works in u over [t_min_c, t_max_c]: the basis of parameter_covariance.
+    powers = normalised_temperature(temperature_c, t_min_c, t_max_c)[:, None] ** np.arange(
+        order + 1)
     for axis in range(3):
         g_axis = reference[:, axis]
         ratio = np.divide(readings[:, axis], g_axis, out=np.zeros_like(g_axis),
                           where=g_axis != 0.0)
         # Weights |G_i| make this the least squares of A_i - f(T) G_i.
         fitted = Polynomial.fit(temperature_c, ratio, order, w=np.abs(g_axis))
-        rms.append(np.sqrt(np.mean(np.square(readings[:, axis] - fitted(temperature_c) * g_axis))))
+        residual = readings[:, axis] - fitted(temperature_c) * g_axis
+        rms.append(np.sqrt(np.mean(np.square(residual))))
         at_reference = fitted(reference_temperature_c)
+        # Jacobian of A_i = G_i sum p_k u^k; K_T = f / f(T_ref): its terms scale by 1 / f(T_ref).
+        covariance.append(_least_squares_covariance(powers * g_axis[:, None], residual)[1:, 1:]
+                          / at_reference ** 2)
         if at_reference <= 0.0:
             raise TemperatureFitRefused(
                 f'axis {AXES[axis]}: K_T({reference_temperature_c} C) = {at_reference:.4g} is '
@@ -191,7 +224,7 @@ def _fit_axes(temperature_c, readings, reference, order, reference_temperature_c
         coefficients.append(np.pad(plain, (0, order + 1 - plain.size)))
     return TemperatureFit(coefficients=np.array(coefficients), t_min_c=t_min_c,
                           t_max_c=t_max_c, reference_temperature_c=reference_temperature_c,
-                          rms_residual=np.array(rms))
+                          rms_residual=np.array(rms), parameter_covariance=np.array(covariance))
 
 
 def fit_temperature_drift(temperature_c, readings, attitude, order,
@@ -256,9 +289,17 @@ def _drift_fit(temperature_c, readings, rounded, attitude, order, reference_temp
     scale_c = max(abs(t_min_c - reference_temperature_c), abs(t_max_c - reference_temperature_c))
     powers = (dt[:, None] / scale_c) ** np.arange(1, order + 1)     # (M, n), |x| <= 1
     onehot = (index[keep][:, None] == np.array(heated)[None, :]).astype(float)
-    scale, bias, references, rms = [], [], [], []
+    scale, bias, references, rms, covariance = [], [], [], [], []
+    # x = (T - T_ref) / scale_c = alpha u + beta: x^k in powers u^1..u^n (u^0 dropped).
+    half = 0.5 * (t_max_c - t_min_c)
+    x_of_u = Polynomial([(t_min_c + half - reference_temperature_c) / scale_c, half / scale_c])
+    to_u = np.array([_pad_rows([(x_of_u ** k).coef], order)[0][1:]
+                     for k in range(1, order + 1)]).T          # (n, n): u^j of x^k
+    to_u = np.kron(np.eye(2), to_u)
     for axis in range(3):
-        r, c, d = _drift_axis(readings[keep, axis], onehot, powers)
+        r, c, d, cd_covariance = _drift_axis(readings[keep, axis], onehot, powers)
+        transformed = to_u @ cd_covariance @ to_u.T
+        covariance.append(0.5 * (transformed + transformed.T))
         model = (onehot @ r) * (1.0 + powers @ c) + powers @ d
         rms.append(float(np.sqrt(np.mean((readings[keep, axis] - model) ** 2))))
         # (T - T_ref)^k / scale_c^k in plain powers of T.
@@ -270,7 +311,7 @@ def _drift_fit(temperature_c, readings, rounded, attitude, order, reference_temp
         coefficients=_pad_rows(scale, order), t_min_c=t_min_c, t_max_c=t_max_c,
         reference_temperature_c=reference_temperature_c, rms_residual=np.array(rms),
         bias_coefficients=_pad_rows(bias, order), attitudes=len(heated),
-        references=np.array(references).T)
+        references=np.array(references).T, parameter_covariance=np.array(covariance))
 
 
 def _checked_run(temperature_c, readings, order, reference_temperature_c):
@@ -309,10 +350,11 @@ def _pad_rows(rows, order):
 
 def _drift_axis(y, onehot, powers):
     """
-    Return (r (A,), c (n,), d (n,)) of ``y = r_a (1 + P c) + P d`` (Gauss-Newton).
+    Return (r (A,), c (n,), d (n,), covariance of (c, d)) of ``y = r_a (1 + P c) + P d``.
 
-    Start: c = 0, r and d linear least squares; then full Gauss-Newton steps
-    on all three (Jacobian columns onehot (1 + P c), r_a P, P).
+    Gauss-Newton.  Start: c = 0, r and d linear least squares; then full
+    Gauss-Newton steps on all three (Jacobian columns onehot (1 + P c), r_a P,
+    P); the covariance is ``s^2 (J^T J)^-1`` at the solution (r marginalised).
     """
     n = powers.shape[1]
     c = np.zeros(n)
@@ -329,7 +371,8 @@ def _drift_axis(y, onehot, powers):
         c = c + step[r.size:r.size + n]
         d = d + step[r.size + n:]
         if np.max(np.abs(step[r.size:r.size + n])) < DRIFT_STEP_TOLERANCE:
-            return r, c, d
+            covariance = _least_squares_covariance(jacobian, residual - jacobian @ step)
+            return r, c, d, covariance[r.size:, r.size:]
     raise TemperatureFitRefused('the bias-and-scale fit does not converge')
 
 

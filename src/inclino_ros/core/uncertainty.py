@@ -25,6 +25,14 @@ turns the high side by tilt / sin I), and ``tilt_var |G|^2`` per tangential
 axis of G to the azimuth.  A two-axis sensor's axial component
 ``f_z = sqrt(g^2 - f_x^2 - f_y^2)`` (``attitude.complete_two_axis``) carries
 the noise of x and y with ``df_z / df_(x, y) = -f_(x, y) / f_z``.
+
+A temperature stage's own uncertainty (``core.temperature``, seed 001 Eqs.
+5-7 with a bias drift) is its fit's parameter covariance C_p per axis,
+propagated to the compensation at the operating temperature T: compensating
+to T_s errs by ``dK A + dB`` with ``dK = sum dc_k (u^k - u_s^k)``, ``dB = sum
+dd_k (u^k - u_s^k)`` (u the normalised temperature), so the variance of axis
+i is ``g^T C_p g`` with ``g = ((u^k - u_s^k) A_i, (u^k - u_s^k))`` (zero at T_s:
+the stage's reference is where the later stages were captured).
 """
 
 import numpy as np
@@ -56,6 +64,31 @@ def specific_force_covariance(f_sensor, noise_std, axes, linear_map=None):
         return noise_std ** 2 * jacobian @ jacobian.transpose(0, 2, 1)
     # Three axes: one matrix for all samples (a read-only broadcast).
     return np.broadcast_to(noise_std ** 2 * linear_map @ linear_map.T, (count, 3, 3))
+
+
+def temperature_compensation_covariance(readings, u, u_reference, parameter_covariance, bias):
+    """
+    Return the covariance (M, 3, 3) of temperature-compensated readings from the fit's own error.
+
+    ``readings`` (M, 3) in the stage's unit, ``u`` (M,) the normalised
+    operating temperature and ``u_reference`` that of the stage's reference
+    (``temperature.normalised_temperature``), ``parameter_covariance`` (3, p,
+    p): p = n scale coefficients, then (``bias``) n bias coefficients (module
+    docstring).  Diagonal: each axis is fitted on its own.
+    """
+    readings = np.asarray(readings, dtype=float)
+    parameter_covariance = np.asarray(parameter_covariance, dtype=float)
+    order = np.arange(1, parameter_covariance.shape[-1] // (2 if bias else 1) + 1)
+    difference = (np.asarray(u, dtype=float)[:, None] ** order
+                  - float(u_reference) ** order)                     # (M, n)
+    covariance = np.zeros(readings.shape + (3,))
+    for axis in range(3):
+        grad = difference * readings[:, axis:axis + 1]
+        if bias:
+            grad = np.hstack([grad, difference])
+        covariance[:, axis, axis] = np.einsum('mi,ij,mj->m', grad, parameter_covariance[axis],
+                                              grad)
+    return covariance
 
 
 def inclination_std_rad(f, covariance, tilt_var=0.0):

@@ -324,6 +324,11 @@ class Outputs:
             self._updates.add(final)
         return temporary
 
+    def pending(self, suffix=''):
+        """Return (final, temporary) of the outputs written so far named ``*suffix``."""
+        return [(final, tmp) for final, tmp in self._pending.items()
+                if final.endswith(suffix) and os.path.lexists(tmp)]
+
     def __enter__(self):
         """Start collecting outputs."""
         return self

@@ -330,7 +330,7 @@ class InclinometerNode(Node):
             self.stats.status(self.get_name(), now_s, self.settings.gravity_mps2,
                               self.param('level_capture.g_total_tolerance_mps2')),
             self.temperature.status(self.get_name(), now_s, self.param('temperature.max_age_s'),
-                                    self.model.temperature or self.model.magnetometer_temperature),
+                                    temperature_stage(self.model)),
             self.magnetometer.status(self.get_name(), self.magnetic_settings,
                                      self.model.magnetic, len(self.magnetic.stations),
                                      self.model)]
@@ -346,7 +346,10 @@ class InclinometerNode(Node):
                   'sensor_id': str(model.sensor_id),
                   'capture_running': str(self.collector.capture is not None),
                   'stand_positions_held': str(len(self.calibration.positions)),
-                  'tilt_std_deg': f'{math.degrees(model.tilt_std_rad):.5f}'}
+                  'tilt_std_deg': f'{math.degrees(model.tilt_std_rad):.5f}',
+                  'uncertainty_notes': '; '.join(model.uncertainty_notes) or 'none',
+                  # 'board': the published toolface is the board's (issue 19 item 6).
+                  'toolface_zero': model.toolface_zero}
         values.update({f'{name}_age_days': f'{age_s / 86400.0:.2f}'
                        for name, age_s, _ in stage_ages_s(model)})
         stale = stale_stages(model, self.param('calibration.max_age_days') * 86400.0,
@@ -385,6 +388,18 @@ class InclinometerNode(Node):
 def served_elsewhere(_):
     """Stand for the callback of a subscription the executor never serves (``_on_batch`` does)."""
     raise AssertionError('a subscription of the sample path was served by the executor')
+
+
+def temperature_stage(model):
+    """
+    Return the stage whose fitted temperature range the temperature diagnostics watch, or None.
+
+    The temperature stage, else the magnetometer's, else a multi-temperature stand (K(T), b(T),
+    clamped beyond its range: issue 18).
+    """
+    stand = model.stand if model.stand is not None and model.stand.temperature_dependent \
+        else None
+    return model.temperature or model.magnetometer_temperature or stand
 
 
 def main(args=None):

@@ -26,7 +26,7 @@ from inclino_ros.calibration.still_capture import (
     CaptureRefused, require_axis_still, require_still_vectors)
 from inclino_ros.core.cross_axial import RotationFitRefused
 from inclino_ros.core.msa import azimuth_difference_deg, MsaRefused
-from inclino_ros.pipeline import correct
+from inclino_ros.pipeline import capture_mean
 import numpy as np
 from rclpy.callback_groups import ReentrantCallbackGroup
 
@@ -97,9 +97,10 @@ class MagneticServices:
             return self.collector.refuse(response, str(err), kept)
         temperatures_c = (None if captured.temperatures_c is None
                           else captured.temperatures_c[paired].mean())
-        survey = correct(captured.raw[paired].mean(axis=0), node.model, node.settings,
-                         temperatures_c, field_nT[None], node.magnetic_settings,
-                         averaged=int(paired.sum()))
+        # The station's 1 sigma from its own noise (correlated noise too, issue 19 item 4).
+        survey = capture_mean(captured.raw[paired], captured.times_s[paired], node.model,
+                              node.settings, temperatures_c, captured.field_nT[paired],
+                              node.magnetic_settings)
         if not survey.accepted.all():
             return self.collector.refuse(response, 'the averaged station is not a valid '
                                          'reading', kept)

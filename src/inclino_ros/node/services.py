@@ -13,7 +13,7 @@ from inclino_ros.calibration.level_capture import CaptureRefused, LevelLimits, s
 from inclino_ros.calibration.model import readings_temperature_c, temperature_conflict
 from inclino_ros.calibration.plausibility import Implausible
 from inclino_ros.calibration.stand_capture import (
-    average_position, check_new_attitude, solve_positions)
+    average_position, repeated_position, solve_positions)
 from inclino_ros.calibration.stand_fit import with_stand
 from inclino_ros.core.stand import StandFitRefused
 from inclino_ros.core.stillness import StillLimits
@@ -101,8 +101,8 @@ class CalibrationServices:
         azimuth_deg = node.param('stand.azimuth_deg')
         reference = self.reference()
         try:
-            check_new_attitude(self.positions, inclination_deg, toolface_deg, azimuth_deg,
-                               reference)
+            repeats = repeated_position(self.positions, inclination_deg, toolface_deg,
+                                        azimuth_deg, reference)
             captured = await self.collector.collect('stand')
             fields = (None if reference is None else
                       node.model.apply_magnetic(captured.field_nT, captured.temperatures_c,
@@ -127,7 +127,9 @@ class CalibrationServices:
             f'toolface_deg={toolface_deg} azimuth_deg={azimuth_deg}: mean ({mean}) m/s^2, '
             f'noise {position.std_deg:.4f} deg per sample from {position.samples} '
             f'samples{field}; '
-            f'{len(self.positions)} positions held (solve needs at least 6)')
+            + ('' if repeats is None else
+               f"a repeat of position {repeats} (its scatter is the stand's repeatability); ")
+            + f'{len(self.positions)} positions held (solve needs at least 6)')
         node.get_logger().info(response.message)
         return response
 
@@ -142,7 +144,7 @@ class CalibrationServices:
         """Fit K and b (seed 001 Eq. 10), and K_m, b_m (Eq. 12) with a reference; apply."""
         node = self.node
         try:
-            stand, field, note = solve_positions(
+            stand, field, note, repeats = solve_positions(
                 self.positions, node.settings.gravity_mps2, node.param('stand.max_rms_deg'),
                 self.reference(), node.param('stand.max_field_rms_deg'),
                 node.param('temperature.max_stage_difference_c'))
@@ -159,8 +161,8 @@ class CalibrationServices:
             f'({", ".join(f"{v:.5f}" for v in np.diag(k))}), bias '
             f'({", ".join(f"{v:.5f}" for v in stand.bias_mps2)}) m/s^2, condition number '
             f'{stand.condition_number:.2f}, residual rms_inclination_deg='
-            f'{stand.rms_inclination_deg:.4f}; {magnetometer}; installation correction reset '
-            '(K holds it)'))
+            f'{stand.rms_inclination_deg:.4f}; {repeats}; {magnetometer}; installation '
+            'correction reset (K holds it)'))
 
     def clear_positions(self, request, response):
         """Forget the captured stand positions."""

@@ -150,7 +150,7 @@ Units: specific force in m/s^2, fields in nT, angles in degrees, T in deg C.
 Every function is vectorised over N samples.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 import math
 
 from inclino_ros.core.constants import STANDARD_GRAVITY_MPS2
@@ -328,18 +328,56 @@ class Mount:
     ``roll_deg``: the board turned about the tool axis (applied first);
     ``magnetometer_deg``: small extra turns (x, y, z) of the magnetometer
     triad relative to the board, ``euler2mat(x, y, z, 'rxyz')``: about the
-    board's x, then the new y, then the new z.
+    board's x, then the new y, then the new z.  ``drift_deg_per_c``: how
+    gamma, beta and roll change with the temperature (a board whose mounting
+    creeps as it warms: a few tenths of a degree over 30 deg C on a real
+    borehole tool), linear from ``reference_temperature_c`` (``at``).
     """
 
     gamma_deg: float = 0.0
     beta_deg: float = 0.0
     roll_deg: float = 0.0
     magnetometer_deg: tuple = (0.0, 0.0, 0.0)
+    drift_deg_per_c: tuple = (0.0, 0.0, 0.0)
+    reference_temperature_c: float = 25.0
 
     def __post_init__(self):
-        """Store the magnetometer angles as a tuple of three floats."""
+        """Store the magnetometer angles and the drift as tuples of three floats."""
         object.__setattr__(self, 'magnetometer_deg',
                            _vector(self.magnetometer_deg, 'magnetometer_deg'))
+        object.__setattr__(self, 'drift_deg_per_c',
+                           _vector(self.drift_deg_per_c, 'drift_deg_per_c'))
+
+    @property
+    def drifts(self):
+        """Return whether the mount turns with the temperature."""
+        return any(v != 0.0 for v in self.drift_deg_per_c)
+
+    def at(self, temperature_c):
+        """Return the mount at ``temperature_c`` [deg C] (no drift: itself)."""
+        if not self.drifts:
+            return self
+        change = [v * (float(temperature_c) - self.reference_temperature_c)
+                  for v in self.drift_deg_per_c]
+        return replace(self, gamma_deg=self.gamma_deg + change[0],
+                       beta_deg=self.beta_deg + change[1], roll_deg=self.roll_deg + change[2],
+                       drift_deg_per_c=(0.0, 0.0, 0.0))
+
+    def maps(self, temperature_c):
+        """
+        Return, per sample, the map tool -> accelerometer and tool -> magnetometer (N, 3, 3).
+
+        At each sample's temperature (``at``); without drift the same map for all.
+        """
+        temperature_c = np.asarray(temperature_c, dtype=float).reshape(-1)
+        accel = np.empty((temperature_c.size, 3, 3))
+        mag = np.empty_like(accel)
+        for value in np.unique(temperature_c):
+            mount = self.at(value)
+            here = temperature_c == value
+            accel[here] = mount.accelerometer_from_tool()
+            mag[here] = mount.magnetometer_from_tool()
+        return accel, mag
 
     def tool_from_board(self):
         """Return ``Rz(roll) Ry(gamma) Rx(-beta)``: the board's axes in tool coordinates."""
@@ -562,10 +600,16 @@ def read(tool, inclination_deg, toolface_deg, azimuth_deg=0.0, temperature_c=25.
                                             b_tool.shape))
     rng = np.random.default_rng(rng)
 
-    accel = tool.accelerometer.read(f_tool @ tool.mount.accelerometer_from_tool().T, temp, rng)
+    if tool.mount.drifts:   # the mount turns with the temperature: a map per sample
+        to_accel, to_mag = tool.mount.maps(temp)
+        at_accel = np.einsum('nij,nj->ni', to_accel, f_tool)
+        at_sensor = np.einsum('nij,nj->ni', to_mag, b_tool + interference)
+    else:
+        at_accel = f_tool @ tool.mount.accelerometer_from_tool().T
+        at_sensor = (b_tool + interference) @ tool.mount.magnetometer_from_tool().T
+    accel = tool.accelerometer.read(at_accel, temp, rng)
     if tool.accelerometer_axes == 2:
         accel[:, 2] = 0.0
-    at_sensor = (b_tool + interference) @ tool.mount.magnetometer_from_tool().T
     at_sensor = at_sensor @ np.array(tool.soft_iron).T + np.array(tool.hard_iron_nT)
     mag = tool.magnetometer.read(at_sensor, temp, rng)
     return Readings(accel_mps2=accel, mag_nT=mag, inclination_deg=incl, toolface_deg=tf,
@@ -601,6 +645,8 @@ def truth_dict(tool):
         'mount': {
             'gamma_deg': mount.gamma_deg, 'beta_deg': mount.beta_deg,
             'roll_deg': mount.roll_deg, 'magnetometer_deg': list(mount.magnetometer_deg),
+            'drift_deg_per_c': list(mount.drift_deg_per_c),
+            'reference_temperature_c': mount.reference_temperature_c,
             'accelerometer_from_tool': mount.accelerometer_from_tool().tolist(),
             'magnetometer_from_tool': mount.magnetometer_from_tool().tolist(),
         },

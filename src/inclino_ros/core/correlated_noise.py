@@ -1,0 +1,162 @@
+"""
+The noise of a capture from the capture itself: its variance and its effective sample size.
+
+A sensor whose first-order low-pass filter sits below its output rate
+correlates neighbouring samples: its noise is an AR(1) of coefficient
+``rho = exp(-2 pi f_c / f_s)`` (sim.sensor_model, "Noise in time"), and the
+mean of n such samples is far noisier than sigma / sqrt(n).  For a
+stationary noise of per-sample variance sigma^2 and autocorrelation rho_j
+the mean of n consecutive samples has the variance (Priestley, Spectral
+Analysis and Time Series, 1981, Eq. 5.3.5)::
+
+    var(mean_n) = sigma^2 / n * F(n),   F(n) = 1 + 2 sum_(j=1)^(n-1) (1 - j/n) rho_j
+
+so the effective sample size is ``n_eff = n / F(n)``; for rho_j = rho^j::
+
+    F(n) = (1 + rho) / (1 - rho) - 2 rho (1 - rho^n) / (n (1 - rho)^2)
+
+The capture is cut into segments (the still test's blocks) whose own
+least-squares lines are removed, so a slow motion enters no estimate.  The
+variogram of the residuals r, ``V_j = 1/2 mean (r_(i+j) - r_i)^2`` over the
+pairs within one segment, is ``sigma^2 (1 - rho^j)`` (a segment's line
+cancels in a difference but for its fitted slope's error times j, small at
+short lags): rho and sigma^2 are its least-squares fit over the lags 1 to
+LAGS, the best measured, with no correction through the segment means
+(whose variance, for rho near 1, is most of sigma^2: a within-segment
+variance corrected for it diverges).
+
+A rho below ``THRESHOLD / sqrt(N)`` (N the samples: two standard errors of
+a white noise's lag-1 correlation) is taken as white: rho = 0 and sigma^2 the
+pooled within-segment variance about the segments' means, as before (the
+still test's F laws are exact again).  Segments shorter than MIN_SEGMENT
+samples show no correlation: white likewise.  A 1/f (flicker) noise is no
+AR(1): its slow part shows as segment means that move (the still test).
+"""
+
+from dataclasses import dataclass
+import math
+
+import numpy as np
+
+#: The fraction of the squared differences the variogram keeps (the smallest), and the
+#: mean of the kept part of a chi-square of one degree of freedom, relative to its whole
+#: mean: ``E[X; X <= q] / KEPT = chi2.cdf(q, 3) / KEPT``, q = chi2.ppf(KEPT, 1), since
+#: x f_1(x) = f_3(x) (scipy.stats.chi2).
+KEPT = 0.9
+TRIMMED_MEAN = 0.6230154841346819
+#: Fewest degrees of freedom given a correlated noise (a capture of a few independent
+#: samples still tells a turn of millions of its sigma: F(2, 4) has finite tails).
+MIN_DOF = 4.0
+#: Fewest samples of a segment whose correlation is estimated (shorter: taken as white).
+MIN_SEGMENT = 8
+#: Significant correlation: above THRESHOLD / sqrt(N), N the capture's samples.
+THRESHOLD = 2.0
+#: The rho tried, to the largest (a correlation time of 100 samples: beyond, a capture
+#: holds almost no independent samples), in steps of 0.001.
+RHO_GRID = np.linspace(0.0, 0.99, 991)
+#: Lags of the variogram fitted (at most a quarter of a segment): longer ones lose more
+#: to the segments' lines (on the simulator at rho 0.9, 500 samples: lags 1-2 spread F
+#: over 9-70 for 18.6, 1-5 over 11-29, 1-12 and 1-25 sink it to 15 and 10).
+LAGS = 5
+
+
+@dataclass(frozen=True)
+class CorrelatedNoise:
+    """A stationary AR(1) noise: per-sample variance and lag-1 correlation (``estimate``)."""
+
+    variance: float     # sigma^2 per sample, per component
+    rho: float          # lag-1 correlation (0: white)
+    dof: int            # degrees of freedom of the within-segment residuals
+
+    def inflation(self, samples):
+        """Return F(n) = var(mean of n) n / sigma^2 (module docstring), n scalar or array."""
+        n = np.asarray(samples, dtype=float)
+        rho = self.rho
+        if rho == 0.0:
+            return np.ones_like(n)
+        return ((1.0 + rho) / (1.0 - rho)
+                - 2.0 * rho * (1.0 - rho ** n) / (n * (1.0 - rho) ** 2))
+
+    def effective_samples(self, samples):
+        """Return n_eff = n / F(n): the white-noise samples a mean of n is worth."""
+        return np.asarray(samples, dtype=float) / self.inflation(samples)
+
+    def mean_variance(self, samples):
+        """Return the variance of the mean of ``samples`` consecutive samples."""
+        return self.variance * self.inflation(samples) / np.asarray(samples, dtype=float)
+
+
+def _residuals(values, segments, sizes, degree):
+    """Return ``values`` less each segment's least-squares polynomial of ``degree`` (0 or 1)."""
+    design = [np.ones(len(segments))]
+    if degree:
+        position = np.arange(len(segments), dtype=float)
+        design.append(position - (np.bincount(segments, weights=position) / sizes)[segments])
+    residual = values.copy()
+    for column in design:   # orthogonal within each segment: one projection each
+        norm = np.bincount(segments, weights=column * column)
+        for j in range(values.shape[1]):
+            weight = np.bincount(segments, weights=column * values[:, j]) / norm
+            residual[:, j] -= weight[segments] * column
+    return residual
+
+
+def _variogram(residual, segments, lag):
+    """
+    Return 1/2 the mean squared difference of residuals ``lag`` apart in one segment.
+
+    Robust: the mean of the smallest KEPT of the squared differences over
+    its Gaussian value (``TRIMMED_MEAN`` times the whole mean), so that jumps
+    (a knock, a turn the still test is to see) do not pass for noise.
+    """
+    same = segments[lag:] == segments[:-lag]
+    squared = np.sort((residual[lag:][same] - residual[:-lag][same]).ravel() ** 2)
+    kept = squared[:max(int(KEPT * squared.size), 1)]
+    return 0.5 * float(np.mean(kept)) / TRIMMED_MEAN
+
+
+def estimate(values, segments):
+    """
+    Return the CorrelatedNoise of ``values`` (N,) or (N, k) within ``segments``.
+
+    ``segments`` (N,) integers 0 .. S-1, each a run of consecutive samples
+    (the still test's blocks) of at least two samples.  ``dof``: the
+    within-segment residuals' degrees of freedom, ``k (N - S)``.
+    """
+    segments = np.asarray(segments)
+    values = np.asarray(values, dtype=float).reshape(len(segments), -1)
+    count, k = values.shape
+    sizes = np.bincount(segments).astype(float)
+    dof = k * (count - sizes.size)
+    white = CorrelatedNoise(
+        variance=float(np.sum(_residuals(values, segments, sizes, 0) ** 2)) / dof, rho=0.0,
+        dof=dof)
+    if sizes.min() < MIN_SEGMENT or white.variance == 0.0:
+        return white
+    residual = _residuals(values, segments, sizes, 1)
+    lags = np.arange(1, max(min(LAGS, int(sizes.min()) // 4), 2) + 1)
+    variogram = np.array([_variogram(residual, segments, lag) for lag in lags])
+    # Least squares of V_j = sigma^2 (1 - rho^j) over a grid of rho: sigma^2 is linear.
+    shape = 1.0 - RHO_GRID[:, None] ** lags[None, :]
+    variance = (shape @ variogram) / np.sum(shape * shape, axis=1)
+    best = int(np.argmin(np.sum((variogram - variance[:, None] * shape) ** 2, axis=1)))
+    if not RHO_GRID[best] > THRESHOLD / math.sqrt(count):
+        return white
+    return CorrelatedNoise(variance=float(variance[best]), rho=float(RHO_GRID[best]), dof=dof)
+
+
+def dof(noise, samples):
+    """
+    Return the degrees of freedom of a CorrelatedNoise's variance of a mean of ``samples``.
+
+    White: the within-segment residuals' (the F laws of ``core.stillness`` are
+    exact).  Correlated: ``dof / (4 F(N))``, from the spread measured on the
+    simulator (AR(1), 2 components, 300 captures each): the estimate of F
+    has a relative 1 sigma of ~0.4 at rho 0.9 and 500 samples, ~0.3 at 1000,
+    i.e. ``2 / 0.4^2 = 12`` and 22 degrees of freedom, where ``dof / (4 F)``
+    gives 13 and 26 (``dof / (2 F)`` refused 1 still capture in 300 at rho
+    0.9 and 500 samples, ``dof / F`` 2).  At least MIN_DOF.
+    """
+    if noise.rho == 0.0:
+        return noise.dof
+    return max(noise.dof / (4.0 * float(noise.inflation(samples))), MIN_DOF)
