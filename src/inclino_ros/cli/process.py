@@ -205,6 +205,9 @@ def run(args):
                 raise _NothingAccepted()   # an empty OUT is not left behind
     except _NothingAccepted:
         print('\n'.join(summary.lines(magnetometer)))
+        loud = summary.mostly_dropped()
+        if loud is not None:
+            print(f'inclino process: ERROR: {loud}', file=sys.stderr)
         print(f'inclino process: no sample of {args.topic} was accepted: {args.output} not '
               'written', file=sys.stderr)
         return 1
