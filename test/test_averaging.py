@@ -2,7 +2,7 @@
 
 from inclino_ros.calibration.model import CalibrationModel
 from inclino_ros.core.averaging import Averager
-from inclino_ros.io.timing import pair_nearest
+from inclino_ros.io.timing import pair_nearest, pairing_tolerance
 from inclino_ros.pipeline import average, MagneticSettings, run, Settings
 from inclino_ros.sim import sensor_model
 import numpy as np
@@ -96,7 +96,7 @@ def test_a_slower_magnetometer_averages_over_its_distinct_readings():
     stamps = np.arange(1000) * 1_000_000
     mag_stamps = np.arange(100) * 10_000_000
     fields = np.random.default_rng(3).normal(48000.0, 50.0, (100, 3))
-    paired, _ = pair_nearest(stamps, mag_stamps, fields, 5_000_000)
+    paired, _ = pair_nearest(stamps, mag_stamps, fields, 5_000_000, pairing_tolerance(50.0))
     (windows,) = push_in_batches(Averager(samples=100), stamps, np.ones((1000, 3)), [1000],
                                  field_nT=paired)
     distinct = [len({tuple(row) for row in paired[k * 100:(k + 1) * 100]

@@ -251,7 +251,7 @@ def test_the_file_names_its_sensor(tmp_path):
                               calibration, *extra])
         assert code == 2 and "belongs to sensor 'TOOL-A'" in err and expected in err
     code, _, err = quiet(['process', tmp_path / 'in', tmp_path / 'out', '--calibration',
-                          calibration, '--sensor-id', 'TOOL-A'])
+                          calibration, '--sensor-id', 'TOOL-A', '--at-reference-temperature'])
     assert code == 0, err
     code, _, err = quiet(['fit-temperature', tmp_path / 'heating.csv', '--calibration',
                           calibration, '--sensor-id', 'TOOL-B'])

@@ -13,7 +13,8 @@ import sys
 from inclino_ros.calibration.model import (
     CalibrationFileError, CalibrationModel, load_model, save_model)
 from inclino_ros.calibration.stations import load_stations, save_stations, StationsFileError
-from inclino_ros.io.files import loads_strict, OutputError, Outputs, stale_temporaries
+from inclino_ros.io.files import (
+    loads_strict, OutputError, Outputs, stale_temporaries, temporary_path)
 import pytest
 
 
@@ -169,3 +170,27 @@ def test_force_replaces_only_what_the_project_writes(tmp_path, case):
             outputs.path(final)
     assert sorted(os.listdir(project)) == ['in.csv', 'notes.txt']
     assert (project / 'notes.txt').read_text() == 'mine'
+
+
+@pytest.mark.parametrize('char', ['a', 'é'])
+def test_a_long_output_name_the_os_accepts_is_written(tmp_path, char):
+    """A 250-byte name (255 is NAME_MAX) is written; its temporary fits and is found when stale."""
+    name = char * ((250 - len('.csv')) // len(char.encode())) + '.csv'
+    final = tmp_path / name
+    assert 245 <= len(os.fsencode(name)) <= 250
+    final.write_text('accepted by the OS')
+    final.unlink()
+    with Outputs() as outputs:
+        with open(outputs.path(final), 'x') as stream:
+            stream.write('new')
+    assert os.listdir(tmp_path) == [name] and final.read_text() == 'new'
+    mine = temporary_path(str(final))
+    assert len(os.fsencode(os.path.basename(mine))) <= 255
+    stale = mine.replace(f'-{os.getpid()}-', f'-{dead_pid()}-')
+    os.mkdir(stale)
+    other = tmp_path / os.path.basename(temporary_path(str(tmp_path / (name[:-4] + '.txt'))))
+    other.mkdir()
+    assert stale_temporaries(final) == [stale]
+    with Outputs(force=True) as outputs:
+        open(outputs.path(final), 'w').write('newer')
+    assert sorted(os.listdir(tmp_path)) == sorted([name, other.name])

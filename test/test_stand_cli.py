@@ -557,18 +557,27 @@ def test_process_with_temperature_topic(runs, tmp_path):
     """
     A noise-free heating bag: every sample within 0.01 deg with the topic, >= 1 deg without.
 
+    Without the topic the temperature stage is refused (issue 21: as survey), unless
+    --at-reference-temperature, warned.
+
     Seed 001's one-attitude run processed with the two-attitude calibration: this checks the
     topic's use (random attitudes: test_fit_temperature_compensates).
     """
     heating = tmp_path / 'heating'
     assert quiet(['simulate', heating, '--heating', '--sensor', 'mems', '--noise-mps2', 0])[0] == 0
+    code, _, stderr = quiet(['process', heating, tmp_path / 'refused', '--calibration',
+                             runs['cal.json']])
+    assert code == 2 and 'no --temperature-topic was given but' in stderr
+    assert '--at-reference-temperature' in stderr and not (tmp_path / 'refused').exists()
     errors = {}
-    for name, extra in (('with', ['--temperature-topic', '/imu/temperature']), ('without', [])):
+    for name, extra in (('with', ['--temperature-topic', '/imu/temperature']),
+                        ('without', ['--at-reference-temperature'])):
         code, _, stderr = quiet(['process', heating, tmp_path / name, '--calibration',
                                  runs['cal.json'], *extra])
         assert code == 0, stderr
         errors[name] = bag.concatenate(bag.read(tmp_path / name, '/survey')).vector[:, 0] - 55.0
-    assert 'no --temperature-topic' in stderr
+    assert 'warning: no --temperature-topic was given' in stderr
+    assert 'temperature 25 deg C' in stderr
     assert np.abs(errors['with']).max() <= 0.01
     assert np.abs(errors['without']).max() >= 1.0
 

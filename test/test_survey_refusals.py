@@ -104,7 +104,32 @@ def test_temperature_column_missing_with_a_temperature_stage_is_an_error(tmp_pat
     """A calibration that compensates temperature needs it: not silently the reference one."""
     code, err, out = survey(tmp_path, HEADER, numbered(*shots()), temperature=True)
     assert code == 2 and out is None
-    assert 'no temperature_c column' in err
+    assert 'no temperature_c column' in err and '--at-reference-temperature' in err
+
+
+def test_missing_temperature_is_one_rule_for_survey_and_process(tmp_path):
+    """
+    Survey and process (a CSV log) refuse alike; --at-reference-temperature goes on, warned.
+
+    Main: process only warned and compensated at 25 C (exit 0) where survey refused.
+    """
+    accel, field = shots()
+    write_rows(tmp_path / 'shots.csv', HEADER, numbered(accel, field))
+    write_rows(tmp_path / 'log.csv', ['time_s', 'ax', 'ay', 'az'],
+               [[0.01 * k, *a] for k, a in enumerate(accel)])
+    cal = calibration(tmp_path / 'cal.json', temperature=True)
+    commands = {'survey': ['survey', tmp_path / 'shots.csv', '-o', tmp_path / 'survey.csv'],
+                'process': ['process', tmp_path / 'log.csv', tmp_path / 'bag']}
+    for name, command in commands.items():
+        code, _, err = quiet([*command, '--calibration', cal])
+        assert code == 2, (name, err)
+        assert ('has no temperature_c column but' in err and 'compensates temperature '
+                '(temperature)' in err and '--at-reference-temperature' in err), (name, err)
+        code, _, err = quiet([*command, '--calibration', cal, '--at-reference-temperature'])
+        assert code == 0, (name, err)
+        assert (f'inclino {name}: warning: ' in err and 'reference temperature (temperature '
+                '25 deg C)' in err), (name, err)
+    assert (tmp_path / 'survey.csv').exists() and (tmp_path / 'bag').exists()
 
 
 def test_temperature_outside_the_fitted_range_is_flagged_on_every_row(tmp_path):

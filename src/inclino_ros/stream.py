@@ -25,7 +25,7 @@ import math
 from inclino_ros.calibration.plausibility import field_reading_ok
 from inclino_ros.core.screening import count_reasons, REASONS
 from inclino_ros.io.bag import ImuSeries, not_measured_covariance, Vector3Series
-from inclino_ros.io.timing import pair_nearest
+from inclino_ros.io.timing import pair_nearest, pairing_tolerance
 from inclino_ros.pipeline import average, imu_covariances, MagneticSettings, run
 import numpy as np
 
@@ -71,7 +71,8 @@ class Magnetometer:
 
     def field_at(self, stamps_ns):
         """Return (field_nT (N, 3), paired (N,)) of the readings nearest ``stamps_ns``."""
-        return pair_nearest(stamps_ns, self.stamps_ns, self.field_nT, self.max_pairing_ns)
+        return pair_nearest(stamps_ns, self.stamps_ns, self.field_nT, self.max_pairing_ns,
+                            pairing_tolerance(self.settings.noise_std_nT))
 
 
 class Summary:

@@ -20,9 +20,9 @@ from inclino_ros.calibration.corrections import (
 from inclino_ros.calibration.migrations import (
     READABLE_VERSIONS, SCHEMA_VERSION, SECTIONS, upgraded, VERSION_3_FIELDS)
 from inclino_ros.calibration.provenance import (
-    age_seconds, common_stage_temperature, readings_temperature_c, stage_ages_s,
-    stage_temperatures, STAGE_TIMES, stale_stages, temperature_conflict, TEMPERATURE_FIELDS,
-    utc_now_iso)
+    age_seconds, common_stage_temperature, missing_temperature, MissingTemperature,
+    readings_temperature_c, stage_ages_s, stage_temperatures, STAGE_TIMES, stale_stages,
+    temperature_conflict, TEMPERATURE_FIELDS, TEMPERATURE_STAGES, utc_now_iso)
 from inclino_ros.calibration.schema import (
     AXES_MAP_SENSORS, FORMAT, is_int, model_from_dict, model_to_dict, STAGE_FIELDS,
     stage_from_dict)
@@ -36,12 +36,13 @@ from inclino_ros.calibration.store import (
 __all__ = [
     'age_seconds', 'AXES_MAP_SENSORS', 'CalibrationChanged', 'CalibrationFileError',
     'CalibrationModel', 'check_axes_maps', 'check_sensor', 'common_stage_temperature', 'FORMAT',
-    'Installation', 'is_int', 'load_model',
-    'Magnetic', 'Magnetometer', 'MAGNETOMETER_STAGES', 'MagnetometerAlignment',
-    'MagnetometerTemperature', 'model_from_dict', 'model_text', 'model_to_dict', 'MOUNT_STAGES',
+    'Installation', 'is_int', 'load_model', 'Magnetic', 'Magnetometer', 'MAGNETOMETER_STAGES',
+    'MagnetometerAlignment', 'MagnetometerTemperature', 'missing_temperature',
+    'MissingTemperature', 'model_from_dict', 'model_text', 'model_to_dict', 'MOUNT_STAGES',
     'NO_MAGNETIC_CORRECTION', 'PYTHON_WRITER', 'READABLE_VERSIONS', 'read_model_history',
     'readings_temperature_c', 'save_model', 'SCHEMA_VERSION', 'SECTIONS', 'stage_ages_s',
     'STAGE_FIELDS', 'stage_from_dict', 'stage_temperatures', 'STAGE_TIMES', 'STAGES',
     'stale_stages', 'Stand', 'STANDARD_GRAVITY_MPS2', 'Temperature', 'temperature_conflict',
-    'TEMPERATURE_FIELDS', 'ToolAxis', 'UNCHECKED', 'upgraded', 'utc_now_iso', 'VERSION_3_FIELDS',
+    'TEMPERATURE_FIELDS', 'TEMPERATURE_STAGES', 'ToolAxis', 'UNCHECKED', 'upgraded', 'utc_now_iso',
+    'VERSION_3_FIELDS',
 ]

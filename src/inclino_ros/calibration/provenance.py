@@ -114,3 +114,37 @@ def common_stage_temperature(model, tolerance_c, names=('stand', 'installation')
             + f', more than {tolerance_c:g} C apart): no one temperature compensation suits '
             'them; capture them again after the temperature fit')
     return float(values.mean())
+
+
+#: The stages that compensate a temperature, each needing the temperature of every reading.
+TEMPERATURE_STAGES = ('temperature', 'magnetometer_temperature')
+
+
+class MissingTemperature(ValueError):
+    """A calibration compensates temperature and the input gives none (refused)."""
+
+
+def missing_temperature(model, calibration, missing, at_reference=False):
+    """
+    Apply the one rule for readings without a temperature (``inclino process`` and ``survey``).
+
+    A calibration with a temperature stage corrects each reading at its
+    temperature; without one it would compensate at the reference
+    temperature, a silent error of up to the stage's whole drift (5° of
+    inclination over 60 K).  So it is refused (MissingTemperature, naming the
+    stages, what is ``missing`` and the way out) unless ``at_reference``:
+    then the text of a loud warning naming the reference temperature(s) is
+    returned.  None: the calibration compensates no temperature.
+    """
+    stages = [name for name in TEMPERATURE_STAGES if getattr(model, name) is not None]
+    if not stages:
+        return None
+    if not at_reference:
+        raise MissingTemperature(
+            f'{missing} but {calibration} compensates temperature ({", ".join(stages)}): give '
+            'the temperature of every reading, or --at-reference-temperature to compensate '
+            'at the reference temperature')
+    references = ', '.join(f'{name} {getattr(model, name).reference_temperature_c:g} deg C'
+                           for name in stages)
+    return (f'warning: {missing}: --at-reference-temperature: {calibration} compensates at its '
+            f'reference temperature ({references}), not at that of the readings')

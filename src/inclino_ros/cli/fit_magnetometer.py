@@ -52,7 +52,7 @@ from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_file_arguments, finish_figure, is_bag, load_existing, new_figure, read_topic, Refused,
     report_paths, report_residuals, run_fit, save, TEMPERATURE_TOPIC, write_text)
-from inclino_ros.cli.fitting import NODE_DEFAULTS
+from inclino_ros.cli.fitting import MAG_PAIRING_TOLERANCE_NT, NODE_DEFAULTS
 from inclino_ros.cli.options import between, node_parameter, positive
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core import magnetics
@@ -127,7 +127,7 @@ def read_bag_shots(args, lines):
     imu = read_topic(args.input, args.raw_topic)
     mag = read_topic(args.input, args.mag_topic)
     field, paired = pair_nearest(imu.stamps_ns, mag.stamps_ns, mag.field_nT,
-                                 round(args.max_pairing_s * 1e9))
+                                 round(args.max_pairing_s * 1e9), MAG_PAIRING_TOLERANCE_NT)
     order = np.argsort(imu.stamps_ns[paired], kind='stable')
     stamps = imu.stamps_ns[paired][order]
     accel = imu.linear_acceleration_mps2[paired][order]

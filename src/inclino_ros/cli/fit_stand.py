@@ -69,9 +69,9 @@ from inclino_ros.calibration.still_capture import CaptureRefused
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_common_arguments, add_still_options, axes_maps, AXIS_COLUMNS, finish_figure, has_topic,
-    is_bag, load_existing, matrix_lines, new_figure, NODE_DEFAULTS, node_option, read_csv,
-    read_topic, Refused, report_paths, report_residuals, run_fit, sample_temperatures, save,
-    tool_axes, write_text)
+    is_bag, load_existing, MAG_PAIRING_TOLERANCE_NT, matrix_lines, new_figure, NODE_DEFAULTS,
+    node_option, read_csv, read_topic, Refused, report_paths, report_residuals, run_fit,
+    sample_temperatures, save, tool_axes, write_text)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.options import between, node_parameter
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
@@ -250,8 +250,8 @@ def load_input(args):
     fields = None
     if has_topic(args.input, args.mag_topic):
         mag = read_topic(args.input, args.mag_topic)
-        fields = pair_nearest(imu.stamps_ns, mag.stamps_ns, mag.field_nT,
-                              round(0.05 * 1e9))[0]
+        fields = pair_nearest(imu.stamps_ns, mag.stamps_ns, mag.field_nT, round(0.05 * 1e9),
+                              MAG_PAIRING_TOLERANCE_NT)[0]
     attitude = read_topic(args.input, args.attitude_topic)
     order = np.argsort(attitude.stamps_ns, kind='stable')
     latest = np.searchsorted(attitude.stamps_ns[order], imu.stamps_ns, side='right') - 1

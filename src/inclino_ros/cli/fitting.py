@@ -32,6 +32,7 @@ from inclino_ros.io import tables
 from inclino_ros.io.bag import BagError, concatenate, read, topic_info
 from inclino_ros.io.files import Outputs, write_text as write_file
 from inclino_ros.io.report import certificate_html, residual_lines
+from inclino_ros.io.timing import pairing_tolerance
 from inclino_ros.node.parameters import PARAMETERS
 import numpy as np
 
@@ -40,6 +41,8 @@ TEMPERATURE_TOPIC = '/imu/temperature'
 AXIS_COLUMNS = ('ax', 'ay', 'az')
 #: The node's parameter defaults: the commands' options default to the same values.
 NODE_DEFAULTS = {parameter.name: parameter.default for parameter in PARAMETERS}
+#: The fits pair a bag's magnetometer with the node's rule at the node's default noise.
+MAG_PAIRING_TOLERANCE_NT = pairing_tolerance(NODE_DEFAULTS['magnetometer_noise_std_nT'])
 
 
 def add_file_arguments(parser, csv_help='CSV file with a header row'):

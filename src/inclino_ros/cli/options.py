@@ -99,3 +99,11 @@ def add_force_argument(parser):
     """Add ``--force``: replace outputs that exist (never an input of the command)."""
     parser.add_argument('--force', action='store_true',
                         help='replace outputs that exist already (an input is never replaced)')
+
+
+def add_reference_temperature_argument(parser):
+    """Add ``--at-reference-temperature`` (``calibration.provenance.missing_temperature``)."""
+    parser.add_argument('--at-reference-temperature', action='store_true',
+                        help='with a calibration that compensates temperature and no '
+                             'temperature in the input, compensate at its reference '
+                             'temperature (warned) instead of refusing')

@@ -17,8 +17,9 @@ calibration's own uncertainty) exceeds ``--toolface-max-std-deg`` /
 ``--azimuth-max-std-deg`` is NaN, counted.  With ``--temperature-topic`` the
 calibration's temperature stage gets the temperature of each sample
 (sensor_msgs/Temperature interpolated linearly to its stamp, the first or
-last value held outside their span); without it the stage compensates at
-its reference temperature.
+last value held outside their span); without it a calibration with a
+temperature stage is refused unless ``--at-reference-temperature`` (then it
+compensates at its reference temperature, warned).
 
 With ``--mag-topic`` (sensor_msgs/MagneticField, tesla, z-up tool frame)
 each Imu sample is paired with the magnetometer message nearest in time
@@ -64,7 +65,8 @@ import os
 import sys
 
 from inclino_ros.calibration.continuous_log import GYRO_COLUMNS, TIME_COLUMN
-from inclino_ros.calibration.model import CalibrationFileError, check_axes_maps
+from inclino_ros.calibration.model import (
+    CalibrationFileError, check_axes_maps, missing_temperature, MissingTemperature)
 from inclino_ros.calibration.plausibility import (
     check_for_sensor, Implausible, temperature_ok)
 from inclino_ros.cli.errors import CommandError
@@ -73,7 +75,8 @@ from inclino_ros.cli.fitting import (
     warn_outside_range)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.mounting import add_axes_map_arguments, settings_maps
-from inclino_ros.cli.options import add_force_argument, between, node_parameter
+from inclino_ros.cli.options import (
+    add_force_argument, add_reference_temperature_argument, between, node_parameter)
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core.averaging import Averager
 from inclino_ros.io import tables
@@ -102,8 +105,9 @@ def register(subparsers):
         '/imu/data (the corrected acceleration, roll and pitch). Samples that cannot (NaN, '
         'saturated, zero) are dropped and counted in the summary.',
         'With --temperature-topic the temperature stage of the calibration gets the '
-        'temperature of each sample (interpolated in time); without it, it compensates at its '
-        'reference temperature (25 C).',
+        'temperature of each sample (interpolated in time); without it a calibration with a '
+        'temperature stage is refused, unless --at-reference-temperature (compensated at its '
+        'reference temperature, warned).',
         'With --mag-topic (sensor_msgs/MagneticField, tesla) each sample takes the '
         'magnetometer reading nearest in time (readings without a value skipped); none within '
         '--max-pairing-s leaves its azimuth empty (NaN). An azimuth is written only where it '
@@ -122,10 +126,11 @@ def register(subparsers):
                         help='sensor_msgs/Imu topic to read (default: %(default)s)')
     parser.add_argument('--temperature-topic', metavar='TOPIC',
                         help='sensor_msgs/Temperature topic of IN feeding the temperature '
-                             'stage (default: none, compensate at the reference temperature)')
+                             'stage (default: none)')
     parser.add_argument('--storage', choices=sorted(STORAGES), default='mcap',
                         help='storage format of OUT (default: %(default)s)')
     add_force_argument(parser)
+    add_reference_temperature_argument(parser)
     parser.add_argument('--toolface-convention', choices=('seed000', 'iscwsa_highside'),
                         default=NODE_DEFAULTS['toolface_convention'],
                         help='gravity toolface definition (default: %(default)s)')
@@ -306,20 +311,15 @@ def _prepare(args, log=None):
         raise CommandError(str(err)) from None
     if log is not None:
         imu, series = log
-        if series is None and model.temperature is not None:
-            print(f'inclino process: warning: {args.calibration} has a temperature stage but '
-                  f'{args.input} has no temperature_c column: compensating at '
-                  f'{model.temperature.reference_temperature_c} deg C', file=sys.stderr)
+        if series is None:
+            refuse_missing_temperature(args, model, f'{args.input} has no temperature_c column')
         return model, settings, imu.stamps_ns.size, None if series is None else \
             _known_temperatures(series, args)
     msgtype, count = topic_info(args.input, args.topic)
     if msgtype != IMU:
         raise CommandError(f'{args.topic} in {args.input} holds {msgtype}, not {IMU}')
     if args.temperature_topic is None:
-        if model.temperature is not None:
-            print(f'inclino process: warning: {args.calibration} has a temperature stage but no '
-                  '--temperature-topic was given: compensating at '
-                  f'{model.temperature.reference_temperature_c} deg C', file=sys.stderr)
+        refuse_missing_temperature(args, model, 'no --temperature-topic was given')
         return model, settings, count, None
     msgtype, temperatures = topic_info(args.input, args.temperature_topic)
     if msgtype != TEMPERATURE or temperatures == 0:
@@ -327,6 +327,23 @@ def _prepare(args, log=None):
                            f'{msgtype} messages, not {TEMPERATURE} ones')
     return model, settings, count, _known_temperatures(
         concatenate(read(args.input, args.temperature_topic)), args)
+
+
+def refuse_missing_temperature(args, model, missing):
+    """
+    Refuse input without temperatures for a model compensating them (CommandError).
+
+    ``--at-reference-temperature``: warn on stderr and go on at the reference
+    temperature instead (``provenance.missing_temperature``, the rule of
+    ``inclino survey`` too).
+    """
+    try:
+        warning = missing_temperature(model, args.calibration, missing,
+                                      args.at_reference_temperature)
+    except MissingTemperature as err:
+        raise CommandError(str(err)) from None
+    if warning is not None:
+        print(f'inclino {args.command}: {warning}', file=sys.stderr)
 
 
 def _known_temperatures(series, args):

@@ -47,8 +47,9 @@ from inclino_ros.calibration.plausibility import (
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     load_calibration, NODE_DEFAULTS, node_option, warn_outside_range)
-from inclino_ros.cli.options import add_force_argument, node_parameter
-from inclino_ros.cli.process import add_limit_arguments
+from inclino_ros.cli.options import (
+    add_force_argument, add_reference_temperature_argument, node_parameter)
+from inclino_ros.cli.process import add_limit_arguments, refuse_missing_temperature
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core.magnetics import QcLimits, true_azimuth_deg
 from inclino_ros.core.screening import ACCEPTED, REASONS
@@ -94,6 +95,7 @@ def register(subparsers):
                 'magnetometer noise per sample, 1 sigma [nT]')
     add_limit_arguments(parser)
     add_force_argument(parser)
+    add_reference_temperature_argument(parser)
     add_reference_arguments(parser.add_argument_group('reference field (adds the QC columns)'))
     parser.set_defaults(func=run)
 
@@ -142,16 +144,11 @@ def _temperatures(args, header, rows, model):
 
     Every cell must be a number a sensor reads (``plausibility.TEMPERATURE_C``:
     1e6 or text is no temperature); a calibration with a temperature stage
-    needs the column (without it the readings would be compensated at the
-    reference temperature, silently).
+    needs the column unless ``--at-reference-temperature`` (the one rule of
+    ``inclino process`` too: ``provenance.missing_temperature``).
     """
-    stages = [name for name in ('temperature', 'magnetometer_temperature')
-              if getattr(model, name) is not None]
     if 'temperature_c' not in header:
-        if stages:
-            raise CommandError(f'{args.input} has no temperature_c column but '
-                               f'{args.calibration} compensates temperature ({", ".join(stages)}'
-                               '): give the temperature of every row')
+        refuse_missing_temperature(args, model, f'{args.input} has no temperature_c column')
         return None
     temperature_c = _numbers(rows, header, 'temperature_c')
     unread = np.flatnonzero(~np.isfinite(temperature_c))

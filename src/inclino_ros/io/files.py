@@ -3,7 +3,8 @@ Files written whole or not at all, never over an input or silently over another 
 
 Every file and bag the package writes goes through ``Outputs``: each output is
 written, under its own name, into a temporary folder beside it
-(``.NAME-PID-<random>.tmp/NAME``) and renamed into place only when the command
+(``.NAME-PID-<random>.tmp/NAME``; a NAME too long for that is cut and
+hashed, ``_temporary_stem``) and renamed into place only when the command
 completed; on any failure, Ctrl-C included, the temporaries are removed and
 what existed stays as it was.  The outputs of one command land together or
 none does: an output already renamed into place is put back as it was when a
@@ -86,15 +87,42 @@ def open_regular(path, mode='rb', **kwargs):
 _IN_FLIGHT = set()
 
 
+#: The longest file name in bytes (POSIX NAME_MAX of ext4, xfs, btrfs, tmpfs).
+NAME_MAX = 255
+#: Bytes a temporary adds to its stem: '.', '-PID' (up to 10 digits), '-<8 hex>', '.tmp'.
+_TEMPORARY_EXTRA = 1 + 11 + 9 + 4
+#: Hex digits of the SHA-256 of the name that stand for a long name's cut tail.
+_NAME_HASH_DIGITS = 12
+
+
+def _temporary_stem(name):
+    """
+    Return the part of ``name`` its temporaries start with.
+
+    The name itself when the temporary fits NAME_MAX, else its first bytes and
+    '~' with a hash of the whole name: any name the OS accepts (up to 255
+    bytes) has a temporary it accepts too, still recognisable as ours (the
+    stale cleanup finds it) and distinct from the temporaries of another name
+    with the same beginning.
+    """
+    encoded = os.fsencode(name)
+    if len(encoded) + _TEMPORARY_EXTRA <= NAME_MAX:
+        return name
+    digest = hashlib.sha256(encoded).hexdigest()[:_NAME_HASH_DIGITS]
+    keep = NAME_MAX - _TEMPORARY_EXTRA - 1 - _NAME_HASH_DIGITS
+    return f'{os.fsdecode(encoded[:keep])}~{digest}'
+
+
 def temporary_path(final):
     """Return a new temporary name beside ``final`` (the file is not created)."""
     folder, name = os.path.split(os.path.abspath(final))
-    return os.path.join(folder, f'.{name}-{os.getpid()}-{secrets.token_hex(4)}.tmp')
+    stem = _temporary_stem(name)
+    return os.path.join(folder, f'.{stem}-{os.getpid()}-{secrets.token_hex(4)}.tmp')
 
 
 def _temporary_pattern(name):
     """Return the regex of the temporaries of ``name``: ours (with a PID) and mkstemp's."""
-    escaped = re.escape(name)
+    escaped = re.escape(_temporary_stem(name))
     return re.compile(rf'\.{escaped}-(?:(\d+)-[0-9a-f]{{8}}|[a-z0-9_]{{8}})\.tmp\Z')
 
 

@@ -2,23 +2,49 @@
 Pairing of two sensor streams by their stamps.
 
 The azimuth (seed 002) needs, for each accelerometer sample, the
-magnetometer reading of the same moment; the node and ``inclino process``
-pair them with the same function.
+magnetometer reading of the same moment and attitude; the node, ``inclino
+process`` and the fits pair them with the same function (``pair_nearest``).
 """
 
 import numpy as np
 
 
-def pair_nearest(stamps_ns, reading_stamps_ns, readings, max_gap_ns):
+#: Sigmas per axis within which the two readings bracketing a sample agree (their
+#: difference has sqrt(2) times one reading's noise): a still tool's pair exceeds it with a
+#: chance of 3 x 5.7e-7, a change of attitude between two stations by thousands of nT does.
+PAIRING_SIGMA = 5.0
+
+
+def pairing_tolerance(noise_std):
+    """Return the per-axis difference two readings of one attitude stay within (5 sigma)."""
+    return PAIRING_SIGMA * np.sqrt(2.0) * float(noise_std)
+
+
+def pair_nearest(stamps_ns, reading_stamps_ns, readings, max_gap_ns, tolerance):
     """
-    Return (values (N, k), paired (N,)): for each stamp the reading nearest in time.
+    Return (values (N, k), paired (N,)): per stamp the nearest reading of its attitude.
+
+    The one pairing rule of the node and ``inclino process`` (and the fits).  A
+    reading is the field at its own stamp; between two readings the tool may
+    turn (a slow magnetometer, 10 Hz against 200 Hz, reads once per 20
+    samples), so the nearest reading alone may be of another attitude: the
+    last samples of a station took the next station's reading.  The rule:
+    the readings bracketing the sample (the latest at or before it, the
+    earliest after it) must agree within ``tolerance`` on every axis (the
+    difference of two readings of one attitude: ``pairing_tolerance`` of their
+    noise); if they differ more, the attitude changed between them, at an
+    unknown moment, and the sample is unpaired (NaN, counted), never given a
+    reading across that change.  Where they agree the nearest one is taken
+    (of two equally near, the earlier); a reading at the sample's own stamp is
+    always its own.  A sample with a reading on one side only (before the
+    first reading, after the last one so far: the live node's newest samples)
+    takes that one, as its attitude cannot be checked yet.
 
     ``reading_stamps_ns`` need not be sorted (a best-effort topic may deliver
-    out of order); of two readings equally near, the earlier is taken.  A
-    reading with a non-finite value is never paired (some drivers publish NaN
-    between two measurements): the nearest finite one is.  A stamp with no
-    reading within ``max_gap_ns`` (inclusive) gets a NaN row.  Stamps are
-    int64 nanoseconds throughout, so no precision is lost.
+    out of order).  A reading with a non-finite value is never paired (some
+    drivers publish NaN between two measurements): the finite ones bracket.
+    A stamp with no reading within ``max_gap_ns`` (inclusive) gets a NaN row.
+    Stamps are int64 nanoseconds throughout, so no precision is lost.
     """
     stamps = np.asarray(stamps_ns, dtype=np.int64).reshape(-1)
     readings = np.asarray(readings, dtype=float)
@@ -34,9 +60,14 @@ def pair_nearest(stamps_ns, reading_stamps_ns, readings, max_gap_ns):
     reading_stamps = reading_stamps[order]
     readings = readings[order]
     last = reading_stamps.size - 1
-    after = np.clip(np.searchsorted(reading_stamps, stamps), 0, last)
-    before = np.clip(after - 1, 0, last)
-    nearest = np.where(np.abs(reading_stamps[after] - stamps)
-                       < np.abs(stamps - reading_stamps[before]), after, before)
-    paired = np.abs(reading_stamps[nearest] - stamps) <= max_gap_ns
+    after = np.searchsorted(reading_stamps, stamps, side='right')   # first reading > stamp
+    before = after - 1                                              # last reading <= stamp
+    has_before, has_after = before >= 0, after <= last
+    after, before = np.clip(after, 0, last), np.clip(before, 0, last)
+    nearest = np.where(~has_before | has_after & (
+        reading_stamps[after] - stamps < stamps - reading_stamps[before]), after, before)
+    exact = has_before & (reading_stamps[before] == stamps)
+    agree = np.all(np.abs(readings[after] - readings[before]) <= tolerance, axis=1)
+    paired = (np.abs(reading_stamps[nearest] - stamps) <= max_gap_ns) & (
+        exact | ~(has_before & has_after) | agree)
     return np.where(paired[:, None], readings[nearest], unpaired), paired

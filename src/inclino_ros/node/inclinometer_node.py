@@ -288,7 +288,8 @@ class InclinometerNode(Node):
         field_nT = None
         if self.magnetometer.stamp_ns is not None:  # no azimuth work without a magnetometer
             field_nT = self.magnetometer.paired(batch.stamps_ns,
-                                                self.param('magnetic.max_pairing_s'))
+                                                self.param('magnetic.max_pairing_s'),
+                                                self.param('magnetometer_noise_std_nT'))
         frame_ids = (np.full(batch.stamps_ns.size, self.frame_id) if self.frame_id
                      else batch.frame_ids)
         result = correct_batch(batch.linear_acceleration_mps2, batch.stamps_ns, frame_ids,

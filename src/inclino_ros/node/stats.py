@@ -8,7 +8,7 @@ from inclino_ros.calibration.model import age_seconds, MOUNT_STAGES
 from inclino_ros.calibration.plausibility import field_reading_ok, temperature_ok
 from inclino_ros.core.screening import count_reasons, REASONS
 from inclino_ros.core.temperature import in_range
-from inclino_ros.io.timing import pair_nearest
+from inclino_ros.io.timing import pair_nearest, pairing_tolerance
 import numpy as np
 
 
@@ -193,10 +193,11 @@ class MagneticInput:
         self.recent.extend(zip(series.stamps_ns[ok].tolist(), map(tuple, field_nT[ok])))
         self.rejected += int(ok.size - np.count_nonzero(ok))
 
-    def paired(self, stamps_ns, max_pairing_s):
-        """Return (N, 3) fields [nT] paired with ``stamps_ns`` (NaN rows: none near enough)."""
+    def paired(self, stamps_ns, max_pairing_s, noise_std_nT):
+        """Return (N, 3) fields [nT] paired with ``stamps_ns`` (NaN rows: none of its attitude)."""
         stamps, fields = zip(*self.recent)
-        return pair_nearest(stamps_ns, stamps, fields, round(max_pairing_s * 1e9))[0]
+        return pair_nearest(stamps_ns, stamps, fields, round(max_pairing_s * 1e9),
+                            pairing_tolerance(noise_std_nT))[0]
 
     def count(self, azimuth_survey):
         """Count the azimuth outcomes of an AzimuthSurvey's rows (unpaired: a NaN field)."""
