@@ -209,6 +209,18 @@ class Probe:
         """Publish one imu/temperature reading."""
         self.temperature_publisher.publish(Temperature(temperature=float(temperature_c)))
 
+    def set_temperature(self, temperature_c, timeout_s=30.0):
+        """
+        Publish ``temperature_c`` until the node's temperature diagnostics report it taken.
+
+        Waits for the node's state, not for a fixed time: a loaded machine delivers late, and
+        a message sent before the node's reader has discovered the probe is lost.
+        """
+        def taken():
+            self.publish_temperature(temperature_c)
+            return self.wait_status(': temperature')[1]['temperature_c'] == f'{temperature_c:.2f}'
+        self.spin_until(taken, timeout_s)
+
     def listen_latched(self, topic):
         """Subscribe to a latched std_msgs/String topic; return the list its JSON goes to."""
         received = []

@@ -270,8 +270,7 @@ def test_rotation_gives_one_calibration_through_the_service_and_the_command(
         probe.mag_publisher.publish(mag_message(probe.sent, field))
         return readings(60.0, 100.0, (i * 3.0) % 360.0, rng)[0]
 
-    probe.publish_temperature(temperature_c)
-    probe.spin_for(0.3)
+    probe.set_temperature(temperature_c)
     answer = probe.calibrate(turn, service='capture_rotation')
     assert answer.success, answer.message
     rows = np.column_stack([np.array(fields), np.full(len(fields), temperature_c)])

@@ -263,8 +263,7 @@ def test_stages_of_different_temperatures_are_refused(start_node, probe, tmp_pat
     level = sensor_model.true_specific_force(0.0, 0.0)[0]
     rng = np.random.default_rng(8)
     for temperature_c, accepted in ((22.0, False), (35.5, True)):
-        probe.publish_temperature(temperature_c)
-        probe.spin_for(0.3)
+        probe.set_temperature(temperature_c)
         answer = probe.calibrate(lambda i: level + rng.normal(0.0, 0.002, 3))
         assert answer.success == accepted, answer.message
         assert accepted or 'stands for 22.0 C but the stand stage for 35.0 C' in answer.message

@@ -121,20 +121,6 @@ def diagnostics_status(probe, suffix):
     return probe.wait_status(suffix)[0]
 
 
-def set_temperature(probe, temperature_c):
-    """
-    Publish ``temperature_c`` until the node's temperature diagnostics report it.
-
-    Waits for the node to have taken the temperature (not a fixed time: a loaded machine
-    delivers late, and a message sent before discovery is lost), then returns.
-    """
-    def taken():
-        probe.publish_temperature(temperature_c)
-        return diagnostics_status(probe, ': temperature').message.startswith(
-            f'{temperature_c:.2f} C')
-    probe.spin_until(taken)
-
-
 def test_temperature_stage_uses_the_latest_temperature(node_and_probe, tmp_path):
     """Readings scaled by K_T(T) read true at T; out of range is clamped and reported."""
     slope = temperature_model(tmp_path)
@@ -144,14 +130,14 @@ def test_temperature_stage_uses_the_latest_temperature(node_and_probe, tmp_path)
 
     f = specific_force(40.0, 130.0)
     for temperature_c in (20.0, 80.0, 100.0):
-        set_temperature(probe, temperature_c)
+        probe.set_temperature(temperature_c)
         drifted = f * (1.0 + slope * (temperature_c - 25.0))
         # Exact compensation: the model divides by the same K_T (rounding only).
         assert inclination_of(probe, drifted) == pytest.approx(40.0, abs=1e-9)
     status = diagnostics_status(probe, ': temperature')
     assert status.level == DiagnosticStatus.OK and status.message == '100.00 C'
 
-    set_temperature(probe, 130.0)  # beyond the fitted range: clamped to 100 C
+    probe.set_temperature(130.0)  # beyond the fitted range: clamped to 100 C
     drifted = f * (1.0 + slope * (100.0 - 25.0))
     assert inclination_of(probe, drifted) == pytest.approx(40.0, abs=1e-9)
     status = diagnostics_status(probe, ': temperature')
@@ -197,12 +183,12 @@ def test_a_multi_temperature_stand_is_applied_at_the_temperature(node_and_probe,
     _, probe = node_and_probe()
     f = specific_force(30.0, 70.0)
     for temperature_c in (20.0, 55.0):
-        set_temperature(probe, temperature_c)
+        probe.set_temperature(temperature_c)
         assert inclination_of(probe, f * (1.0 + slope * (temperature_c - 40.0))) == \
             pytest.approx(30.0, abs=1e-9)
     status = diagnostics_status(probe, ': temperature')
     assert status.level == DiagnosticStatus.OK and status.message == '55.00 C'
-    set_temperature(probe, 75.0)   # beyond the range: K(60 C)
+    probe.set_temperature(75.0)   # beyond the range: K(60 C)
     assert inclination_of(probe, f * (1.0 + slope * 20.0)) == pytest.approx(30.0, abs=1e-9)
     status = diagnostics_status(probe, ': temperature')
     assert status.level == DiagnosticStatus.WARN and 'outside the fitted range' in status.message
