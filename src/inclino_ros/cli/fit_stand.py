@@ -55,8 +55,6 @@ records the temperature its readings stood for (the temperature stage's
 reference, else their mean temperature).
 """
 
-from functools import partial
-
 from inclino_ros.calibration.continuous_log import (
     GYRO_COLUMNS, log_segments, segment_limits, sphere_readings, TIME_COLUMN)
 from inclino_ros.calibration.magnetometer import fit_field_stand, mean_temperature_c
@@ -68,17 +66,16 @@ from inclino_ros.calibration.stand_fit import (
 from inclino_ros.calibration.still_capture import CaptureRefused
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
-    add_common_arguments, add_still_options, axes_maps, AXIS_COLUMNS, finish_figure, has_topic,
-    is_bag, load_existing, MAG_PAIRING_TOLERANCE_NT, matrix_lines, new_figure, NODE_DEFAULTS,
-    node_option, read_csv, read_topic, Refused, report_paths, report_residuals, run_fit,
-    sample_temperatures, save, tool_axes, write_text)
+    add_common_arguments, add_still_options, axes_maps, AXIS_COLUMNS, has_topic, is_bag,
+    load_existing, MAG_PAIRING_TOLERANCE_NT, NODE_DEFAULTS, node_option, read_csv, read_topic,
+    Refused, report_paths, run_fit, sample_temperatures, save, tool_axes, write_text)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.options import between, node_parameter
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
-from inclino_ros.core.attitude import inclination
 from inclino_ros.core.stand import StandFitRefused
-from inclino_ros.io.report import Residual
 from inclino_ros.io.timing import pair_nearest
+from inclino_ros.report.common import Fitted
+from inclino_ros.report.stand import field_lines, position_report, sphere_report
 import numpy as np
 
 ATTITUDE_TOPIC = '/stand/attitude'
@@ -171,13 +168,13 @@ def fit(args, lines, outputs):
                         'no temperatures in the input: at its reference temperature)'))
     field = None
     if args.method == 'stand':
-        stage, refusal, draw = fit_positions(args, readings, attitude_deg, times_s, stood_c,
-                                             lines)
+        stage, refusal, draw, rows = fit_positions(args, readings, attitude_deg, times_s,
+                                                   stood_c, lines)
         if not refusal:
             field = fit_magnetometer(args, existing, fields, attitude_deg, times_s,
                                      temperature_c, stage, lines)
     else:
-        stage, refusal, draw = fit_readings(args, readings, stood_c, lines, segment)
+        stage, refusal, draw, rows = fit_readings(args, readings, stood_c, lines, segment)
     stood_for_c = stage.temperature_c
     lines.append('the readings stood for ' + ('an unknown temperature' if stood_for_c is None
                                               else f'{stood_for_c:.2f} C'))
@@ -189,7 +186,7 @@ def fit(args, lines, outputs):
     if refusal:
         raise Refused(refusal)
     dropped = existing.installation is not None
-    save(args, with_stand(existing, stage, field), outputs)
+    model = save(args, with_stand(existing, stage, field), outputs)
     lines.append(f'wrote {args.calibration}: stand stage ({args.method}, {stage.positions} '
                  f'{"positions" if args.method == "stand" else "readings"})'
                  + (', temperature stage kept' if existing.temperature else ''))
@@ -201,6 +198,7 @@ def fit(args, lines, outputs):
     elif args.method == 'sphere':
         lines.append('a sphere fit cannot see the mounting rotation: calibrate the level bench '
                      '(inclino calibrate) next')
+    return Fitted(model, tuple(rows))
 
 
 def load_input(args):
@@ -297,7 +295,7 @@ def still_limits(args):
 
 def fit_positions(args, readings, attitude_deg, times_s, stood_c, lines):
     """
-    Return (Stand stage, refusal reason or None, draw) of a known-attitude stand fit.
+    Return (Stand stage, refusal or None, draw, residual rows) of a known-attitude stand fit.
 
     ``stand_fit.solve_stand``, as ``~/solve_stand_calibration`` fits the
     node's positions; ``stood_c``: the temperature each reading stood for
@@ -314,44 +312,10 @@ def fit_positions(args, readings, attitude_deg, times_s, stood_c, lines):
                                ('--max-rms-deg', '--max-temperature-difference-c'))
     except (CaptureRefused, StandFitRefused) as err:
         raise Refused(str(err)) from None
-    result, means = solution.fit, solution.readings
-    raw_deg = np.degrees(inclination(means)) - attitudes[:, 0]
-    after_deg = result.inclination_residual_deg
-    lines += geometry_lines(result)
-    lines.append(f'{"pos":>3} {"att":>3} {"incl_deg":>9} {"tf_deg":>8} {"az_deg":>7} '
-                 f'{"samples":>7} {"noise_deg":>10} {"raw_err_deg":>11} {"residual_deg":>12}')
-    lines += [f'{k + 1:>3} {a + 1:>3} {incl:9.3f} {tf:8.3f} {az:7.2f} {n:>7} {s:10.4f} '
-              f'{before:11.4f} {after:12.6f}'
-              for k, ((incl, tf, az), a, n, s, before, after) in enumerate(
-                  zip(attitudes, result.attitude, counts, spread_deg, raw_deg, after_deg))]
-    lines.append(repeatability_note(result))
-    if solution.plateaus is not None:
-        lines += plateau_lines(solution.plateaus)
-    lines.append(f'RMS inclination residual: {result.rms_inclination_deg:.6f} deg (raw '
-                 f'{np.sqrt(np.mean(raw_deg ** 2)):.4f} deg); RMS residual '
-                 f'{result.rms_residual_mps2:.3g} m/s^2')
-    report_residuals(args, lines, [
-        Residual(f'position {k + 1} (I {attitude[0]:.1f}, TF {attitude[1]:.1f} deg, {n} '
-                 'samples)', float(after), float(spread / np.sqrt(n)), 'deg')
-        for k, (attitude, n, spread, after) in enumerate(
-            zip(attitudes, counts, spread_deg, after_deg))],
-        "inclination residual of each position against its mean's noise (spread / sqrt(n))")
-    return (solution.stage, solution.refusal,
-            partial(plot_positions, raw_deg=raw_deg, after_deg=after_deg,
-                    rms_deg=result.rms_inclination_deg))
-
-
-def plateau_lines(plateaus):
-    """Return a multi-temperature stand's plateaus, order, residual and 1 sigma as text lines."""
-    return [f'positions at {len(plateaus.fits)} temperature plateaus: K(T) and b(T), every '
-            f'element a polynomial of T of order {plateaus.order} (chi-square per order tried: '
-            + ', '.join(f'{order}: {chi:.3g} for {dof} dof' for order, chi, dof
-                        in plateaus.chi_square)
-            + f'), valid over {plateaus.range_c[0]:.1f} .. {plateaus.range_c[1]:.1f} C'] + [
-        f'  plateau {t:6.2f} C: {fit.attitude.size} positions, RMS inclination residual '
-        f'{fit.rms_inclination_deg:.5f} deg, 1 sigma of K elements <= {sigma[:9].max():.2g}, '
-        f'of b <= {sigma[9:].max():.2g} m/s^2'
-        for t, fit, sigma in zip(plateaus.plateaus_c, plateaus.fits, plateaus.element_sigma)]
+    report, rows, draw = position_report(solution, attitudes, counts, spread_deg,
+                                         repeatability_note(solution.fit))
+    lines += report
+    return solution.stage, solution.refusal, draw, rows
 
 
 def fit_magnetometer(args, existing, fields, attitude_deg, times_s, temperature_c, stand,
@@ -387,19 +351,13 @@ def fit_magnetometer(args, existing, fields, attitude_deg, times_s, temperature_
                                       else temperature_c[paired])))
     except (CaptureRefused, StandFitRefused) as err:
         raise Refused(str(err)) from None
-    lines.append(f'magnetometer (seed 001 Eq. 12) against {total_nT:.1f} nT, dip '
-                 f'{dip_deg:.3f} deg ({source}): {len(means)} positions, field residual '
-                 f'{fit.rms_residual_deg:.4f} deg RMS (worst {fit.residual_deg.max():.4f})')
-    lines += matrix_lines('K_m (m = K_m B + b_m, symmetric part)',
-                          fit.magnetometer.scale_matrix, '10.6f')
-    lines.append('bias_nT: ' + ' '.join(f'{v:.1f}' for v in fit.magnetometer.bias_nT)
-                 + f"; axes turned {fit.alignment.angle_deg:.4f} deg into the accelerometer's")
+    lines += field_lines(fit, total_nT, dip_deg, source, len(means))
     return fit
 
 
 def fit_readings(args, readings, stood_c, lines, segment=None):
     """
-    Return (Stand stage, refusal reason or None, draw) of a sphere fit of every reading.
+    Return (Stand stage, refusal or None, draw, residual rows (none)) of a sphere fit.
 
     ``segment`` (N,): each reading's still segment of a continuous log, or
     None; one reading a pose (``continuous_log.sphere_readings``).
@@ -414,51 +372,6 @@ def fit_readings(args, readings, stood_c, lines, segment=None):
                                 stood_for_c(stood_c))
     except StandFitRefused as err:
         raise Refused(err.reason) from None
-    result = solution.fit
-    rms_deg = np.degrees(result.rms_residual_mps2 / args.gravity_mps2)
-    lines += geometry_lines(result)
-    lines.append(f'RMS |G| - g: {result.rms_residual_mps2:.3g} m/s^2 ({rms_deg:.6f} deg as an '
-                 f'angle) over {readings.shape[0]} readings')
-    return (solution.stage, solution.refusal,
-            partial(plot_readings, raw_mps2=np.linalg.norm(readings, axis=1) - args.gravity_mps2,
-                    after_mps2=result.residual_mps2))
-
-
-def geometry_lines(result):
-    """Return K, b and the sensing-axis geometry of a fit as text lines."""
-    return matrix_lines('K (A = K G + b)', result.scale_matrix, '10.6f') + [
-        'bias_mps2: ' + ' '.join(f'{v:.6f}' for v in result.bias_mps2),
-        'axis scales: ' + ' '.join(f'{v:.6f}' for v in result.axis_scales),
-        'non-orthogonality_deg (xy xz yz): '
-        + ' '.join(f'{v:.4f}' for v in result.non_orthogonality_deg),
-        f'condition number: {result.condition_number:.3f}']
-
-
-def plot_positions(path, raw_deg, after_deg, rms_deg):
-    """Plot the inclination error per position before and after the fit."""
-    pyplot, fig, axes = new_figure(2, 'inclino fit-stand: inclination error per stand position')
-    position = np.arange(1, raw_deg.size + 1)
-    axes[0].bar(position, raw_deg, color='tab:red', label='raw readings')
-    axes[0].set_ylabel('raw inclination error [deg]')
-    axes[1].bar(position, after_deg, color='tab:green',
-                label=f'after K^-1 (A - b), RMS {rms_deg:.2g} deg')
-    axes[1].set_ylabel('residual [deg]')
-    for ax in axes:
-        ax.set_xlabel('stand position [number]')
-        ax.set_xticks(position)
-        ax.axhline(0.0, color='black', linewidth=0.8)
-    finish_figure(pyplot, fig, axes, path)
-
-
-def plot_readings(path, raw_mps2, after_mps2):
-    """Plot |G| - g per reading before and after a sphere fit."""
-    pyplot, fig, axes = new_figure(2, 'inclino fit-stand --method sphere: |G| - g per reading')
-    index = np.arange(raw_mps2.size)
-    axes[0].plot(index, raw_mps2, '.', color='tab:red', markersize=4, label='raw readings')
-    axes[1].plot(index, after_mps2, '.', color='tab:green', markersize=4,
-                 label='after K^-1 (A - b)')
-    for ax in axes:
-        ax.set_ylabel('|G| - g [m/s^2]')
-    for ax in axes:
-        ax.set_xlabel('reading [number]')
-    finish_figure(pyplot, fig, axes, path)
+    report, draw = sphere_report(solution, readings, args.gravity_mps2)
+    lines += report
+    return solution.stage, solution.refusal, draw, []

@@ -45,19 +45,19 @@ from inclino_ros.calibration.continuous_log import GYRO_COLUMNS, log_segments, T
 from inclino_ros.calibration.plausibility import (
     check_accelerometer_readings, check_field_readings, check_temperatures,
     STANDARD_GRAVITY_MPS2)
-from inclino_ros.calibration.temperature_fit import solve_temperature
+from inclino_ros.calibration.temperature_fit import run_errors, solve_temperature
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
-    add_common_arguments, axes_maps, AXIS_COLUMNS, finish_figure, is_bag, load_existing,
-    matrix_lines, new_figure, node_option, read_csv, read_topic, Refused, report_paths,
-    report_residuals, run_fit,
-    sample_temperatures, save, tool_axes, write_text)
+    add_common_arguments, axes_maps, AXIS_COLUMNS, is_bag, load_existing, node_option, read_csv,
+    read_topic, Refused, report_paths, run_fit, sample_temperatures, save, tool_axes, write_text)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.options import between
-from inclino_ros.core.attitude import angle_between, inclination
 from inclino_ros.core.stillness import label_attitudes, SegmentLimits, StillLimits
-from inclino_ros.core.temperature import AXES, TemperatureFitRefused
-from inclino_ros.io.report import Residual
+from inclino_ros.core.temperature import TemperatureFitRefused
+from inclino_ros.io.report import residual_lines
+from inclino_ros.report.common import Fitted
+from inclino_ros.report.temperature import (
+    fit_lines, plot, TEMPERATURE_BIN_C, temperature_residuals)
 import numpy as np
 
 #: Still segments of a heating log: slow (5 s windows, 10 s at least), and the readings drift
@@ -69,8 +69,6 @@ HEATING_SEGMENTS = SegmentLimits(window_s=5.0, min_s=10.0, whole=False, still=St
 #: Highest order of K_T(T) and B_T(T) (seed 001 fits order 2).
 MAX_ORDER = 6
 REPORT_NAME = 'fit_temperature'
-#: Width of a temperature bin of the residual table [C].
-TEMPERATURE_BIN_C = 5.0
 MAG_TOPIC = '/imu/mag'
 #: Per triad: CSV columns, reference columns, unit, calibration section, later stages.
 TRIADS = {
@@ -153,17 +151,13 @@ def fit(args, lines, outputs):
     previous = replace(existing, **{section: None})
     lines += fit_lines(result, unit)
     png, txt = report_paths(args, REPORT_NAME)
-    if args.triad == 'accelerometer':
-        before, after, what = inclination_errors(previous, model, readings, temperature_c,
-                                                 attitude)
-    else:
-        before, after, what = direction_errors(previous, model, readings, temperature_c,
-                                               attitude)
+    before, after, what = run_errors(args.triad, previous, model, readings, temperature_c,
+                                     attitude)
     lines.append(f'{what} over the run (vs each attitude at the stage reference): largest '
                  f'{np.abs(before).max():.4f} deg uncompensated, {np.abs(after).max():.4f} deg '
                  'compensated')
-    report_residuals(args, lines, temperature_residuals(temperature_c, before, after, what),
-                     f'{what} per {TEMPERATURE_BIN_C:g} C of the run, compensated')
+    rows = temperature_residuals(temperature_c, before, after, what)
+    lines += residual_lines(rows, f'{what} per {TEMPERATURE_BIN_C:g} C of the run, compensated')
     plot(outputs.path(png), temperature_c, result, before, after, what)
     lines.append(f'report: {png}')
     save(args, model, outputs)
@@ -173,74 +167,7 @@ def fit(args, lines, outputs):
                  f'{result.reference_temperature_c:g} C)'
                  + (f', {" and ".join(kept)} stage kept' if kept else ''))
     write_text(outputs.path(txt), lines)
-
-
-def temperature_residuals(temperature_c, before, after, what):
-    """
-    Return the Residual rows of each TEMPERATURE_BIN_C of the run: the RMS error compensated.
-
-    The fit states no per-sample noise of the angle, so the noise is NaN
-    (no ratio); the uncompensated RMS error of the bin is in the note.
-    """
-    rows = []
-    edges = np.arange(np.floor(temperature_c.min() / TEMPERATURE_BIN_C) * TEMPERATURE_BIN_C,
-                      temperature_c.max() + TEMPERATURE_BIN_C, TEMPERATURE_BIN_C)
-    for low in edges[:-1]:
-        inside = (temperature_c >= low) & (temperature_c < low + TEMPERATURE_BIN_C)
-        if inside.any():
-            rows.append(Residual(
-                f'{low:.0f} .. {low + TEMPERATURE_BIN_C:.0f} C ({int(inside.sum())} samples)',
-                float(np.sqrt(np.mean(after[inside] ** 2))), float('nan'), 'deg',
-                note=f'RMS {what} {np.sqrt(np.mean(before[inside] ** 2)):.4f} deg '
-                     'uncompensated'))
-    return rows
-
-
-def fit_lines(result, unit):
-    """Return the report lines of a fit: coefficients, values at the range's ends, residuals."""
-    lines = matrix_lines(f'K_T(T) = a0 + a1 T + ... (rows {", ".join(AXES)}; a0 a1 ...)',
-                         result.coefficients, '14.6e')
-    if result.bias_coefficients is not None:
-        lines += matrix_lines(f'B_T(T) = b0 + b1 T + ... [{unit}]', result.bias_coefficients,
-                              '14.6e')
-    ends_c = (result.t_min_c, result.reference_temperature_c, result.t_max_c)
-    lines += [f'K_T and B_T at {", ".join(f"{t:.1f}" for t in ends_c)} deg C:'] + [
-        f'  {axis}: ' + ' '.join(f'{v:.6f}' for v in scale) + ' | '
-        + ' '.join(f'{v:.6g}' for v in bias)
-        for axis, scale, bias in zip(AXES, result.scale_factor(ends_c).T,
-                                     result.bias(ends_c).T)]
-    return lines + [f'fitted {result.t_min_c:.2f} .. {result.t_max_c:.2f} deg C; RMS '
-                    f'residual per axis: ' + ' '.join(f'{v:.3g}' for v in result.rms_residual)
-                    + f' {unit}']
-
-
-def _per_attitude_reference(values, attitude, temperature_c, reference_c):
-    """Return each sample's attitude value nearest ``reference_c`` (the run's own baseline)."""
-    baseline = np.empty_like(values)
-    for label in np.unique(attitude):
-        mine = attitude == label
-        nearest = np.argmin(np.abs(temperature_c[mine] - reference_c))
-        baseline[mine] = values[mine][nearest]
-    return baseline
-
-
-def inclination_errors(previous, model, readings, temperature_c, attitude):
-    """Return (before, after, name): inclination change over the run per attitude [deg]."""
-    reference_c = model.temperature.reference_temperature_c
-    before = np.degrees(inclination(previous.apply(readings)))
-    after = np.degrees(inclination(model.apply(readings, temperature_c)))
-    baseline = _per_attitude_reference(after, attitude, temperature_c, reference_c)
-    return before - baseline, after - baseline, 'inclination error'
-
-
-def direction_errors(previous, model, readings, temperature_c, attitude):
-    """Return (before, after, name): field direction change over the run per attitude [deg]."""
-    reference_c = model.magnetometer_temperature.reference_temperature_c
-    before = previous.apply_magnetic(readings)
-    after = model.apply_magnetic(readings, temperature_c)
-    baseline = _per_attitude_reference(after, attitude, temperature_c, reference_c)
-    return (np.degrees(angle_between(before, baseline)),
-            np.degrees(angle_between(after, baseline)), 'field direction error')
+    return Fitted(model, tuple(rows))
 
 
 def load_input(args):
@@ -306,24 +233,3 @@ def log_still_samples(args, table, readings):
           'out', file=sys.stderr)
     return (table['temperature_c'][still], readings[still], None,
             label_attitudes(readings[still], args.attitude_separation_deg))
-
-
-def plot(path, temperature_c, result, before, after, what):
-    """Plot K_T and B_T per axis, and the error over the run before/after."""
-    pyplot, fig, axes = new_figure(3, 'inclino fit-temperature: scale factor and bias drift')
-    grid_c = np.linspace(result.t_min_c, result.t_max_c, 200)
-    for axis, color in zip(range(3), ('tab:red', 'tab:green', 'tab:blue')):
-        axes[0].plot(grid_c, result.scale_factor(grid_c)[:, axis], color=color,
-                     label=f'{AXES[axis]}: K_T(T)')
-        axes[1].plot(grid_c, result.bias(grid_c)[:, axis], color=color,
-                     label=f'{AXES[axis]}: B_T(T)')
-    axes[0].set_ylabel('K_T [1]')
-    axes[1].set_ylabel('B_T [unit of the readings]')
-    axes[2].plot(temperature_c, before, '.', color='tab:red', markersize=2,
-                 label=f'uncompensated, largest {np.abs(before).max():.3f} deg')
-    axes[2].plot(temperature_c, after, '.', color='tab:green', markersize=2,
-                 label=f'compensated, largest {np.abs(after).max():.4f} deg')
-    axes[2].set_ylabel(f'{what} [deg]')
-    for ax in axes:
-        ax.set_xlabel('temperature [deg C]')
-    finish_figure(pyplot, fig, axes, path)
