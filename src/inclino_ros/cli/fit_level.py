@@ -23,18 +23,14 @@ that is not level, or a temperature far from the stand stage's.
 from dataclasses import replace
 import sys
 
-from inclino_ros.calibration.continuous_log import (
-    GYRO_COLUMNS, longest_still_part, segment_limits, TIME_COLUMN)
-from inclino_ros.calibration.level_capture import (
-    CaptureRefused, LevelLimits, solve_level_capture)
+from inclino_ros.calibration.continuous_log import segment_limits
+from inclino_ros.calibration.inputs import level_input
+from inclino_ros.calibration.level_capture import CaptureRefused, LevelLimits, solve_level_capture
 from inclino_ros.calibration.model import readings_temperature_c, temperature_conflict
-from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
-    add_common_arguments, add_still_options, axes_maps, AXIS_COLUMNS, has_topic, is_bag,
-    load_existing, NODE_DEFAULTS, node_option, read_csv, read_topic, Refused, report_paths,
-    run_fit, sample_temperatures, save, tool_axes, write_text)
+    add_common_arguments, add_still_options, axes_maps, load_existing, NODE_DEFAULTS, node_option,
+    Refused, report_paths, run_fit, save, source_of, tool_axes, write_text)
 from inclino_ros.cli.helptext import add_command
-from inclino_ros.cli.play import in_window
 from inclino_ros.io.report import residual_lines
 from inclino_ros.report.common import Fitted
 from inclino_ros.report.level import block_residuals, BLOCKS, capture_lines, plot_level
@@ -86,48 +82,15 @@ def run(args):
     return run_fit('fit-level', args, fit)
 
 
-def load_input(args):
-    """
-    Return the level window: readings (N, 3) in sensor axes, temperature_c, times_s.
-
-    ``temperature_c`` (N,) or None; ``times_s`` (N,) or None (a CSV without
-    ``time_s``: the samples in order).
-    """
-    if not is_bag(args.input):
-        table = read_csv(args.input, AXIS_COLUMNS,
-                         optional=('temperature_c', TIME_COLUMN) + GYRO_COLUMNS)
-        readings = np.column_stack([table[name] for name in AXIS_COLUMNS])
-        temperature_c, times_s = table.get('temperature_c'), table.get(TIME_COLUMN)
-        if times_s is None:
-            return readings, temperature_c, times_s
-        gyro = (np.column_stack([table[name] for name in GYRO_COLUMNS])
-                if all(name in table for name in GYRO_COLUMNS) else None)
-        try:
-            taken, note = longest_still_part(times_s, readings, gyro, segment_limits(
-                args.max_drift_deg_per_s, args.max_sem_deg))
-        except ValueError as err:
-            raise Refused(f'{args.input}: {err}') from None
-        if note:
-            print(f'inclino fit-level: {note}', file=sys.stderr)
-        return (readings[taken], None if temperature_c is None else temperature_c[taken],
-                times_s[taken])
-    imu = read_topic(args.input, args.raw_topic)
-    window = in_window(imu.stamps_ns, args.start_s, args.end_s)
-    if not window.any():
-        raise CommandError(f'no {args.raw_topic} message from {args.start_s} to {args.end_s} '
-                           f's (the topic spans 0 .. '
-                           f'{(imu.stamps_ns.max() - imu.stamps_ns.min()) * 1e-9:.3f} s)')
-    temperature_c = (sample_temperatures(imu, args.input, args.temperature_topic)[0][window]
-                     if has_topic(args.input, args.temperature_topic) else None)
-    return imu.linear_acceleration_mps2[window], temperature_c, imu.stamps_ns[window] * 1e-9
-
-
 def fit(args, lines, outputs):
     """Solve the installation stage of ``args.input`` into ``args.calibration``."""
     existing = load_existing(args.calibration, args.sensor_id, axes=args.axes,
                              maps=axes_maps(args))
     axes = args.axes or existing.accelerometer_axes
-    readings, temperature_c, times_s = load_input(args)
+    readings, temperature_c, times_s, note = level_input(source_of(args), segment_limits(
+        args.max_drift_deg_per_s, args.max_sem_deg))
+    if note:
+        print(f'inclino fit-level: {note}', file=sys.stderr)
     readings = tool_axes(args, readings)
     if axes == 2:
         readings[:, 2] = 0.0   # a two-axis sensor has no z reading

@@ -6,10 +6,13 @@ force, tool frame, z along the tool axis), ``bx, by, bz`` (nT, same frame)
 and optionally ``roll_group`` (rows with the same non-empty value were
 taken with the tool axis held in one direction and the tool turned about
 it) and ``temperature_c``; one row per still shot.  Or a bag: the still
-segments of ``--raw-topic`` and ``--mag-topic`` are found (every window of
-``--still-window-s`` whose directions spread less than ``--max-still-deg``
-on both triads, joined into segments of at least ``--min-still-s``) and each
-becomes a shot; roll sets among them are found as in a CSV without
+segments of ``--raw-topic`` and ``--mag-topic`` are found by the one still
+rule of every stream (``stillness.find_still_segments``, as for a
+continuous log: windows of ``--still-window-s`` in which neither triad's
+direction moves, significantly and by more than ``--max-still-deg`` or
+faster than ``--max-drift-deg-per-s``, joined while neighbours agree, the
+first and last window of a run left out, at least ``--min-still-s`` left)
+and each becomes a shot; roll sets among them are found as in a CSV without
 ``roll_group`` (consecutive shots pointing one way while the tool turns).
 
 One joint fit (``core.shots``) finds the magnetometer ellipsoid (hard iron,
@@ -45,25 +48,24 @@ weighted by its own pointing wander (reported), and one that wandered beyond
 from dataclasses import replace
 import sys
 
+from inclino_ros.calibration.continuous_log import segment_limits
+from inclino_ros.calibration.inputs import bag_shots
 from inclino_ros.calibration.magnetometer import calibrate_from_shots
 from inclino_ros.calibration.plausibility import check_field_unit, Implausible
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
-    add_file_arguments, is_bag, load_existing, read_topic, Refused, report_paths, run_fit, save,
-    TEMPERATURE_TOPIC, write_text)
-from inclino_ros.cli.fitting import MAG_PAIRING_TOLERANCE_NT, NODE_DEFAULTS
+    add_file_arguments, is_bag, load_existing, MAG_PAIRING_TOLERANCE_NT, NODE_DEFAULTS,
+    node_option, Refused, report_paths, run_fit, save, source_of, TEMPERATURE_TOPIC, write_text)
 from inclino_ros.cli.options import between, node_parameter, positive
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core import magnetics
-from inclino_ros.core import stillness
 from inclino_ros.core.shots import ShotFitRefused, ShotLimits
+from inclino_ros.core.stillness import SegmentLimits
 from inclino_ros.io import tables
 from inclino_ros.io.report import residual_lines
-from inclino_ros.io.timing import pair_nearest
 from inclino_ros.report.common import Fitted
 from inclino_ros.report.magnetometer import (
     fit_table_lines, plot_report, robust_lines, shot_residuals, summary_lines)
-import numpy as np
 
 REPORT_NAME = 'fit_magnetometer'
 ACCEL_COLUMNS = ('ax', 'ay', 'az')
@@ -103,13 +105,17 @@ def register(subparsers):
     bag.add_argument('--temperature-topic', default=TEMPERATURE_TOPIC,
                      help='sensor_msgs/Temperature topic, if the bag has it (default: '
                           '%(default)s)')
-    bag.add_argument('--still-window-s', type=positive, default=0.5,
+    bag.add_argument('--still-window-s', type=positive, default=SegmentLimits.window_s,
                      help='window of the stillness test [s] (default: %(default)s)')
     bag.add_argument('--max-still-deg', type=between(1e-6, 90.0), default=0.5,
-                     help='largest spread of the directions in a still window [deg] '
-                          '(default: %(default)s)')
-    bag.add_argument('--min-still-s', type=positive, default=1.0,
-                     help='shortest still segment taken as a shot [s] (default: %(default)s)')
+                     help="a still segment's direction (either triad) moves no further from "
+                          'its mean, significantly for its noise [deg] (default: %(default)s)')
+    node_option(bag, '--max-drift-deg-per-s', 'still.max_drift_deg_per_s',
+                'a window or segment whose direction drifts faster [deg/s], significantly for '
+                'its noise, moved')
+    bag.add_argument('--min-still-s', type=positive, default=SegmentLimits.min_s,
+                     help='shortest still segment taken as a shot, its first and last window '
+                          'left out [s] (default: %(default)s)')
     bag.add_argument('--max-pairing-s', type=node_parameter('magnetic.max_pairing_s'),
                      default=0.05,
                      help='largest time between an Imu sample and its magnetometer message '
@@ -125,28 +131,15 @@ def run(args):
 
 
 def read_bag_shots(args, lines):
-    """Return the shots of the still segments of a bag (roll groups: found by the fit)."""
-    imu = read_topic(args.input, args.raw_topic)
-    mag = read_topic(args.input, args.mag_topic)
-    field, paired = pair_nearest(imu.stamps_ns, mag.stamps_ns, mag.field_nT,
-                                 round(args.max_pairing_s * 1e9), MAG_PAIRING_TOLERANCE_NT)
-    order = np.argsort(imu.stamps_ns[paired], kind='stable')
-    stamps = imu.stamps_ns[paired][order]
-    accel = imu.linear_acceleration_mps2[paired][order]
-    field = field[paired][order]
-    if stamps.size < 2:
-        raise Refused(f'{args.input}: fewer than two {args.raw_topic} samples with a paired '
-                      f'{args.mag_topic} reading')
-    segments = stillness.still_segments(stamps, accel, field, args.still_window_s,
-                                        args.max_still_deg, args.min_still_s)
-    lines.append(f'{len(segments)} still segment(s) found in {args.input} '
-                 f'({stamps.size} paired samples)')
-    if len(segments) > tables.MAX_SHOTS:
-        raise Refused(f'{len(segments)} still segments are more shots than a fit takes '
-                      f'({tables.MAX_SHOTS}): take a longer --min-still-s')
-    shots_a = np.array([accel[a:b].mean(axis=0) for a, b in segments]).reshape(-1, 3)
-    shots_b = np.array([field[a:b].mean(axis=0) for a, b in segments]).reshape(-1, 3)
-    return shots_a, shots_b, None, None
+    """Return the shots of a bag's still segments (``inputs.bag_shots``; roll groups: none)."""
+    accel, field, paired = bag_shots(source_of(args), args.max_pairing_s,
+                                     MAG_PAIRING_TOLERANCE_NT, segment_limits(
+                                         args.max_drift_deg_per_s, args.max_still_deg,
+                                         '--max-still-deg', window_s=args.still_window_s,
+                                         min_s=args.min_still_s))
+    lines.append(f'{accel.shape[0]} still segment(s) found in {args.input} '
+                 f'({paired} paired samples)')
+    return accel, field, None, None
 
 
 def fit(args, lines, outputs):

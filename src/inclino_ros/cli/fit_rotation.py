@@ -28,12 +28,11 @@ short an arc or too large a radial RMSE
 (``cross_axial.RotationLimits``).
 """
 
+from inclino_ros.calibration.inputs import rotation_input
 from inclino_ros.calibration.rotation import solve_rotation
-from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
-    add_file_arguments, axes_maps, has_topic, is_bag, load_existing, read_csv, read_topic,
-    Refused, report_paths, run_fit, sample_temperatures, save, TEMPERATURE_TOPIC, tool_axes,
-    write_text)
+    add_file_arguments, axes_maps, load_existing, Refused, report_paths, run_fit, save, source_of,
+    TEMPERATURE_TOPIC, tool_axes, write_text)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.mounting import add_axes_map_arguments
 from inclino_ros.cli.options import finite
@@ -91,40 +90,10 @@ def run(args):
     return run_fit('fit-rotation', args, fit)
 
 
-def load_readings(args):
-    """
-    Return the rotation's readings (N, 3) [nT, tool frame] and temperatures (N,) or None.
-
-    The temperatures: a CSV's optional ``temperature_c`` column, a bag's
-    ``--temperature-topic`` interpolated to each reading when the bag has it
-    (readings outside its span left out).  CommandError if unusable.
-    """
-    if not is_bag(args.input):
-        table = read_csv(args.input, FIELD_COLUMNS, optional=('temperature_c',))
-        return (np.column_stack([table[name] for name in FIELD_COLUMNS]),
-                table.get('temperature_c'))
-    series = read_topic(args.input, args.mag_topic)
-    seconds = (series.stamps_ns - series.stamps_ns.min()) / 1e9
-    start_s = 0.0 if args.start_s is None else args.start_s
-    end_s = seconds.max() if args.end_s is None else args.end_s
-    window = (seconds >= start_s) & (seconds <= end_s)
-    if not window.any():
-        raise CommandError(f'no {args.mag_topic} message between {start_s} and {end_s} s '
-                           f'(the topic spans 0 .. {seconds.max():.3f} s)')
-    if not has_topic(args.input, args.temperature_topic):
-        return series.field_nT[window], None
-    temperature_c, inside = sample_temperatures(series, args.input, args.temperature_topic)
-    window &= inside
-    if not window.any():
-        raise CommandError(f'no {args.mag_topic} message of the window lies within the time '
-                           f'span of {args.temperature_topic}')
-    return series.field_nT[window], temperature_c[window]
-
-
 def fit(args, lines, outputs):
     """Fit the rotation of ``args.input`` into ``args.calibration``; see ``run_fit``."""
     existing = load_existing(args.calibration, args.sensor_id, maps=axes_maps(args))
-    field_nT, temperature_c = load_readings(args)
+    field_nT, temperature_c = rotation_input(source_of(args))
     try:
         solution = solve_rotation(existing, tool_axes(args, field_nT, 'magnetometer'),
                                   temperature_c, 'the magnetometer readings')

@@ -55,25 +55,24 @@ records the temperature its readings stood for (the temperature stage's
 reference, else their mean temperature).
 """
 
-from inclino_ros.calibration.continuous_log import (
-    GYRO_COLUMNS, log_segments, segment_limits, sphere_readings, TIME_COLUMN)
+from inclino_ros.calibration.continuous_log import log_segments, segment_limits, sphere_readings
+from inclino_ros.calibration.inputs import stand_input
 from inclino_ros.calibration.magnetometer import fit_field_stand, mean_temperature_c
 from inclino_ros.calibration.model import CalibrationModel, readings_temperature_c
 from inclino_ros.calibration.plausibility import check_accelerometer_readings
 from inclino_ros.calibration.stand_fit import (
-    check_temperature_span, group_positions, position_noise_deg, repeatability_note,
-    solve_sphere, solve_stand, stood_for_c, with_stand)
+    check_temperature_span, group_positions, position_noise_deg, repeatability_note, solve_sphere,
+    solve_stand, stood_for_c, with_stand)
 from inclino_ros.calibration.still_capture import CaptureRefused
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
-    add_common_arguments, add_still_options, axes_maps, AXIS_COLUMNS, has_topic, is_bag,
-    load_existing, MAG_PAIRING_TOLERANCE_NT, NODE_DEFAULTS, node_option, read_csv, read_topic,
-    Refused, report_paths, run_fit, sample_temperatures, save, tool_axes, write_text)
+    add_common_arguments, add_still_options, axes_maps, load_existing, MAG_PAIRING_TOLERANCE_NT,
+    NODE_DEFAULTS, node_option, Refused, report_paths, run_fit, save, source_of, tool_axes,
+    write_text)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.options import between, node_parameter
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core.stand import StandFitRefused
-from inclino_ros.io.timing import pair_nearest
 from inclino_ros.report.common import Fitted
 from inclino_ros.report.stand import field_lines, position_report, sphere_report
 import numpy as np
@@ -149,7 +148,8 @@ def run(args):
 def fit(args, lines, outputs):
     """Fit the stand stage of ``args.input`` into ``args.calibration``; see ``run_fit``."""
     existing = load_existing(args.calibration, args.sensor_id, maps=axes_maps(args))
-    readings, attitude_deg, temperature_c, times_s, fields, gyro = load_input(args)
+    readings, attitude_deg, temperature_c, times_s, fields, gyro = stand_input(
+        source_of(args), args.method == 'stand', MAG_PAIRING_TOLERANCE_NT)
     readings, fields = tool_axes(args, readings), tool_axes(args, fields, 'magnetometer')
     segment = None
     if attitude_deg is None and gyro is not False:   # a continuous log: its still samples
@@ -199,69 +199,6 @@ def fit(args, lines, outputs):
         lines.append('a sphere fit cannot see the mounting rotation: calibrate the level bench '
                      '(inclino calibrate) next')
     return Fitted(model, tuple(rows))
-
-
-def load_input(args):
-    """
-    Return (readings (N, 3), attitude_deg, temperature_c, times_s, fields, gyro).
-
-    The attitude (N, 3: inclination, toolface, azimuth: 0 without the
-    column) is read for ``--method stand``, None for a sphere fit or a CSV
-    without attitude columns; ``temperature_c`` (N,) or None; ``times_s``
-    (N,) or None (a CSV without ``time_s``); ``fields`` (N, 3) [nT] the
-    paired magnetometer readings when the input has them, else None;
-    ``gyro``: a continuous log (a CSV with ``time_s`` and no attitude
-    columns) gives its ``wx, wy, wz`` [rad/s] (N, 3) or None without them;
-    False: not a continuous log.
-    """
-    need_attitude = args.method == 'stand'
-    if not is_bag(args.input):
-        table = read_csv(args.input, AXIS_COLUMNS,
-                         optional=ATTITUDE_COLUMNS + ('temperature_c', TIME_COLUMN,
-                                                      AZIMUTH_COLUMN) + FIELD_COLUMNS
-                         + GYRO_COLUMNS)
-        readings = np.column_stack([table[name] for name in AXIS_COLUMNS])
-        has_attitude = all(name in table for name in ATTITUDE_COLUMNS)
-        if need_attitude and not has_attitude and TIME_COLUMN not in table:
-            missing = [name for name in ATTITUDE_COLUMNS if name not in table]
-            raise CommandError(f'{args.input} lacks the column(s) {", ".join(missing)} (the '
-                               f'stand attitudes), and has no {TIME_COLUMN} column (a '
-                               'continuous log, whose still segments a sphere fit takes)')
-        attitude_deg = (np.column_stack(
-            [table[name] for name in ATTITUDE_COLUMNS]
-            + [table.get(AZIMUTH_COLUMN, np.zeros(len(readings)))])
-            if need_attitude and has_attitude else None)
-        fields = (np.column_stack([table[name] for name in FIELD_COLUMNS])
-                  if all(name in table for name in FIELD_COLUMNS) else None)
-        gyro = False
-        if not has_attitude and TIME_COLUMN in table:
-            gyro = (np.column_stack([table[name] for name in GYRO_COLUMNS])
-                    if all(name in table for name in GYRO_COLUMNS) else None)
-        return (readings, attitude_deg, table.get('temperature_c'), table.get(TIME_COLUMN),
-                fields, gyro)
-    imu = read_topic(args.input, args.raw_topic)
-    temperature_c = (sample_temperatures(imu, args.input, args.temperature_topic)[0]
-                     if has_topic(args.input, args.temperature_topic) else None)
-    times_s = imu.stamps_ns * 1e-9
-    if not need_attitude:
-        return imu.linear_acceleration_mps2, None, temperature_c, times_s, None, False
-    fields = None
-    if has_topic(args.input, args.mag_topic):
-        mag = read_topic(args.input, args.mag_topic)
-        fields = pair_nearest(imu.stamps_ns, mag.stamps_ns, mag.field_nT, round(0.05 * 1e9),
-                              MAG_PAIRING_TOLERANCE_NT)[0]
-    attitude = read_topic(args.input, args.attitude_topic)
-    order = np.argsort(attitude.stamps_ns, kind='stable')
-    latest = np.searchsorted(attitude.stamps_ns[order], imu.stamps_ns, side='right') - 1
-    held = latest >= 0
-    if not held.any():
-        raise CommandError(f'no sample of {args.raw_topic} comes at or after the first '
-                           f'{args.attitude_topic} message')
-    attitude_deg = attitude.vector[order[latest[held]]]
-    attitude_deg[~np.isfinite(attitude_deg[:, 2]), 2] = 0.0   # z NaN: no azimuth known
-    return (imu.linear_acceleration_mps2[held], attitude_deg,
-            None if temperature_c is None else temperature_c[held], times_s[held],
-            None if fields is None else fields[held], False)
 
 
 def still_samples(args, readings, gyro, temperature_c, times_s, lines):

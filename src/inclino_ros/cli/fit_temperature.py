@@ -41,18 +41,15 @@ different temperatures, or their temperature outside the heated range.
 from dataclasses import replace
 import sys
 
-from inclino_ros.calibration.continuous_log import GYRO_COLUMNS, log_segments, TIME_COLUMN
+from inclino_ros.calibration.inputs import temperature_input
 from inclino_ros.calibration.plausibility import (
-    check_accelerometer_readings, check_field_readings, check_temperatures,
-    STANDARD_GRAVITY_MPS2)
+    check_accelerometer_readings, check_field_readings, check_temperatures, STANDARD_GRAVITY_MPS2)
 from inclino_ros.calibration.temperature_fit import run_errors, solve_temperature
-from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
-    add_common_arguments, axes_maps, AXIS_COLUMNS, is_bag, load_existing, node_option, read_csv,
-    read_topic, Refused, report_paths, run_fit, sample_temperatures, save, tool_axes, write_text)
+    add_common_arguments, axes_maps, load_existing, node_option, Refused, report_paths, run_fit,
+    save, source_of, tool_axes, write_text)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.options import between
-from inclino_ros.core.stillness import label_attitudes, SegmentLimits, StillLimits
 from inclino_ros.core.temperature import TemperatureFitRefused
 from inclino_ros.io.report import residual_lines
 from inclino_ros.report.common import Fitted
@@ -60,12 +57,6 @@ from inclino_ros.report.temperature import (
     fit_lines, plot, TEMPERATURE_BIN_C, temperature_residuals)
 import numpy as np
 
-#: Still segments of a heating log: slow (5 s windows, 10 s at least), and the readings drift
-#: with the temperature (a few hundredths of a degree a second): each window must be still,
-#: not a whole segment, and a window moves only beyond 0.1 deg/s or 0.5 deg within it (a
-#: hand turning the tool moves it by degrees).
-HEATING_SEGMENTS = SegmentLimits(window_s=5.0, min_s=10.0, whole=False, still=StillLimits(
-    max_drift_deg_per_s=0.1, max_sem_deg=0.5))
 #: Highest order of K_T(T) and B_T(T) (seed 001 fits order 2).
 MAX_ORDER = 6
 REPORT_NAME = 'fit_temperature'
@@ -132,7 +123,10 @@ def fit(args, lines, outputs):
     """Fit the temperature stage of ``args.input`` into ``args.calibration``; see ``run_fit``."""
     _, _, unit, section, later = TRIADS[args.triad]
     existing = load_existing(args.calibration, args.sensor_id, maps=axes_maps(args))
-    temperature_c, readings, reference, attitude = load_input(args)
+    temperature_c, readings, reference, attitude, note = temperature_input(
+        source_of(args), args.triad, args.attitude_separation_deg)
+    if note:
+        print(f'inclino fit-temperature: {note}', file=sys.stderr)
     readings = tool_axes(args, readings, args.triad)
     reference = tool_axes(args, reference, args.triad)
     if args.triad == 'accelerometer':
@@ -168,68 +162,3 @@ def fit(args, lines, outputs):
                  + (f', {" and ".join(kept)} stage kept' if kept else ''))
     write_text(outputs.path(txt), lines)
     return Fitted(model, tuple(rows))
-
-
-def load_input(args):
-    """Return (temperature_c (N,), readings (N, 3), reference (N, 3) or None, attitude (N,))."""
-    columns, reference_columns, _, _, _ = TRIADS[args.triad]
-    if not is_bag(args.input):
-        table = read_csv(args.input, ('temperature_c',) + columns,
-                         optional=reference_columns + (TIME_COLUMN,) + GYRO_COLUMNS + tuple(
-                             name for name in AXIS_COLUMNS if name not in columns),
-                         text=('attitude',))
-        given = [name for name in reference_columns if name in table]
-        if given and len(given) != 3:
-            raise CommandError(f'{args.input} has {", ".join(given)}: give all of '
-                               f'{", ".join(reference_columns)} or none')
-        readings = np.column_stack([table[name] for name in columns])
-        reference = (np.column_stack([table[name] for name in reference_columns])
-                     if given else None)
-        if TIME_COLUMN in table and 'attitude' not in table and not given:
-            return log_still_samples(args, table, readings)
-        labels = table.get('attitude', [''] * readings.shape[0])
-        # Any text is a label (a number, 'up', 'A3'): rows of one label share one attitude,
-        # numbered in the order they first appear.
-        first = {label: number for number, label in enumerate(dict.fromkeys(labels))}
-        attitude = np.array([first[label] for label in labels])
-        return table['temperature_c'], readings, reference, attitude
-    if args.triad == 'accelerometer':
-        series = read_topic(args.input, args.raw_topic)
-        readings = series.linear_acceleration_mps2
-    else:
-        series = read_topic(args.input, args.mag_topic)
-        readings = series.field_nT
-    temperature_c, inside = sample_temperatures(series, args.input, args.temperature_topic)
-    if not inside.any():
-        raise CommandError(f'no sample of the {args.triad} lies within the time span of '
-                           f'{args.temperature_topic}')
-    readings = readings[inside]
-    return (temperature_c[inside], readings, None,
-            label_attitudes(readings, args.attitude_separation_deg))
-
-
-def log_still_samples(args, table, readings):
-    """
-    Return (temperature_c, readings, None, attitude) of a continuous log's still samples.
-
-    A CSV with ``time_s`` and no attitude or reference columns: the still
-    segments of the accelerometer (``continuous_log.log_segments``, with the
-    gyro ``wx, wy, wz`` when given; for the magnetometer triad too, which
-    turns with it) are kept, the samples of a tool being turned left out;
-    the attitudes are told apart by direction as for a bag.
-    """
-    accel = (np.column_stack([table[name] for name in AXIS_COLUMNS])
-             if all(name in table for name in AXIS_COLUMNS) else readings)
-    gyro = (np.column_stack([table[name] for name in GYRO_COLUMNS])
-            if all(name in table for name in GYRO_COLUMNS) else None)
-    try:
-        found = log_segments(table[TIME_COLUMN], accel, gyro, limits=HEATING_SEGMENTS)
-    except ValueError as err:
-        raise CommandError(f'{args.input}: {err}') from None
-    if not found.ranges:
-        raise CommandError(f'{args.input}: a continuous log (time_s) with no still segment')
-    still = found.still
-    print(f'inclino fit-temperature: {found.lines("log")[0]}; the samples between them left '
-          'out', file=sys.stderr)
-    return (table['temperature_c'][still], readings[still], None,
-            label_attitudes(readings[still], args.attitude_separation_deg))

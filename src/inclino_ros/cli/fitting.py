@@ -18,6 +18,7 @@ import os
 import sys
 
 from inclino_ros.calibration.history import file_digest
+from inclino_ros.calibration.inputs import Source
 from inclino_ros.calibration.model import (
     CalibrationChanged, CalibrationFileError, CalibrationModel, check_axes_maps, check_sensor,
     load_model, save_model)
@@ -29,7 +30,6 @@ from inclino_ros.cli.options import node_parameter
 from inclino_ros.core.mounting import to_tool_axes
 from inclino_ros.core.refusal import Refused
 from inclino_ros.io import tables
-from inclino_ros.io.bag import BagError, concatenate, read, topic_info
 from inclino_ros.io.files import Outputs, write_text as write_file
 from inclino_ros.io.report import certificate_html
 from inclino_ros.io.timing import pairing_tolerance
@@ -76,6 +76,13 @@ def tool_axes(args, readings, sensor='accelerometer'):
     return None if readings is None else to_tool_axes(readings, axes_matrix(args, sensor))
 
 
+def source_of(args):
+    """Return the ``inputs.Source`` of the command line: the input, its topics and window."""
+    return Source(args.input, **{name: getattr(args, name) for name in (
+        'raw_topic', 'temperature_topic', 'mag_topic', 'attitude_topic', 'start_s', 'end_s')
+        if getattr(args, name, None) is not None})
+
+
 def is_bag(path):
     """Return whether ``path`` names a bag (a directory) rather than a CSV file."""
     return os.path.isdir(path)
@@ -87,39 +94,6 @@ def read_csv(path, required, optional=(), text=(), max_rows=tables.MAX_ROWS):
         return tables.read_csv(path, required, optional, text, max_rows=max_rows)
     except tables.TableError as err:
         raise CommandError(str(err)) from None
-
-
-def read_topic(path, topic):
-    """Return the whole series of ``topic`` in the bag ``path``; CommandError if unreadable."""
-    try:
-        chunks = list(read(path, topic))
-    except BagError as err:
-        raise CommandError(str(err)) from None
-    if not chunks:
-        raise CommandError(f'{topic} in {path} has no messages')
-    return concatenate(chunks)
-
-
-def has_topic(path, topic):
-    """Return whether the bag ``path`` holds ``topic`` (of any type)."""
-    try:
-        topic_info(path, topic)
-    except BagError:
-        return False
-    return True
-
-
-def sample_temperatures(imu, path, topic):
-    """
-    Return the temperature at each Imu sample and which samples lie in its time span.
-
-    The Temperature messages of ``topic`` are interpolated linearly to the
-    Imu stamps (``TemperatureSeries.at``); samples before the first or after
-    the last temperature message are outside.
-    """
-    series = read_topic(path, topic)
-    inside = (imu.stamps_ns >= series.stamps_ns.min()) & (imu.stamps_ns <= series.stamps_ns.max())
-    return series.at(imu.stamps_ns), inside
 
 
 def node_option(parser, flag, parameter, help_text, **kwargs):

@@ -20,6 +20,7 @@ from inclino_ros.cli.live import LiveSession
 from inclino_ros.cli.options import between, MAX_WAIT_S, non_negative, positive, wait_s
 from inclino_ros.io.bag import (
     BagError, concatenate, IMU, list_topics, MAGNETIC_FIELD, read, TEMPERATURE)
+from inclino_ros.io.timing import in_window
 import numpy as np
 
 SENSOR_TYPES = (IMU, MAGNETIC_FIELD, TEMPERATURE)
@@ -95,20 +96,6 @@ class Timeline:
         """Return the ROS message of the k-th message."""
         _, msgtype, series = self.topics[self.topic_index[k]]
         return MESSAGES[msgtype](series, int(self.row[k]))
-
-
-def in_window(stamps_ns, start_s=0.0, end_s=None):
-    """
-    Return which stamps lie from ``start_s`` up to, not at, ``end_s`` s after the first.
-
-    Half open, so that windows that meet (``--end-s 3``, ``--start-s 3``) share no
-    sample: a simulated segment starts exactly on its second.
-    """
-    offset_ns = np.asarray(stamps_ns, dtype=np.int64) - np.min(stamps_ns)
-    keep = offset_ns >= round(start_s * 1e9)
-    if end_s is not None:
-        keep &= offset_ns < round(end_s * 1e9)
-    return keep
 
 
 def load_timeline(path, topics=None):

@@ -71,3 +71,17 @@ def pair_nearest(stamps_ns, reading_stamps_ns, readings, max_gap_ns, tolerance):
     paired = (np.abs(reading_stamps[nearest] - stamps) <= max_gap_ns) & (
         exact | ~(has_before & has_after) | agree)
     return np.where(paired[:, None], readings[nearest], unpaired), paired
+
+
+def in_window(stamps_ns, start_s=0.0, end_s=None):
+    """
+    Return which stamps lie from ``start_s`` up to, not at, ``end_s`` s after the first.
+
+    Half open, so that windows that meet (``--end-s 3``, ``--start-s 3``) share no
+    sample: a simulated segment starts exactly on its second.
+    """
+    offset_ns = np.asarray(stamps_ns, dtype=np.int64) - np.min(stamps_ns)
+    keep = offset_ns >= round(start_s * 1e9)
+    if end_s is not None:
+        keep &= offset_ns < round(end_s * 1e9)
+    return keep
