@@ -12,11 +12,13 @@ import os
 
 from inclino_ros.calibration.continuous_log import (
     GYRO_COLUMNS, log_segments, longest_still_part, TIME_COLUMN)
+from inclino_ros.calibration.plausibility import temperature_ok
 from inclino_ros.core.refusal import Refused
 from inclino_ros.core.stillness import (
     find_still_segments, label_attitudes, SegmentLimits, StillLimits)
 from inclino_ros.io import tables
-from inclino_ros.io.bag import BagError, concatenate, read, topic_info
+from inclino_ros.io.bag import (
+    BagError, concatenate, ImuSeries, read, TemperatureSeries, topic_info)
 from inclino_ros.io.timing import in_window, pair_nearest
 import numpy as np
 
@@ -318,3 +320,45 @@ def bag_shots(source, max_pairing_s, pairing_tolerance_nT, limits):
     return (np.array([accel[a:b].mean(axis=0) for a, b in segments]).reshape(-1, 3),
             np.array([field[a:b].mean(axis=0) for a, b in segments]).reshape(-1, 3),
             stamps.size)
+
+
+def log_series(path):
+    """
+    Return (ImuSeries, TemperatureSeries or None) of a CSV log (``inclino process``).
+
+    Each row is one sample stamped ``time_s`` (ns, frame ``csv``); the gyro
+    columns go to the angular velocity (zero without them), the temperature
+    column to a series of one value per row.  TableError if unusable.
+    """
+    table = tables.read_csv(path, (TIME_COLUMN,) + AXIS_COLUMNS,
+                            optional=GYRO_COLUMNS + ('temperature_c',))
+    times_s = table[TIME_COLUMN]
+    if not (np.all(np.isfinite(times_s)) and np.all(np.diff(times_s) > 0.0)
+            and np.all(np.abs(times_s) < 9.2e9)):
+        raise tables.TableError(f'{path}: {TIME_COLUMN} must hold finite, increasing times '
+                                '[s] (a continuous log in the order it was recorded)')
+    stamps_ns = np.round(times_s * 1e9).astype(np.int64)
+    count = stamps_ns.size
+    frames = np.full(count, 'csv', dtype=object)
+    gyro = (np.column_stack([table[name] for name in GYRO_COLUMNS])
+            if all(name in table for name in GYRO_COLUMNS) else np.zeros((count, 3)))
+    imu = ImuSeries(stamps_ns, frames, np.tile([0.0, 0.0, 0.0, 1.0], (count, 1)),
+                    np.zeros((count, 9)), gyro, np.zeros((count, 9)),
+                    np.column_stack([table[name] for name in AXIS_COLUMNS]),
+                    np.zeros((count, 9)))
+    temperature = (None if 'temperature_c' not in table else TemperatureSeries(
+        stamps_ns, frames, table['temperature_c'], np.zeros(count)))
+    return imu, temperature
+
+
+def known_temperatures(series, name, path):
+    """
+    Return the TemperatureSeries of the readings a sensor gives; TableError if none.
+
+    ``name``: the topic or column of ``series`` in the input ``path``, as the error says.
+    """
+    kept = temperature_ok(series.temperature_c)
+    if not kept.any():
+        raise tables.TableError(f'{name} in {path} holds no temperature a sensor reads')
+    return TemperatureSeries(series.stamps_ns[kept], series.frame_ids[kept],
+                             series.temperature_c[kept], series.variance[kept])
