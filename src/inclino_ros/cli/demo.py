@@ -30,9 +30,10 @@ import time
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.live import LiveSession
 from inclino_ros.cli.options import add_force_argument
-from inclino_ros.cli.play import publish_timed, Timeline
 from inclino_ros.io.bag import concatenate, IMU, read
 from inclino_ros.io.files import Outputs
+from inclino_ros.io.timing import Timeline
+from inclino_ros.node.playback import publish_timed
 from inclino_ros.report.demo import plot, station_table, table_lines
 import numpy as np
 

@@ -13,17 +13,16 @@ Exit codes: 0 written, 1 refused (the reason printed, the file untouched),
 2 an input that cannot be used (``CommandError``).
 """
 
-from dataclasses import replace
 import os
 import sys
 
 from inclino_ros.calibration.history import file_digest
 from inclino_ros.calibration.inputs import Source
 from inclino_ros.calibration.model import (
-    CalibrationChanged, CalibrationFileError, CalibrationModel, check_axes_maps, check_sensor,
-    load_model, save_model)
+    CalibrationChanged, CalibrationFileError, check_sensor, load_model, save_model)
 from inclino_ros.calibration.plausibility import Implausible
 from inclino_ros.calibration.provenance import utc_now_iso
+from inclino_ros.calibration.store import model_to_update
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.mounting import add_axes_map_arguments, axes_matrix
 from inclino_ros.cli.options import node_parameter
@@ -145,33 +144,12 @@ def load_calibration(path, sensor_id=None, required=True, any_sensor=False):
 
 
 def load_existing(path, sensor_id=None, axes=3, maps=None):
-    """
-    Return the model in ``path``, a new ``axes``-axis one if there is none.
-
-    CommandError for a file that cannot be used, or that is for another
-    number of accelerometer axes (``axes`` None: any).  A file of another
-    sensor than ``sensor_id`` is a CommandError (``model.check_sensor``); the
-    model returned names ``sensor_id`` (if given).  ``maps``: the axes maps
-    the readings are turned by (``axes_maps``; None: a command whose input is
-    in tool axes already): a file fitted in others is a CommandError, the
-    model returned records them.
-    """
-    model = load_calibration(path, sensor_id, required=False)
-    if model is None:
-        return CalibrationModel(accelerometer_axes=axes or 3, sensor_id=sensor_id or None,
-                                axes_maps=maps)
-    if maps is not None:
-        try:
-            check_axes_maps(model, maps, path)
-        except CalibrationFileError as err:
-            raise CommandError(str(err)) from None
-    model = replace(model, sensor_id=sensor_id or model.sensor_id,
-                    axes_maps=maps or model.axes_maps)
-    if axes is not None and model.accelerometer_axes != axes:
-        raise CommandError(f'{path} is for a {model.accelerometer_axes}-axis accelerometer, '
-                           f'not {axes} axes' + ('; stand and temperature stages need three'
-                                                 if axes == 3 else ''))
-    return model
+    """Return the model a fit updates (``store.model_to_update``); CommandError if unusable."""
+    try:
+        return model_to_update(load_calibration(path, sensor_id, required=False), path,
+                               sensor_id, axes, maps)
+    except (CalibrationFileError, ValueError) as err:
+        raise CommandError(str(err)) from None
 
 
 def begin_update(args, command):

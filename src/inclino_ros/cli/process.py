@@ -68,6 +68,7 @@ from inclino_ros.calibration.inputs import known_temperatures, log_series
 from inclino_ros.calibration.model import (
     CalibrationFileError, check_axes_maps, missing_temperature, MissingTemperature)
 from inclino_ros.calibration.plausibility import check_for_sensor, Implausible
+from inclino_ros.calibration.store import axes_refusal
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_sensor_argument, load_calibration, NODE_DEFAULTS, node_option, warn_outside_range)
@@ -259,9 +260,9 @@ def _prepare(args, log=None):
     for note in model.uncertainty_notes:
         print(f'inclino process: warning: {args.calibration}: {note}', file=sys.stderr)
     axes = args.axes or model.accelerometer_axes
-    if axes != model.accelerometer_axes:
-        raise CommandError(f'{args.calibration} is for a {model.accelerometer_axes}-axis '
-                           f'accelerometer, not {axes} axes')
+    reason = axes_refusal(model, axes, args.calibration)
+    if reason is not None:
+        raise CommandError(reason)
     try:
         check_for_sensor(model, args.range_mps2)
     except Implausible as err:

@@ -65,8 +65,8 @@ from inclino_ros.io.files import Outputs
 from inclino_ros.pipeline import Settings
 from inclino_ros.sim import sensor_model
 from inclino_ros.sim.bench import (
-    DEMO_BETA_DEG, DEMO_GAMMA_DEG, DEMO_MAG_NOISE_NT, DEMO_NOISE_MPS2, HEATING_ATTITUDE_DEG,
-    make_tool, PRESETS, Scenario, simulate, simulate_heating, simulate_stand, StandRun,
+    command_tool, DEMO_BETA_DEG, DEMO_GAMMA_DEG, DEMO_MAG_NOISE_NT, DEMO_NOISE_MPS2,
+    HEATING_ATTITUDE_DEG, PRESETS, Scenario, simulate, simulate_heating, simulate_stand, StandRun,
     tool_from_iscwsa)
 from inclino_ros.sim.recording import (  # noqa: F401 (write_bag, write_csv: public here too)
     check_run, describe, FRAME_ID, MAG_TOPIC, MAX_SAMPLES, RAW_TOPIC, STAND_TOPIC,
@@ -224,21 +224,11 @@ interference_nT = between(-MAX_INTERFERENCE_NT, MAX_INTERFERENCE_NT, why=' nT (a
 
 
 def tool_of(args, sensor):
-    """
-    Return the ``sensor_model.Tool`` of the command line for the preset ``sensor``.
-
-    With ``ideal`` the noise defaults to the demo's (0.002 m/s^2, 5 nT); a
-    real preset keeps its own unless ``--noise-mps2``/``--mag-noise-nT`` say.
-    """
-    noise = args.noise_std_mps2
-    mag_noise = getattr(args, 'mag_noise_nT', None)
-    if sensor == 'ideal':
-        noise = DEMO_NOISE_MPS2 if noise is None else noise
-        mag_noise = DEMO_MAG_NOISE_NT if mag_noise is None else mag_noise
-    if (noise is not None and noise < 0.0) or (mag_noise is not None and mag_noise < 0.0):
-        raise ValueError('--noise-mps2 and --mag-noise-nT must not be negative')
-    return make_tool(sensor, args.gamma_deg, args.beta_deg, args.roll_deg,
-                     tuple(args.magnetometer_deg), noise, mag_noise, args.axes)
+    """Return the ``sensor_model.Tool`` of the command line (``bench.command_tool``)."""
+    return command_tool(sensor, (args.gamma_deg, args.beta_deg, args.roll_deg,
+                                 args.magnetometer_deg), args.noise_std_mps2,
+                        getattr(args, 'mag_noise_nT', None), (DEMO_NOISE_MPS2, DEMO_MAG_NOISE_NT),
+                        ('--noise-mps2', '--mag-noise-nT'), args.axes)
 
 
 def bench_scenario(args, tool):
