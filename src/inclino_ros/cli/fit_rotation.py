@@ -1,31 +1,14 @@
 """
 ``inclino fit-rotation``: the cross-axial magnetometer correction of a rotation (seed 002 §2.1).
 
-Input: a bag with sensor_msgs/MagneticField on ``--mag-topic`` (tesla,
-z-up tool frame), the messages between ``--start-s`` and ``--end-s``
-(seconds after the topic's first message; default: all of them), or a CSV
-with the columns ``bx, by, bz`` (nT, tool frame), one row per reading.  The
-tool turns about its own axis at one attitude (what ``inclino simulate
---magnetic --rotation-s`` records): the cross-axial readings lie on an
-ellipse that ``cross_axial.fit_cross_axial`` fits (hard iron c, symmetric
-soft-iron correction W of ``B_xy = W (m_xy - c)``).
-
-The magnetic stage of the calibration file gets ``hard_iron_nT``,
-``soft_iron``, ``rotation_fitted_at`` and ``rotation_temperature_c`` (a CSV's
-optional ``temperature_c`` column, a bag's ``--temperature-topic``), as
-``~/capture_rotation`` does (one rule: ``rotation.solve_rotation``); its
-interference is reset, as it was solved on the old cross-axial correction;
-every other stage is kept.  Report: the radial residual and the cross-axial direction error
-against the rotation angle, before and after, in ``fit_rotation.png``, the summary in
-``fit_rotation.txt``.
-
-Readings without a value (NaN, as some drivers publish between two
-measurements) are left out and counted.  Refused (exit 1, the calibration
-file untouched): readings that are no Earth field in nT
-(``plausibility.check_field_readings``: a dead magnetometer, tesla or gauss
-named), too few readings, none finite, no ellipse, too flat an ellipse, too
-short an arc or too large a radial RMSE
-(``cross_axial.RotationLimits``).
+This module parses the options (their help is the user's documentation) and
+prints; the input (a bag's ``--mag-topic`` window, a CSV of bx, by, bz):
+``calibration.inputs.rotation_input``; the fit, the stage and the reset of
+the multi-station interference, one rule with ``~/capture_rotation``:
+``calibration.rotation.solve_rotation`` (limits: ``cross_axial.RotationLimits``);
+the report (radial residual and direction error against the turn):
+``report.rotation``.  Exit 0 written, 1 refused (the calibration file
+untouched), 2 unusable input.
 """
 
 from inclino_ros.calibration.inputs import rotation_input

@@ -1,58 +1,18 @@
 """
 ``inclino fit-stand``: seed 001's multi-position stand calibration into the calibration file.
 
-Input: a CSV with the columns ``inclination_deg, toolface_deg, ax, ay, az``
-(one row per sample or per averaged position; m/s^2, REP 145 z-up specific
-force; an optional ``temperature_c``), and for the magnetometer
-``azimuth_deg`` (the magnetic azimuth of the hole direction) and ``bx, by,
-bz`` [nT, tool frame]; or a bag with the raw sensor on ``/imu/data_raw``,
-the stand attitude on ``/stand/attitude`` (Vector3Stamped: x
-inclination_deg, y seed-000 toolface_deg, z azimuth_deg; each Imu sample
-takes the latest attitude at or before its stamp), optionally
-``/imu/temperature`` and ``--mag-topic``.  Consecutive samples of one
-attitude are averaged into one position; a later visit of an attitude (its
-rows after another attitude's, or less than 1 deg from it) is a repeat:
-weighed in the fit like any position, and the scatter of the visits is
-reported as the stand's repeatability (deg, per attitude and overall).
-
-A CSV with ``time_s`` and no attitude columns is a continuous log
-(optionally with the gyro, ``wx, wy, wz`` rad/s): its still segments
-(``continuous_log.log_segments``) are the readings of a sphere fit, one a
-segment, the samples between them left out.  Every still sample of such a
-log, in turn and without times, is grouped by pose
-(``continuous_log.sphere_readings``).
-
-With a reference field (``--reference-total-nT`` and
-``--reference-dip-deg``, or ``--site``) and magnetometer readings, the
-magnetometer's K_m and bias are fitted too (seed 001 Eq. 12: the same fit
-against the field expected at each position), into the stages
-``magnetometer`` and ``magnetometer_alignment``; refused beyond
-``--max-field-rms-deg``.  Positions that differ only in azimuth are one
-attitude for the accelerometer (repeats).
-
-``--method stand`` fits ``A = K G + b`` to the positions (``stand.fit_stand``);
-``--method sphere`` needs no attitude and fits every sample to ``|G| = g``
-(``stand.fit_sphere``: K only up to a rotation, returned upper triangular).
-A temperature stage already in the file is applied to the readings first
-(at their temperature, else at its reference), as the model applies it
-before the stand stage.  The new stand stage replaces the old one, keeps the
-other stages and drops the installation and tool-axis stages: a stand K
-contains the mounting misalignment, and after a sphere fit the level bench
-must be measured again on the stand-corrected readings.
-
-Refused (exit 1, the calibration file untouched): readings that are not
-those of a still tool in m/s^2 (``plausibility.check_accelerometer_readings``:
-g or mg named), a fit ``stand`` refuses (fewer than six distinct
-attitudes, an ill-posed set), a position where the tool moved (its mean
-drifts faster than ``--max-drift-deg-per-s`` against its own noise, or is
-not steady) or whose mean misses ``--max-sem-deg`` (``still_capture``:
-positions of fewer than 6 samples, e.g. averaged CSV rows, are not tested;
-CSV times from an optional ``time_s`` column), positions whose temperatures
-lie more than ``--max-temperature-difference-c`` apart without a
-temperature stage, an RMS inclination residual above ``--max-rms-deg`` (for
-a sphere fit: the RMS of ``|G| - g`` over g, as an angle).  The stage
-records the temperature its readings stood for (the temperature stage's
-reference, else their mean temperature).
+This module parses the options (their help is the user's documentation) and
+prints; the rules live where the node finds them too: the input (a CSV of
+positions or a continuous log, a bag with ``/stand/attitude``):
+``calibration.inputs.stand_input``; a log's still segments:
+``calibration.continuous_log``; positions, repeats, the temperature span, the
+stand and sphere fits, K(T) of a multi-temperature stand and what a new stand
+drops: ``calibration.stand_fit`` (as ``~/solve_stand_calibration``); the
+magnetometer's K_m and bias against a reference field (seed 001 Eq. 12):
+``calibration.magnetometer.fit_field_stand``; plausible readings:
+``calibration.plausibility``; the report: ``report.stand``; the atomic write
+with its history: ``fitting.run_fit``.  Exit 0 written, 1 refused (the
+calibration file untouched), 2 unusable input.
 """
 
 from inclino_ros.calibration.continuous_log import log_segments, segment_limits, sphere_readings

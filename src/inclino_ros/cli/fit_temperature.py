@@ -1,41 +1,15 @@
 """
 ``inclino fit-temperature``: a triad's temperature drift into the calibration file (seed 001).
 
-Input: a CSV with the columns ``temperature_c, ax, ay, az`` (m/s^2; with
-``--triad magnetometer``: ``bx, by, bz`` in nT) and optionally ``attitude``
-(a label per row, any text: rows of one label share one attitude) or the reference
-columns ``ref_ax, ref_ay, ref_az`` (``ref_bx, ...``); or a bag with the raw
-sensor on ``/imu/data_raw`` (``--mag-topic`` /imu/mag for the magnetometer)
-and sensor_msgs/Temperature on ``/imu/temperature``, the temperature
-interpolated linearly to each stamp (samples outside the span of the
-temperature messages are left out), the attitudes told apart by the
-direction of the readings (``--attitude-separation-deg``).  The tool is held
-still at each attitude while it heats.  A CSV with ``time_s`` and neither
-attitude nor reference columns is a continuous log (optionally with the
-gyro ``wx, wy, wz`` rad/s): its still segments are kept
-(``continuous_log.log_segments``), the attitudes told apart as for a bag.
-
-Heated at two or more attitudes (where every axis reads differently), each
-axis gets a bias AND a scale drift, ``A_T = K_T(T) A + B_T(T)``
-(``temperature.fit_temperature_drift``, seed 001 Eqs. 5-7 generalised).  At
-one attitude (or with ref columns) only seed 001's scale factor K_T is
-fitted (``temperature.fit_temperature``) and the report says what it cannot
-see: a bias drift, absorbed into K_T at that attitude and wrong at every
-other.  The reference of a one-attitude fit is its ref columns, else the mean
-reading within ``--reference-window-c`` of 25 deg C.
-
-The stage compensates the readings to the temperature the later stages'
-readings stood for (stand and installation; for the magnetometer the rotation
-fit), when they record one: a stand captured at 35 deg C keeps working.
-The new stage replaces the old one of its triad; the other stages are kept.
-
-Refused (exit 1, the calibration file untouched): readings not of a still
-tool in m/s^2 (accelerometer) or no Earth field in nT (magnetometer), or
-temperatures no sensor reads (``plausibility``), no reading near 25 deg C
-for a one-attitude fit without ref columns, a fit ``temperature`` refuses
-(too few distinct temperatures for the order, 25 deg C outside the data, an
-axis that sees no gravity / cannot be told apart), later stages captured at
-different temperatures, or their temperature outside the heated range.
+This module parses the options (their help is the user's documentation) and
+prints; the rules live in the layers that own them: the input (a CSV with
+attitude labels or reference columns, a continuous log, a bag with
+``/imu/temperature``): ``calibration.inputs.temperature_input``; the fit
+(bias and scale drift at two or more attitudes, K_T alone at one, the
+reference temperature the later stages stood for):
+``calibration.temperature_fit``; plausible readings and temperatures:
+``calibration.plausibility``; the report: ``report.temperature``.  Exit 0
+written, 1 refused (the calibration file untouched), 2 unusable input.
 """
 
 from dataclasses import replace
