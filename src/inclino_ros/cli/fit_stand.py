@@ -18,11 +18,11 @@ calibration file untouched), 2 unusable input.
 from inclino_ros.calibration.continuous_log import log_segments, segment_limits, sphere_readings
 from inclino_ros.calibration.inputs import stand_input
 from inclino_ros.calibration.magnetometer import fit_field_stand, mean_temperature_c
-from inclino_ros.calibration.model import CalibrationModel, readings_temperature_c
+from inclino_ros.calibration.model import readings_temperature_c
 from inclino_ros.calibration.plausibility import check_accelerometer_readings
 from inclino_ros.calibration.stand_fit import (
     check_temperature_span, group_positions, position_noise_deg, repeatability_note, solve_sphere,
-    solve_stand, stood_for_c, with_stand)
+    solve_stand, stand_readings, stood_for_c, with_stand)
 from inclino_ros.calibration.still_capture import CaptureRefused
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
@@ -116,13 +116,8 @@ def fit(args, lines, outputs):
         segment, readings, temperature_c, times_s = still_samples(
             args, readings, gyro, temperature_c, times_s, lines)
     check_accelerometer_readings(readings, args.gravity_mps2)
-    # What each reading stood for: the temperature stage's reference, else its own.
-    stood_c = (None if existing.temperature is None and temperature_c is None else
-               np.broadcast_to(readings_temperature_c(existing.temperature, temperature_c),
-                               readings.shape[:1]).astype(float))
+    readings, stood_c = stand_readings(existing, readings, temperature_c)
     if existing.temperature is not None:
-        readings = CalibrationModel(3, temperature=existing.temperature).apply(
-            readings, temperature_c)
         lines.append('temperature stage of the file applied to the readings first ('
                      + ('at their temperatures)' if temperature_c is not None else
                         'no temperatures in the input: at its reference temperature)'))
