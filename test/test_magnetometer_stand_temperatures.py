@@ -7,8 +7,9 @@ on a board that tilts 0.3 deg over 28..60 deg C; the magnetometer's bracket turn
 preset's drifts).  Twelve positions with azimuths (``FIELD_STAND_POSITIONS_DEG``) at 28, 44,
 60 deg C, 100 samples each: 20 nT per sample averages to 2 nT, leaving each plateau's K_m
 elements ~2e-5 (1 sigma, reported), a field direction ~0.002 deg off (measured 0.0034 deg max
-at 400 held-out attitudes; azimuths 0.008 deg max).  The azimuth of held-out attitudes (inclination 10..170 deg, read
-noise-free) divides that by up to sin(10 deg) cos(60 deg) ~ 0.09: 0.1 deg is several sigma.
+at 400 held-out attitudes).  The azimuth of held-out attitudes (inclination 10..170 deg, read
+noise-free) divides that by up to sin(10 deg) cos(60 deg) ~ 0.09 (measured 0.008 deg max):
+0.1 deg is several sigma.
 One K_m over all three plateaus (main) cannot hold the turn: the field residual of its own
 positions is 0.35 deg RMS (refused beyond the default 0.1 deg) and, the limit raised, the
 held-out azimuths go 0.61 deg RMS, 1.5 deg max off at 28 and 60 deg C.
