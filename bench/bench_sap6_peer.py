@@ -1,8 +1,10 @@
 """
-Six real hand-held instruments (test/data/sap6) through ``inclino fit-magnetometer`` vs the peer.
+Fifteen real hand-held instruments through ``inclino fit-magnetometer`` vs the peer.
 
-The peer: circuitpython-mag-cal (github.com/furbrain/CircuitPython_mag_cal, commit acf6b5f, its
-own code on its own SAP6 fixtures, the files test/data/sap6 converts): an ellipsoid per sensor,
+test/data/sap6 (six instruments) and test/data/mag_cal_cal_data (nine more), both the peer's
+fixtures converted (their SOURCE.md).  The peer: circuitpython-mag-cal
+(github.com/furbrain/CircuitPython_mag_cal, commit acf6b5f, its own code on its own fixtures,
+the SAP6 ones with its test's axes, cal_data with identity axes): an ellipsoid per sensor,
 each sensor's pointing axis aligned from its roll sets (``AXIS_CORRECTION``), then per axis a
 smooth non-linear correction fitted from the roll sets (``FAST_NON_LINEAR``: 5 Gaussian RBF
 parameters per axis on the two axes across the pointing one, least squares against each set's
@@ -24,7 +26,7 @@ tool-frame fields (``non_linear``: an experiment of this bench, not part of the 
 
 The peer's figures are recorded (``PEER``); ``--peer-repo DIR`` (a checkout of the peer at the
 commit above) recomputes them with its code.  Writes ``bench/results/sap6_peer.md``.  Run:
-``.venv/bin/python bench/bench_sap6_peer.py`` (~30 s).
+``.venv/bin/python bench/bench_sap6_peer.py`` (~2 min).
 """
 
 import argparse
@@ -39,14 +41,23 @@ from inclino_ros.core import magnetics
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-SAP6 = os.path.join(HERE, '..', 'test', 'data', 'sap6')
-NAMES = ('BB', 'CF', 'FG', 'HC', 'IB', 'JG')
+DATA = os.path.join(HERE, '..', 'test', 'data')
+#: The real shot sets: (folder under test/data, the peer's fixture folder, its axes (mag, grav),
+#: instruments).
+SETS = (('sap6', 'SAP6', ('+x+y-z', '-y-x+z'), ('BB', 'CF', 'FG', 'HC', 'IB', 'JG')),
+        ('mag_cal_cal_data', 'cal_data', ('+X+Y+Z', '+X+Y+Z'),
+         ('ab', 'ai', 'bh', 'bi', 'ee', 'fb', 'hj', 'hj2', 'jd')))
 ROLL_SETS = (np.arange(8, 16), np.arange(16, 24))
 #: The peer's figures [deg] (its code at acf6b5f): in-sample ellipsoid, axis correction, fast
 #: non-linear (5 parameters); held-out axis correction, fast non-linear.
 PEER = {'BB': (2.181, 0.726, 0.463, 0.740, 0.655), 'CF': (1.393, 0.518, 0.352, 0.457, 0.388),
         'FG': (1.767, 1.292, 1.112, 1.132, 1.367), 'HC': (8.235, 0.768, 0.211, 0.762, 0.339),
-        'IB': (2.710, 0.604, 0.537, 0.438, 1.661), 'JG': (3.420, 0.294, 0.194, 0.330, 0.973)}
+        'IB': (2.710, 0.604, 0.537, 0.438, 1.661), 'JG': (3.420, 0.294, 0.194, 0.330, 0.973),
+        'ab': (2.059, 0.792, 0.181, 0.917, 0.365), 'ai': (1.341, 0.222, 0.164, 0.228, 0.333),
+        'bh': (1.054, 0.479, 0.177, 0.424, 5.395), 'bi': (1.467, 0.392, 0.181, 0.514, 0.336),
+        'ee': (1.791, 0.386, 0.440, 0.825, 1.785), 'fb': (1.536, 0.424, 0.310, 0.463, 0.927),
+        'hj': (2.166, 0.481, 0.207, 0.472, 0.313), 'hj2': (1.488, 0.478, 0.289, 0.643, 1.183),
+        'jd': (1.279, 0.496, 0.324, 0.479, 2.206)}
 #: Gaussian RBF parameters per axis of the non-linear stage (the peer test's setting).
 RBF_PARAMETERS = 5
 
@@ -63,9 +74,9 @@ def rms(deviations):
     return float(np.sqrt(np.mean(np.square(np.concatenate(deviations)))))
 
 
-def read_set(name):
+def read_set(folder, name):
     """Return (header, rows, accel (24, 3), field (24, 3)) of an instrument's CSV."""
-    with open(os.path.join(SAP6, f'{name}.csv')) as stream:
+    with open(os.path.join(DATA, folder, f'{name}.csv')) as stream:
         lines = stream.read().splitlines()
     table = np.array([[float(v) for v in line.split(',')[:6]] for line in lines[1:]])
     return lines[0], lines[1:], table[:, :3], table[:, 3:]
@@ -130,9 +141,9 @@ def azimuth_deg(model, accel, field, correct=None):
     return magnetics.survey_of(gravity, corrected)['azimuth_deg']
 
 
-def instrument(name, work):
+def instrument(folder, name, work):
     """Return our figures: raw, in-sample (linear, + non-linear), held-out (both)."""
-    header, rows, accel, field = read_set(name)
+    header, rows, accel, field = read_set(folder, name)
     raw = rms([circular_deviation_deg(azimuth_deg(CalibrationModel(3), accel[s], field[s]))
                for s in ROLL_SETS])
     model = calibrate(header, rows, range(24), work)
@@ -152,36 +163,38 @@ def instrument(name, work):
 
 
 def peer_figures(repo):
-    """Return PEER recomputed with the peer's code in ``repo`` (its SAP6 fixtures)."""
+    """Return PEER recomputed with the peer's code in ``repo`` (its fixtures)."""
     sys.path.insert(0, repo)
     from mag_cal.calibration import Calibration
     from mag_cal.utils import read_fixture
     figures = {}
-    for name in NAMES:
-        with open(os.path.join(repo, 'tests', 'fixtures', 'SAP6', f'{name}.json')) as stream:
-            _, grav, mag = read_fixture(stream.read())
-        mag, grav = np.array(mag), np.array(grav)
+    for _, fixtures, (mag_axes, grav_axes), names in SETS:
+        for name in names:
+            with open(os.path.join(repo, 'tests', 'fixtures', fixtures,
+                                   f'{name}.json')) as stream:
+                _, grav, mag = read_fixture(stream.read())
+            mag, grav = np.array(mag), np.array(grav)
 
-        def fitted(shots, sets, routine):
-            cal = Calibration(mag_axes='+x+y-z', grav_axes='-y-x+z')
-            cal.fit_ellipsoid(mag[shots], grav[shots])
-            if routine:
-                data = [(mag[s], grav[s]) for s in sets]
-                cal.fit_to_axis(data)
-                if routine == 2:
-                    cal.fit_non_linear_quick(data, param_count=RBF_PARAMETERS)
-            return cal
+            def fitted(shots, sets, routine, mag=mag, grav=grav):
+                cal = Calibration(mag_axes=mag_axes, grav_axes=grav_axes)
+                cal.fit_ellipsoid(mag[shots], grav[shots])
+                if routine:
+                    data = [(mag[s], grav[s]) for s in sets]
+                    cal.fit_to_axis(data)
+                    if routine == 2:
+                        cal.fit_non_linear_quick(data, param_count=RBF_PARAMETERS)
+                return cal
 
-        def judged(cal, sets):
-            return rms([circular_deviation_deg(np.asarray(cal.get_angles(mag[s], grav[s])[0]))
-                        for s in sets])
-        row = [judged(fitted(np.arange(24), ROLL_SETS, routine), ROLL_SETS)
-               for routine in (0, 1, 2)]
-        for routine in (1, 2):
-            row.append(rms([circular_deviation_deg(np.asarray(fitted(
-                np.r_[0:8, a], (a,), routine).get_angles(mag[b], grav[b])[0]))
-                for a, b in (ROLL_SETS, ROLL_SETS[::-1])]))
-        figures[name] = tuple(row)
+            def judged(cal, sets, mag=mag, grav=grav):
+                return rms([circular_deviation_deg(np.asarray(cal.get_angles(
+                    mag[s], grav[s])[0])) for s in sets])
+            row = [judged(fitted(np.arange(24), ROLL_SETS, routine), ROLL_SETS)
+                   for routine in (0, 1, 2)]
+            for routine in (1, 2):
+                row.append(rms([circular_deviation_deg(np.asarray(fitted(
+                    np.r_[0:8, a], (a,), routine).get_angles(mag[b], grav[b])[0]))
+                    for a, b in (ROLL_SETS, ROLL_SETS[::-1])]))
+            figures[name] = tuple(row)
     return figures
 
 
@@ -193,13 +206,15 @@ def main():
     peer = PEER if args.peer_repo is None else peer_figures(args.peer_repo)
     rows = []
     with tempfile.TemporaryDirectory() as work:
-        for name in NAMES:
-            raw, inside, inside_nl, held, held_nl = instrument(name, work)
-            p = peer[name]
-            rows.append(f'| {name} | {raw:.2f} | {inside:.3f} | {p[1]:.3f} | {inside_nl:.3f} | '
-                        f'{p[2]:.3f} | {held:.3f} | {p[3]:.3f} | {held_nl:.3f} | {p[4]:.3f} |')
+        for folder, _, _, names in SETS:
+            for name in names:
+                raw, inside, inside_nl, held, held_nl = instrument(folder, name, work)
+                p = peer[name]
+                rows.append(f'| {folder}/{name} | {raw:.2f} | {inside:.3f} | {p[1]:.3f} | '
+                            f'{inside_nl:.3f} | {p[2]:.3f} | {held:.3f} | {p[3]:.3f} | '
+                            f'{held_nl:.3f} | {p[4]:.3f} |')
     text = '\n'.join([
-        '# Six real hand-held instruments (SAP6): roll-set azimuth agreement, ours vs the peer',
+        '# Fifteen real hand-held instruments: roll-set azimuth agreement, ours vs the peer',
         '',
         "bench/bench_sap6_peer.py: azimuth RMS [deg] of the 16 roll-set shots about each set's "
         'circular mean',
