@@ -131,6 +131,11 @@ class _PolynomialOfTemperature:
         """Return whether K and b are polynomials of T (a multi-temperature stand)."""
         return self.scale_coefficients is not None
 
+    @property
+    def reference_temperature_c(self):
+        """Return the temperature K and b stand for without a temperature input (the centre)."""
+        return self.temperature_c
+
 
 @dataclass(frozen=True)
 class Stand(_PolynomialOfTemperature):
@@ -162,11 +167,6 @@ class Stand(_PolynomialOfTemperature):
     def tilt_std_rad(self):
         """Return the fit's own inclination residual as the stage's tilt 1 sigma [rad]."""
         return math.radians(self.rms_inclination_deg or 0.0)
-
-    @property
-    def reference_temperature_c(self):
-        """Return the temperature K and b stand for without a temperature input (the centre)."""
-        return self.temperature_c
 
     @cached_property
     def arrays(self):
