@@ -20,6 +20,7 @@ import csv
 from inclino_ros.calibration.model import CalibrationModel, load_model
 from inclino_ros.calibration.stand_capture import average_position, solve_positions
 from inclino_ros.core.stillness import StillLimits
+from inclino_ros.io import bag
 from inclino_ros.pipeline import MagneticSettings, run, Settings
 from inclino_ros.sim import sensor_model as sm
 from inclino_ros.sim.bench import (
@@ -154,4 +155,35 @@ def test_the_node_rule_fits_k_m_of_t_from_captured_positions():
     model = CalibrationModel(3, stand=stand, magnetometer=field.magnetometer,
                              magnetometer_alignment=field.alignment)
     for temperature in (28.0, 52.0, 60.0):
+        assert np.abs(azimuth_errors_deg(model, temperature)).max() <= MAX_AZIMUTH_DEG
+
+
+def test_fit_stand_from_a_bag_with_the_temperature_topic(tmp_path):
+    """The same stand as a bag (/imu/data_raw, /imu/mag, /stand/attitude, /imu/temperature)."""
+    columns = field_plateau_stand(TOOL, PLATEAUS_C)
+    count = columns['ax'].size
+    stamps = np.arange(count, dtype=np.int64) * 5_000_000 + 10 ** 18
+    frames = np.full(count, 'tool')
+    path = str(tmp_path / 'stand_bag')
+    with bag.BagWriter(path, 'mcap') as out:
+        for topic, kind in (('/imu/data_raw', bag.IMU), ('/imu/mag', bag.MAGNETIC_FIELD),
+                            ('/stand/attitude', bag.VECTOR3_STAMPED),
+                            ('/imu/temperature', bag.TEMPERATURE)):
+            out.add_topic(topic, kind)
+        out.write_series({
+            '/imu/data_raw': bag.raw_imu(stamps, 'tool', np.column_stack(
+                [columns[name] for name in ('ax', 'ay', 'az')]), 2e-3),
+            '/imu/mag': bag.magnetometer(stamps, 'tool', np.column_stack(
+                [columns[name] for name in ('bx', 'by', 'bz')]), 20.0),
+            '/stand/attitude': bag.Vector3Series(stamps, frames, np.column_stack(
+                [columns[name] for name in ('inclination_deg', 'toolface_deg',
+                                            'azimuth_deg')])),
+            '/imu/temperature': bag.TemperatureSeries(stamps, frames, columns['temperature_c'],
+                                                      np.zeros(count))})
+    calibration = tmp_path / 'cal.json'
+    code, out, err = quiet(['fit-stand', path, *REFERENCE, '--calibration', calibration])
+    assert code == 0, err
+    model = load_model(calibration)
+    assert model.magnetometer.temperature_dependent and model.stand.temperature_dependent
+    for temperature in (28.0, 44.0, 60.0):
         assert np.abs(azimuth_errors_deg(model, temperature)).max() <= MAX_AZIMUTH_DEG
