@@ -71,7 +71,7 @@ def broken(page):
 
 def test_slugs_are_githubs():
     """The anchors are those GitHub makes of the headings."""
-    assert slug("Real tools' data: repeats, logs (issue 18)") == 'real-tools-data-repeats-logs-issue-18'
+    assert slug("Real tools' data: repeats, logs (v2)") == 'real-tools-data-repeats-logs-v2'
     assert slug('Interfaces of `inclinometer_node` (node name `inclinometer`)') == (
         'interfaces-of-inclinometer_node-node-name-inclinometer')
     assert slug('Stand and temperature calibration (seed 001), offline') == (

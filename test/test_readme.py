@@ -22,7 +22,8 @@ words and signs exactly, each number within ABS + REL x |shown| of the printed
 one (``exact``: equal as numbers), any amount of blank space between words,
 and ``...`` standing for any text within the line (a clock time, a temporary
 path; the blank space beside it optional).  The printed output is cut into lines
-at every line feed and carriage return (progress bars redraw with the latter).  ``exact`` is for seeded runs; ``within`` where a live node's best-effort
+at every line feed and carriage return (progress bars redraw with the latter).
+``exact`` is for seeded runs; ``within`` where a live node's best-effort
 input makes the last digit vary.  A ``text`` block without such a comment
 before it is no output and is not compared.
 """
