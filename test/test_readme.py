@@ -144,7 +144,8 @@ def numbers_agree(got, want, tolerance):
     return abs(got - want) <= absolute + relative * abs(want)
 
 
-CASES = [(page, line, code) for page in PAGES for line, code in blocks(page.read_text())]
+CASES = [(page, line, code, shown_outputs(page.read_text()).get(line, []))
+         for page in PAGES for line, code in blocks(page.read_text())]
 
 
 def fresh_copy(tmp_path):
@@ -166,7 +167,17 @@ def test_every_page_runs_its_counted_blocks():
     """Each page holds exactly the bash blocks counted, and the rig block is not among them."""
     found = {name_of(page): len(blocks(page.read_text())) for page in PAGES}
     assert found == BLOCKS_PER_PAGE
-    assert not any('ros2 run' in code for _, _, code in CASES)
+    assert not any('ros2 run' in code for _, _, code, _ in CASES)
+
+
+def test_every_output_shown_is_compared():
+    """Each ``<!-- output`` comment is a valid mark before a ``text`` block, and is compared."""
+    for page in PAGES:
+        text = page.read_text()
+        marks = text.count('<!-- output')
+        compared = sum(len(outputs) for outputs in shown_outputs(text).values())
+        assert marks == compared, f'{name_of(page)}: {marks} output marks, {compared} compared'
+    assert sum(len(outputs) for _, _, _, outputs in CASES) >= 10
 
 
 def test_every_block_not_run_says_why():
@@ -192,9 +203,9 @@ def test_output_comparison_finds_what_differs():
     assert output_misses('worst 0.0022 deg at ...\nst err I', printed, None) != []
 
 
-@pytest.mark.parametrize('page,line,code', CASES,
-                         ids=[f'{name_of(page)}:{line}' for page, line, _ in CASES])
-def test_block_runs(page, line, code, tmp_path):
+@pytest.mark.parametrize('page,line,code,outputs', CASES,
+                         ids=[f'{name_of(page)}:{line}' for page, line, _, _ in CASES])
+def test_block_runs(page, line, code, outputs, tmp_path):
     """The block at ``line`` exits 0 in a fresh directory and prints the outputs shown."""
     work = fresh_copy(tmp_path)
     env = dict(os.environ, HOME=str(work), PATH=f'{sys.prefix}/bin:{os.environ["PATH"]}',
@@ -206,7 +217,7 @@ def test_block_runs(page, line, code, tmp_path):
     where = f'{name_of(page)}:{line}'
     assert returncode == 0, (
         f'{where} exited {returncode}:\n{code}\n--- output ---\n{output[-6000:]}')
-    for shown_line, tolerance, expected in shown_outputs(page.read_text()).get(line, []):
+    for shown_line, tolerance, expected in outputs:
         misses = output_misses(expected, output, tolerance)
         assert not misses, (
             f'{name_of(page)}:{shown_line}: the output shown is not what {where} printed; '
