@@ -174,7 +174,7 @@ def test_every_output_shown_is_compared():
     """Each ``<!-- output`` comment is a valid mark before a ``text`` block, and is compared."""
     for page in PAGES:
         text = page.read_text()
-        marks = text.count('<!-- output')
+        marks = len(re.findall(r'^\s*<!-- output', text, re.M))
         compared = sum(len(outputs) for outputs in shown_outputs(text).values())
         assert marks == compared, f'{name_of(page)}: {marks} output marks, {compared} compared'
     assert sum(len(outputs) for _, _, _, outputs in CASES) >= 10
@@ -201,6 +201,28 @@ def test_output_comparison_finds_what_differs():
     assert output_misses('1 0.0021 trusted 0', printed, (0.0002, 0)) != []
     assert output_misses('1 0.0021 spread 196', printed, None) != []
     assert output_misses('worst 0.0022 deg at ...\nst err I', printed, None) != []
+
+
+def test_files_shown_are_files_the_package_reads(tmp_path):
+    """A calibration file shown loads at the current schema; a parameters file names parameters."""
+    from inclino_ros.calibration.migrations import SCHEMA_VERSION
+    from inclino_ros.calibration.store import load_model
+    from inclino_ros.node.parameters import PARAMETERS
+    import yaml
+    names = {p.name for p in PARAMETERS}
+    shown = 0
+    for page in PAGES:
+        for line, text in blocks(page.read_text(), 'json'):
+            path = tmp_path / f'{page.stem}-{line}.json'
+            path.write_text(text)
+            assert '"schema_version": %d,' % SCHEMA_VERSION in text, f'{name_of(page)}:{line}'
+            assert load_model(str(path)) is not None
+            shown += 1
+        for line, text in blocks(page.read_text(), 'yaml'):
+            parameters = yaml.safe_load(text)['inclinometer']['ros__parameters']
+            assert set(parameters) <= names, f'{name_of(page)}:{line}'
+            shown += 1
+    assert shown >= 2
 
 
 @pytest.mark.parametrize('page,line,code,outputs', CASES,
