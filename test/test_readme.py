@@ -25,7 +25,7 @@ path; the blank space beside it optional).  The printed output is cut into lines
 at every line feed and carriage return (progress bars redraw with the latter).
 ``exact`` is for seeded runs; ``within`` where a live node's best-effort
 input makes the last digit vary.  A ``text`` block without such a comment
-before it is no output and is not compared.
+before it is refused (``text`` is for compared outputs only).
 """
 
 import os
@@ -171,12 +171,14 @@ def test_every_page_runs_its_counted_blocks():
 
 
 def test_every_output_shown_is_compared():
-    """Each ``<!-- output`` comment is a valid mark before a ``text`` block, and is compared."""
+    """Each ``<!-- output`` mark precedes a ``text`` block, each ``text`` block is one: compared."""
     for page in PAGES:
         text = page.read_text()
         marks = len(re.findall(r'^\s*<!-- output', text, re.M))
         compared = sum(len(outputs) for outputs in shown_outputs(text).values())
-        assert marks == compared, f'{name_of(page)}: {marks} output marks, {compared} compared'
+        assert marks == compared == len(blocks(text, 'text')), (
+            f'{name_of(page)}: {marks} output marks, {compared} compared, '
+            f'{len(blocks(text, "text"))} text blocks')
     assert sum(len(outputs) for _, _, _, outputs in CASES) >= 10
 
 
