@@ -171,7 +171,7 @@ def test_every_page_runs_its_counted_blocks():
 
 
 def test_every_output_shown_is_compared():
-    """Each ``<!-- output`` mark precedes a ``text`` block, each ``text`` block is one: compared."""
+    """Each ``<!-- output`` mark precedes a ``text`` block; each ``text`` block is compared."""
     for page in PAGES:
         text = page.read_text()
         marks = len(re.findall(r'^\s*<!-- output', text, re.M))
