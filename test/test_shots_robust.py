@@ -52,20 +52,28 @@ def test_every_real_instrument_is_calibrated(tmp_path, name):
         assert 'outlier shot 14 (roll group 1)' in out
     model = load_model(calibration)
     assert model.tool_axis is not None and model.tool_axis.roll_groups == 2
-    table = np.genfromtxt(SAP6 / f'{name}.csv', delimiter=',', names=True, dtype=None,
-                          encoding='utf-8')
+    used = np.ones(24, dtype=bool)
+    used[{'BB': 21, 'FG': 13}.get(name, [])] = False
+    assert 3.0 < roll_set_rms_deg(CalibrationModel(3), SAP6 / f'{name}.csv', used) < 90.0
+    assert roll_set_rms_deg(model, SAP6 / f'{name}.csv', used) < SAP6_MAX_ROLL_RMS_DEG
+
+
+def roll_set_rms_deg(model, path, used):
+    """
+    Return the azimuth RMS [deg] of a 24-shot set's two roll sets about their circular means.
+
+    ``path``: the set's CSV (8 sphere shots, then roll sets of 8); ``used`` (24,) the shots
+    counted; the azimuths through ``model``.
+    """
+    table = np.genfromtxt(path, delimiter=',', names=True, dtype=None, encoding='utf-8')
     accel = np.column_stack([table[c] for c in ('ax', 'ay', 'az')])
     field = np.column_stack([table[c] for c in ('bx', 'by', 'bz')])
     group = np.array([-1] * 8 + [0] * 8 + [1] * 8)
-    used = np.ones(24, dtype=bool)
-    used[{'BB': 21, 'FG': 13}.get(name, [])] = False
-    for the_model, low, high in ((CalibrationModel(3), 3.0, 90.0),
-                                 (model, 0.0, SAP6_MAX_ROLL_RMS_DEG)):
-        azimuth = magnetics.survey_of(the_model.apply(accel), the_model.apply_magnetic(
-            field, before='magnetic'))['azimuth_deg']
-        deviation = np.concatenate([circular_deviation_deg(azimuth[(group == k) & used])
-                                    for k in (0, 1)])
-        assert low < np.sqrt(np.mean(deviation ** 2)) < high
+    azimuth = magnetics.survey_of(model.apply(accel), model.apply_magnetic(
+        field, before='magnetic'))['azimuth_deg']
+    deviation = np.concatenate([circular_deviation_deg(azimuth[(group == k) & used])
+                                for k in (0, 1)])
+    return float(np.sqrt(np.mean(deviation ** 2)))
 
 
 def hand_held_set(seed, wander_deg=0.0, outliers=(), iron_nT=0.0):
@@ -272,15 +280,6 @@ def test_nine_more_real_instruments_are_calibrated(tmp_path, name):
     assert code == 0, err
     model = load_model(calibration)
     assert model.tool_axis is not None and model.tool_axis.roll_groups == 2
-    table = np.genfromtxt(CAL_DATA / f'{name}.csv', delimiter=',', names=True, dtype=None,
-                          encoding='utf-8')
-    accel = np.column_stack([table[c] for c in ('ax', 'ay', 'az')])
-    field = np.column_stack([table[c] for c in ('bx', 'by', 'bz')])
-    group = np.array([-1] * 8 + [0] * 8 + [1] * 8)
-    for the_model, low, high in ((CalibrationModel(3), 20.0, 90.0),
-                                 (model, 0.0, CAL_DATA_MAX_ROLL_RMS_DEG)):
-        azimuth = magnetics.survey_of(the_model.apply(accel), the_model.apply_magnetic(
-            field, before='magnetic'))['azimuth_deg']
-        deviation = np.concatenate([circular_deviation_deg(azimuth[group == k])
-                                    for k in (0, 1)])
-        assert low < np.sqrt(np.mean(deviation ** 2)) < high
+    every = np.ones(24, dtype=bool)
+    assert 20.0 < roll_set_rms_deg(CalibrationModel(3), CAL_DATA / f'{name}.csv', every) < 90.0
+    assert roll_set_rms_deg(model, CAL_DATA / f'{name}.csv', every) < CAL_DATA_MAX_ROLL_RMS_DEG
