@@ -62,6 +62,21 @@ def stand_readings(model, readings, temperature_c=None):
     return model.apply(readings, temperature_c, before='stand'), stood_c
 
 
+def position_stood_c(stage, temperature_c, position, counts):
+    """
+    Return the temperature each position's readings stood for [C], or None when unknown.
+
+    The reference of their temperature ``stage`` (a stage compensates to it),
+    else the mean of their own ``temperature_c`` (N,) over each position's
+    readings (``position`` (N,) numbers, ``counts`` (P,) readings a position;
+    ``provenance.readings_temperature_c``).
+    """
+    if stage is None and temperature_c is None:
+        return None
+    return np.bincount(position, weights=np.broadcast_to(
+        readings_temperature_c(stage, temperature_c), np.shape(position))) / counts
+
+
 def group_positions(readings, attitude_deg):
     """
     Return the positions: (attitudes (P, k), mean readings (P, 3), samples, position (N,)).

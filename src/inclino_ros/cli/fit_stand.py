@@ -17,12 +17,11 @@ calibration file untouched), 2 unusable input.
 
 from inclino_ros.calibration.continuous_log import log_segments, segment_limits, sphere_readings
 from inclino_ros.calibration.inputs import stand_input
-from inclino_ros.calibration.magnetometer import fit_field_stand, mean_temperature_c
-from inclino_ros.calibration.model import readings_temperature_c
+from inclino_ros.calibration.magnetometer import fit_field_stand
 from inclino_ros.calibration.plausibility import check_accelerometer_readings
 from inclino_ros.calibration.stand_fit import (
-    check_temperature_span, group_positions, position_noise_deg, repeatability_note, solve_sphere,
-    solve_stand, stand_readings, stood_for_c, with_stand)
+    check_temperature_span, group_positions, position_noise_deg, position_stood_c,
+    repeatability_note, solve_sphere, solve_stand, stand_readings, stood_for_c, with_stand)
 from inclino_ros.calibration.still_capture import CaptureRefused
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
@@ -229,18 +228,16 @@ def fit_magnetometer(args, existing, fields, attitude_deg, times_s, temperature_
             'no reference field (--reference-total-nT and --reference-dip-deg, or --site)'))
         return None
     paired = np.isfinite(fields).all(axis=1)
-    fields = existing.apply_magnetic(
-        fields[paired], None if temperature_c is None else temperature_c[paired],
-        before='magnetometer')
-    positions, means, _, position = group_positions(fields, attitude_deg[paired])
+    temperature_c = None if temperature_c is None else temperature_c[paired]
+    fields = existing.apply_magnetic(fields[paired], temperature_c, before='magnetometer')
+    positions, means, counts, position = group_positions(fields, attitude_deg[paired])
+    stood_c = position_stood_c(existing.magnetometer_temperature, temperature_c, position,
+                               counts)
     try:
         position_noise_deg(fields, None if times_s is None else times_s[paired], position,
                            len(means), still_limits(args), ' (magnetometer)')
         fit = fit_field_stand(means, positions, total_nT, dip_deg, stand,
-                              args.max_field_rms_deg, readings_temperature_c(
-                                  existing.magnetometer_temperature, mean_temperature_c(
-                                      None if temperature_c is None
-                                      else temperature_c[paired])))
+                              args.max_field_rms_deg, stood_c)
     except (CaptureRefused, StandFitRefused) as err:
         raise Refused(str(err)) from None
     lines += field_lines(fit, total_nT, dip_deg, source, len(means))

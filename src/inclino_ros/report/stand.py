@@ -65,6 +65,8 @@ def field_lines(fit, total_nT, dip_deg, source, positions):
     lines = [f'magnetometer (seed 001 Eq. 12) against {total_nT:.1f} nT, dip '
              f'{dip_deg:.3f} deg ({source}): {positions} positions, field residual '
              f'{fit.rms_residual_deg:.4f} deg RMS (worst {fit.residual_deg.max():.4f})']
+    if fit.plateaus is not None:
+        lines += plateau_lines(fit.plateaus, 'nT', ('RMS field residual', fit.plateau_rms_deg))
     lines += matrix_lines('K_m (m = K_m B + b_m, symmetric part)',
                           fit.magnetometer.scale_matrix, '10.6f')
     lines.append('bias_nT: ' + ' '.join(f'{v:.1f}' for v in fit.magnetometer.bias_nT)
@@ -72,17 +74,24 @@ def field_lines(fit, total_nT, dip_deg, source, positions):
     return lines
 
 
-def plateau_lines(plateaus):
-    """Return a multi-temperature stand's plateaus, order, residual and 1 sigma as text lines."""
+def plateau_lines(plateaus, unit='m/s^2', residual=None):
+    """
+    Return a multi-temperature stand's plateaus, order, residual and 1 sigma as text lines.
+
+    ``residual``: (name, values [deg] per plateau) of the residual to show; None: each
+    plateau fit's RMS inclination residual (the accelerometer's).  ``unit``: of b.
+    """
+    name, values = residual or ('RMS inclination residual',
+                                [fit.rms_inclination_deg for fit in plateaus.fits])
     return [f'positions at {len(plateaus.fits)} temperature plateaus: K(T) and b(T), every '
             f'element a polynomial of T of order {plateaus.order} (chi-square per order tried: '
             + ', '.join(f'{order}: {chi:.3g} for {dof} dof' for order, chi, dof
                         in plateaus.chi_square)
             + f'), valid over {plateaus.range_c[0]:.1f} .. {plateaus.range_c[1]:.1f} C'] + [
-        f'  plateau {t:6.2f} C: {fit.attitude.size} positions, RMS inclination residual '
-        f'{fit.rms_inclination_deg:.5f} deg, 1 sigma of K elements <= {sigma[:9].max():.2g}, '
-        f'of b <= {sigma[9:].max():.2g} m/s^2'
-        for t, fit, sigma in zip(plateaus.plateaus_c, plateaus.fits, plateaus.element_sigma)]
+        f'  plateau {t:6.2f} C: {fit.attitude.size} positions, {name} {value:.5f} deg, '
+        f'1 sigma of K elements <= {sigma[:9].max():.2g}, of b <= {sigma[9:].max():.2g} {unit}'
+        for t, fit, sigma, value in zip(plateaus.plateaus_c, plateaus.fits,
+                                        plateaus.element_sigma, values)]
 
 
 def geometry_lines(result):
