@@ -19,18 +19,24 @@ an ``averaging.Averager`` closes.  The series are encoded to CDR by
 writes them to a bag).  No ROS here.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
+from functools import partial
 import math
 
 from inclino_ros.calibration.plausibility import field_reading_ok
 from inclino_ros.core.magnetics import true_azimuth_deg
 from inclino_ros.core.screening import ACCEPTED, count_reasons, REASONS
 from inclino_ros.core.temperature import in_range
-from inclino_ros.io.bag import ImuSeries, not_measured_covariance, Vector3Series
+from inclino_ros.io.bag import (
+    BagError, concatenate, IMU, ImuSeries, MAGNETIC_FIELD, not_measured_covariance, read,
+    topic_info, VECTOR3_STAMPED, Vector3Series)
 from inclino_ros.io.timing import pair_nearest, pairing_tolerance
 from inclino_ros.pipeline import average, imu_covariances, MagneticSettings, run
 import numpy as np
 
+#: The topics ``inclino process`` writes.
+SURVEY_TOPIC = '/survey'
+IMU_TOPIC = '/imu/data'
 #: Azimuth counts of the summary (accepted samples; mag_non_finite: magnetometer messages).
 MAGNETIC_COUNTS = ('mag_non_finite', 'mag_paired', 'mag_unpaired', 'azimuth_trusted',
                    'azimuth_untrusted', 'azimuth_imprecise', 'qc_failed', 'qc_failed_b_total',
@@ -369,3 +375,57 @@ def row_status(codes, outside=None):
         status = [OUTSIDE_FIT if far and text == 'ok' else text
                   for text, far in zip(status, outside)]
     return status
+
+
+def recorded_magnetometer(path, topic, max_pairing_s, reference, noise_std_nT,
+                          azimuth_max_std_deg):
+    """
+    Return the Magnetometer of the MagneticField ``topic`` of the bag ``path``.
+
+    ``reference``: (total_nT, dip_deg, declination_deg or None) each azimuth
+    is checked against (ValueError without total and dip: no azimuth is
+    written unchecked); BagError unless the topic holds MagneticField
+    messages.
+    """
+    total_nT, dip_deg, declination_deg = reference
+    if total_nT is None or dip_deg is None:
+        raise ValueError('--mag-topic needs the reference field to check each azimuth '
+                         'against: --reference-total-nT and --reference-dip-deg, or --site '
+                         '(the calibration holds no multi-station analysis to take it from)')
+    msgtype, count = topic_info(path, topic)
+    if msgtype != MAGNETIC_FIELD or count == 0:
+        raise BagError(f'{topic} in {path} holds {count} {msgtype} messages, not '
+                       f'{MAGNETIC_FIELD} ones')
+    settings = MagneticSettings(reference_total_nT=total_nT, reference_dip_deg=dip_deg,
+                                declination_deg=declination_deg or 0.0, noise_std_nT=noise_std_nT,
+                                azimuth_max_std_deg=azimuth_max_std_deg)
+    return Magnetometer.from_series(concatenate(read(path, topic)), max_pairing_s, settings)
+
+
+def replay_recording(in_path, topic, out, model, settings, chunk_size, summary, temperature=None,
+                     magnetometer=None, averager=None, imu=None, progress=None):
+    """
+    Correct ``topic`` of the bag ``in_path`` into the open BagWriter ``out`` (``replay``).
+
+    Writes SURVEY_TOPIC and IMU_TOPIC.  ``temperature`` (a TemperatureSeries
+    or None) gives each sample its temperature, ``magnetometer`` (a
+    Magnetometer or None) its field; with an ``averager``
+    (``core.averaging.Averager``) the windows it closes are written instead
+    of the samples.  ``imu``: the ImuSeries of a CSV log, read instead of
+    ``topic`` of the bag.  Counts in ``summary`` (a Summary), returned.
+    """
+    out.add_topic(SURVEY_TOPIC, VECTOR3_STAMPED)
+    out.add_topic(IMU_TOPIC, IMU)
+    batches = (read(in_path, topic, chunk_size) if imu is None else
+               (ImuSeries(*(getattr(imu, f.name)[start:start + chunk_size] for f in fields(imu)))
+                for start in range(0, imu.stamps_ns.size, chunk_size)))
+    replay(batches, partial(_write_recorded, out), model, settings, summary, temperature,
+           magnetometer, averager, progress)
+    if averager is not None:
+        summary.averaged, summary.samples_not_averaged = True, averager.pending
+    return summary
+
+
+def _write_recorded(out, published):
+    """Write one Outputs (``outputs``) to SURVEY_TOPIC and IMU_TOPIC of the BagWriter ``out``."""
+    out.write_series({SURVEY_TOPIC: published.survey, IMU_TOPIC: published.imu})

@@ -18,7 +18,7 @@ from inclino_ros.core.stillness import (
     find_still_segments, label_attitudes, SegmentLimits, StillLimits)
 from inclino_ros.io import tables
 from inclino_ros.io.bag import (
-    BagError, concatenate, ImuSeries, read, TemperatureSeries, topic_info)
+    BagError, concatenate, IMU, ImuSeries, read, TEMPERATURE, TemperatureSeries, topic_info)
 from inclino_ros.io.timing import in_window, pair_nearest
 import numpy as np
 
@@ -362,3 +362,24 @@ def known_temperatures(series, name, path):
         raise tables.TableError(f'{name} in {path} holds no temperature a sensor reads')
     return TemperatureSeries(series.stamps_ns[kept], series.frame_ids[kept],
                              series.temperature_c[kept], series.variance[kept])
+
+
+def imu_count(path, topic):
+    """Return the message count of ``topic`` in the bag ``path``; BagError unless Imu messages."""
+    msgtype, count = topic_info(path, topic)
+    if msgtype != IMU:
+        raise BagError(f'{topic} in {path} holds {msgtype}, not {IMU}')
+    return count
+
+
+def bag_temperatures(path, topic):
+    """
+    Return the TemperatureSeries of ``topic`` in the bag ``path`` (``known_temperatures``).
+
+    BagError unless it holds Temperature messages.
+    """
+    msgtype, count = topic_info(path, topic)
+    if msgtype != TEMPERATURE or count == 0:
+        raise BagError(f'{topic} in {path} holds {count} {msgtype} messages, not '
+                       f'{TEMPERATURE} ones')
+    return known_temperatures(concatenate(read(path, topic)), topic, path)
