@@ -20,12 +20,10 @@ only).
 
 import json
 import os
-import random
 import signal
 import subprocess
 import sys
 import tempfile
-import time
 
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.live import LiveSession
@@ -33,6 +31,8 @@ from inclino_ros.cli.options import add_force_argument
 from inclino_ros.io.bag import concatenate, IMU, read
 from inclino_ros.io.files import Outputs
 from inclino_ros.io.timing import Timeline
+from inclino_ros.node.domain import (  # noqa: F401 (choose_private_domain: public here too)
+    choose_private_domain, isolate_dds)
 from inclino_ros.node.playback import publish_timed
 from inclino_ros.report.demo import plot, station_table, table_lines
 import numpy as np
@@ -43,10 +43,6 @@ DEMO_FILES = ('bench', 'bench.truth.json', 'calibration.json', 'processed', 'res
               'demo.png')
 #: Accuracy target of a corrected inclination [deg] (a tilt error of this size).
 TARGET_DEG = 0.01
-#: Domain ids the demo may take (0-101 are safe with the default DDS port mapping).
-DOMAIN_IDS = range(1, 102)
-#: Seconds the demo listens on a domain for other ROS nodes before it takes it.
-LISTEN_S = 1.0
 
 
 def register(subparsers):
@@ -68,63 +64,6 @@ def register(subparsers):
     parser.add_argument('--domain-id', type=int, metavar='N',
                         help='run on ROS domain N (default: a free one of its own)')
     parser.set_defaults(func=run)
-
-
-def choose_private_domain(exclude=(), candidates=None, listen_s=LISTEN_S):
-    """
-    Return a ROS domain id on which no other ROS node is seen, or None.
-
-    Candidates (default: 1..101 from a random start) in ``exclude`` are
-    skipped; each is listened to for ``listen_s`` with a node of its own.
-    """
-    import rclpy
-    from rclpy.context import Context
-    from rclpy.signals import SignalHandlerOptions
-
-    if candidates is None:
-        first = random.randrange(len(DOMAIN_IDS))
-        candidates = list(DOMAIN_IDS[first:]) + list(DOMAIN_IDS[:first])
-    for domain in candidates:
-        if domain in exclude:
-            continue
-        context = Context()
-        rclpy.init(context=context, domain_id=domain,
-                   signal_handler_options=SignalHandlerOptions.NO)
-        try:
-            node = rclpy.create_node('inclino_demo_listener', context=context,
-                                     start_parameter_services=False, enable_rosout=False)
-            time.sleep(listen_s)   # DDS discovery runs in its own threads
-            others = [name for name in node.get_node_names() if name != node.get_name()]
-            node.destroy_node()
-        finally:
-            rclpy.try_shutdown(context=context)
-        if not others:
-            return domain
-    return None
-
-
-def isolate_dds(log_dir, domain_id=None):
-    """
-    Keep DDS on this host and on a domain of this run's own; say which.
-
-    ``domain_id`` None: a free one (``choose_private_domain``); RuntimeError
-    when none is found.  Logs go under ``log_dir``.
-    """
-    os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
-    os.environ['ROS_LOG_DIR'] = log_dir
-    shell = os.environ.get('ROS_DOMAIN_ID')
-    if domain_id is not None:
-        print(f'== ROS domain {domain_id} (given with --domain-id), this host only')
-    else:
-        exclude = {int(shell)} if shell and shell.isdigit() else {0}
-        domain_id = choose_private_domain(exclude)
-        if domain_id is None:
-            raise RuntimeError('no free ROS domain found: give one with --domain-id')
-        print(f'== ROS domain {domain_id}: a private one (no other ROS node seen on it), this '
-              f'host only; ROS_DOMAIN_ID of this shell ({shell or "unset"}) not used '
-              '(--domain-id N to choose)')
-    os.environ['ROS_DOMAIN_ID'] = str(domain_id)
-    return domain_id
 
 
 def accelerometer_noise_mps2(truth):
