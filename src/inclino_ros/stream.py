@@ -377,6 +377,28 @@ def row_status(codes, outside=None):
     return status
 
 
+def survey_table(header, rows, codes, columns, outside=None):
+    """
+    Return (the CSV columns, the input columns renamed) of a survey (``inclino survey``).
+
+    The input rows (``header``, ``rows``: text cells) first, an input column
+    named as an output one kept as ``input_<name>``; then the output
+    ``columns`` (``survey_columns``: NaN in the rows not accepted) and each
+    row's status (``row_status`` with ``outside``).
+    """
+    names = list(columns) + ['status']
+    renamed = [f'input_{name}' if name in names else name for name in header]
+    full = {}
+    for name, (accepted, values) in columns.items():
+        column = np.full(len(rows), math.nan, dtype=object)
+        column[accepted] = list(values)
+        full[name] = column
+    table = ([(name, [row[k] for row in rows]) for k, name in enumerate(renamed)]
+             + [(name, full[name]) for name in columns]
+             + [('status', row_status(codes, outside))])
+    return table, [name for name, new in zip(header, renamed) if name != new]
+
+
 def recorded_magnetometer(path, topic, max_pairing_s, reference, noise_std_nT,
                           azimuth_max_std_deg):
     """
