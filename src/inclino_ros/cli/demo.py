@@ -26,14 +26,12 @@ import sys
 import tempfile
 
 from inclino_ros.cli.helptext import add_command
-from inclino_ros.cli.live import LiveSession
 from inclino_ros.cli.options import add_force_argument
-from inclino_ros.io.bag import concatenate, IMU, read
+from inclino_ros.io.bag import concatenate, read
 from inclino_ros.io.files import Outputs
-from inclino_ros.io.timing import Timeline
 from inclino_ros.node.domain import (  # noqa: F401 (choose_private_domain: public here too)
     choose_private_domain, isolate_dds)
-from inclino_ros.node.playback import publish_timed
+from inclino_ros.node.session import DemoSession
 from inclino_ros.report.demo import plot, station_table, table_lines
 import numpy as np
 
@@ -86,62 +84,6 @@ def start_node(calibration_file, log_path, noise_std_mps2):
         stdout=log, stderr=subprocess.STDOUT)
 
 
-class DemoSession(LiveSession):
-    """The demo's own rclpy node: replays bag segments, records the node's surveys."""
-
-    def __init__(self):
-        """Create the publisher, the survey recorder and the service client."""
-        from geometry_msgs.msg import Vector3Stamped
-        from rclpy.qos import QoSProfile
-        from sensor_msgs.msg import Imu
-        from std_srvs.srv import Trigger
-
-        super().__init__('inclino_demo')
-        self.publisher = self.node.create_publisher(Imu, 'imu/data_raw', QoSProfile(depth=1000))
-        self.surveys = {}
-        self.survey_sub = self.node.create_subscription(
-            Vector3Stamped, 'survey', self._on_survey, QoSProfile(depth=1000))
-        self.client = self.node.create_client(Trigger, '/inclinometer/calibrate_level')
-        self.trigger = Trigger.Request
-
-    def _on_survey(self, msg):
-        stamp_ns = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
-        self.surveys[stamp_ns] = (msg.vector.x, msg.vector.y, msg.vector.z)
-
-    def wait_for_node(self, timeout_s=30.0):
-        """Wait until the node's subscription, survey and service are matched."""
-        if not self.spin_until(lambda: (self.publisher.get_subscription_count()
-                                        and self.client.service_is_ready()
-                                        and self.survey_sub.get_publisher_count()),
-                               timeout_s):
-            raise RuntimeError('inclinometer_node did not come up')
-        self.spin(0.3)
-
-    def play(self, series):
-        """Publish an ImuSeries with its timing (RATE times faster)."""
-        publish_timed(Timeline.of([('imu/data_raw', IMU, series)]),
-                      {'imu/data_raw': self.publisher}, RATE,
-                      lambda seconds: self.spin(min(seconds, 0.01)))
-
-    def replay(self, series):
-        """Publish an ImuSeries with its timing; return the node's surveys of it (N, 3)."""
-        self.surveys = {}
-        self.play(series)
-        self.spin(0.5)
-        answers = np.array([self.surveys.get(stamp, (np.nan,) * 3)
-                            for stamp in series.stamps_ns.tolist()])
-        print(f'   {np.count_nonzero(np.isfinite(answers[:, 0]))} of {series.stamps_ns.size} '
-              'surveys received')
-        return answers
-
-    def calibrate_during(self, series):
-        """Call ~/calibrate_level while the level segment plays; return the answer."""
-        future = self.client.call_async(self.trigger())
-        self.play(series)
-        self.spin_until(future.done, 15.0)
-        return future.result() if future.done() else None
-
-
 def segment(series, mask):
     """Return the messages of an ImuSeries selected by a boolean mask."""
     from dataclasses import fields
@@ -183,7 +125,7 @@ def run(args):
     noise_std_mps2 = accelerometer_noise_mps2(truth_doc)
     node = start_node(calibration_file, os.path.join(out, 'node.log'), noise_std_mps2)
     try:
-        with DemoSession() as session:
+        with DemoSession(RATE) as session:
             session.wait_for_node()
             print(f'== 3. replay {len(segments) - 1} stations uncalibrated ({RATE}x)')
             raw = session.replay(stations)

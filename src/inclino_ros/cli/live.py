@@ -1,29 +1,20 @@
 """
 What the live commands (``play``, ``calibrate``, ``call``, ``param``, ``monitor``) share.
 
-A LiveSession is one rclpy node of the command's own, spun by hand.  rclpy is
-initialised without its signal handlers (as the node is): Ctrl-C raises
-KeyboardInterrupt in Python, and SIGTERM (``kill``, what a script sends to a
-background job) is turned into the same, so each command ends cleanly and
-says what it did, never with a traceback.
+The ``--node`` and ``--wait-s`` options, node names, the node's services;
+each command's rclpy node is a LiveSession (``node.session``: Ctrl-C and
+SIGTERM end it cleanly, never with a traceback).
 """
 
 import argparse
-import os
 import re
-import signal
-import sys
-import time
 
 from inclino_ros.cli.options import MAX_WAIT_S, wait_s
+from inclino_ros.node.session import domain_hint, LiveSession  # noqa: F401 (public here too)
 
 DEFAULT_NODE = '/inclinometer'
 #: Seconds a command waits for the node (its service, its subscription) by default.
 DEFAULT_WAIT_S = 10.0
-#: Seconds the rclpy teardown of a live command may take before the kernel ends it (SIGALRM):
-#: milliseconds normally, 24 minutes once under ~90 concurrent calls (issue 21).
-TEARDOWN_S = 20
-
 #: The Trigger services of inclinometer_node, what each does, in the user's words.
 SERVICES = {
     'calibrate_level': 'tool on a levelled bench: measure the mounting error (gamma, beta)',
@@ -70,93 +61,3 @@ def checked_node_name(text):
 def namespace_of(name):
     """Return the namespace of a full node name (where its public topics live)."""
     return node_name(name).rsplit('/', 1)[0] or '/'
-
-
-def domain_hint():
-    """Return what to check when the node cannot be found, naming this shell's settings."""
-    domain = os.environ.get('ROS_DOMAIN_ID', '0 (unset)')
-    scope = os.environ.get('ROS_AUTOMATIC_DISCOVERY_RANGE', 'SUBNET (unset)')
-    return (f'is inclinometer_node running, and started with the same ROS_DOMAIN_ID '
-            f'(this shell: {domain}) and ROS_AUTOMATIC_DISCOVERY_RANGE (this shell: {scope})?')
-
-
-class LiveSession:
-    """One rclpy node of a live command; use as a context manager."""
-
-    def __init__(self, name):
-        """Initialise rclpy (no signal handlers) and create node ``name``."""
-        import rclpy
-        from rclpy.executors import SingleThreadedExecutor
-        from rclpy.signals import SignalHandlerOptions
-
-        self._previous_term = signal.signal(signal.SIGTERM, _interrupt)
-        rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
-        self.node = rclpy.create_node(name, start_parameter_services=False)
-        self.executor = SingleThreadedExecutor()
-        self.executor.add_node(self.node)
-
-    def __enter__(self):
-        """Return the session."""
-        return self
-
-    def __exit__(self, *exc_info):
-        """
-        Destroy the node, shut rclpy down, restore SIGTERM; never hang there.
-
-        What the command says is said by now (flushed).  The teardown runs in
-        the DDS layer, where Python's signal handlers never run: under ~90
-        concurrent calls one caller spun in ``destroy_node`` for 24 minutes,
-        deaf to SIGTERM.  So during it SIGTERM and SIGINT kill the process
-        (their default action, taken by the kernel), and ``signal.alarm``
-        ends it after ``TEARDOWN_S`` (exit status 128 + SIGALRM), whatever
-        the DDS layer does.  In order: the executor first (nothing spins any
-        more), then the node, then the context.
-        """
-        import rclpy
-        for stream in (sys.stdout, sys.stderr):
-            stream.flush()
-        previous_int = signal.signal(signal.SIGINT, signal.SIG_DFL)
-        signal.signal(signal.SIGTERM, signal.SIG_DFL)
-        previous_alarm = signal.signal(signal.SIGALRM, signal.SIG_DFL)
-        signal.alarm(TEARDOWN_S)
-        try:
-            self.executor.shutdown()
-            self.node.destroy_node()
-            rclpy.try_shutdown()
-        finally:
-            signal.alarm(0)
-            signal.signal(signal.SIGALRM, previous_alarm)
-            signal.signal(signal.SIGINT, previous_int)
-            signal.signal(signal.SIGTERM, self._previous_term)
-
-    def spin(self, seconds):
-        """Process callbacks for ``seconds``."""
-        end = time.monotonic() + seconds
-        while (left := end - time.monotonic()) > 0:
-            self.executor.spin_once(timeout_sec=min(left, 0.05))
-
-    def spin_until(self, done, timeout_s, step_s=0.05):
-        """Spin until ``done()`` or ``timeout_s`` passed (None: no limit); return ``done()``."""
-        end = None if timeout_s is None else time.monotonic() + timeout_s
-        while not done():
-            if end is not None and time.monotonic() >= end:
-                break
-            self.executor.spin_once(timeout_sec=step_s)
-        return done()
-
-    def other_nodes(self):
-        """Return the full names of the ROS nodes this session sees, itself left out."""
-        own = self.node.get_fully_qualified_name()
-        return sorted(f'{ns.rstrip("/")}/{name}'
-                      for name, ns in self.node.get_node_names_and_namespaces()
-                      if f'{ns.rstrip("/")}/{name}' != own)
-
-    def not_found(self, what):
-        """Return the message for a node that did not answer: what, where, what to check."""
-        seen = self.other_nodes()
-        return (f'{what}; {domain_hint()} Nodes seen: '
-                + (', '.join(seen) if seen else 'none'))
-
-
-def _interrupt(signum, frame):
-    raise KeyboardInterrupt
