@@ -156,6 +156,9 @@ class Survey:
     tilt_var_rad2: float         # variance of the tilt from the calibration itself
     toolface_std_deg: np.ndarray     # (M,) 1 sigma (inf for a vertical tool)
     magnetic: AzimuthSurvey = None  # when magnetometer readings were given
+    # (acceleration (M, 9), orientation (M, 9)) of ``imu_covariances`` when the float
+    # chain (``scalar_chain``) computed them with the rest; None: computed when asked.
+    imu_covariance_rows: tuple = None
 
     @property
     def inclination_std_deg(self):
@@ -422,6 +425,8 @@ def imu_covariances(survey):
     the same through ``uncertainty.roll_pitch_covariance``, plus the
     calibration's own tilt variance; yaw is unobserved.
     """
+    if survey.imu_covariance_rows is not None:
+        return survey.imu_covariance_rows
     count = survey.corrected_mps2.shape[0]
     orientation = np.zeros((count, 3, 3))
     orientation[:, :2, :2] = roll_pitch_covariance(survey.corrected_mps2,
