@@ -132,11 +132,13 @@ def test_small_batches_are_coded_as_large_ones(kind, msgtype):
     """
     Batches of 1..SMALL_BATCH messages (``struct``) give the bytes and arrays of numpy's codec.
 
-    Numpy's path is a batch larger than SMALL_BATCH whose first messages are the same.
+    Numpy's path is a batch of at least SMALL_BATCH messages per frame_id whose first
+    messages are the same.  A batch of distinct frame_ids (``struct`` whatever its
+    size) decodes as numpy's path does.
     """
     rng = np.random.default_rng(3)
     for count in range(1, bag.SMALL_BATCH + 1):
-        large = series_of(kind, count + bag.SMALL_BATCH, rng)
+        large = series_of(kind, count + bag.SMALL_BATCH * len(FRAME_IDS), rng)
         small = bag.sliced(large, 0, count)
         encoded = bag.encode(large)
         assert bag.encode(small) == encoded[:count]
@@ -146,6 +148,16 @@ def test_small_batches_are_coded_as_large_ones(kind, msgtype):
         assert decoded.frame_ids.tolist() == expected.frame_ids.tolist()[:count]
         assert decoded.values().tobytes() == np.asarray(expected.values())[:count].tobytes()
         assert decoded.values().tobytes() == np.asarray(small.values()).tobytes()
+    distinct = series_of(kind, 40, rng)
+    names = np.array([f'frame/{i:04d}' for i in range(40)], dtype=object)
+    distinct = kind.from_values(distinct.stamps_ns, names, distinct.values())
+    many = kind.from_values(np.tile(distinct.stamps_ns, 8), np.tile(names, 8),
+                            np.tile(distinct.values(), (8, 1)))   # 8 of each: numpy's path
+    encoded = bag.encode(distinct)
+    assert encoded == bag.encode(many)[:40]
+    decoded, expected = bag.decode(encoded, msgtype), bag.decode(bag.encode(many), msgtype)
+    assert decoded.frame_ids.tolist() == expected.frame_ids.tolist()[:40] == names.tolist()
+    assert decoded.values().tobytes() == np.asarray(expected.values())[:40].tobytes()
     values = np.array([0.0, -1.5, math.nan, math.inf, 1e-300, 30.000123, -0.0, 7.0, 1.0])
     assert bag.encode_float64(values[:bag.SMALL_BATCH]) == bag.encode_float64(values)[:-1]
 
