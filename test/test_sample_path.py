@@ -16,6 +16,7 @@ from geometry_msgs.msg import Vector3Stamped
 from inclino_ros import scalar_chain
 from inclino_ros.calibration import stages
 from inclino_ros.calibration.model import CalibrationModel, Stand
+from inclino_ros.core.attitude import TOOLFACE_CONVENTIONS
 from inclino_ros.core.magnetics import QcLimits
 from inclino_ros.core.mounting import to_sensor_axes
 from inclino_ros.core.screening import ACCEPTED
@@ -352,6 +353,8 @@ def test_every_stage_type_is_in_the_float_chains_cases():
     """
     Each stage type of ``calibration.stages`` is in a case of the float chain's test.
 
+    And each toolface convention is written in the float chain (both are in the cases).
+
     The magnetometer's stages are in the cases' models too, but a batch with
     magnetometer readings is the vectorised chain's (``scalar_chain.applies``); a new
     stage type fails here until a case holds it.
@@ -359,6 +362,7 @@ def test_every_stage_type_is_in_the_float_chains_cases():
     present = {type(getattr(model, field.name)) for model, _ in CASES.values()
                for field in dataclasses.fields(model)}
     assert stage_types() - present == set()
+    assert set(scalar_chain.TOOLFACE_ARGUMENTS) == set(TOOLFACE_CONVENTIONS)
     assert not scalar_chain.applies(1, field_nT=np.zeros((1, 3)))
     assert scalar_chain.applies(scalar_chain.MAX_SAMPLES)
     assert not scalar_chain.applies(scalar_chain.MAX_SAMPLES + 1)

@@ -157,11 +157,16 @@ def screen_corrected(f, settings):
     return ACCEPTED
 
 
+#: (y, x) of ``atan2`` for each of ``attitude.TOOLFACE_CONVENTIONS`` (another: vectorised).
+TOOLFACE_ARGUMENTS = {'seed000': lambda f: (f[1], f[0]),           # toolface_seed000
+                      'iscwsa_highside': lambda f: (f[0], -f[1])}  # toolface_highside
+
+
 def toolface(f, convention):
     """Return ``attitude.TOOLFACE_CONVENTIONS[convention]`` of one vector [rad], NaN vertical."""
     if f[0] == 0.0 and f[1] == 0.0:
         return math.nan
-    angle = math.atan2(f[1], f[0]) if convention == 'seed000' else math.atan2(f[0], -f[1])
+    angle = math.atan2(*TOOLFACE_ARGUMENTS[convention](f))
     angle %= _TAU                           # attitude._wrap_2pi: np.mod, 2 pi itself is 0
     return 0.0 if angle == _TAU else angle
 
@@ -213,8 +218,11 @@ def run(raw, model, settings, temperature_c=None):
 
     ``raw`` (N, 3) with N <= MAX_SAMPLES, ``temperature_c`` None, a scalar or
     (N,); no magnetometer readings (``applies``).  None where float math
-    would raise (the caller then runs the vectorised chain).
+    would raise, or for a toolface convention not written here (the caller then
+    runs the vectorised chain).
     """
+    if settings.toolface_convention not in TOOLFACE_ARGUMENTS:
+        return None
     chain = prepared(model, settings)
     rows = np.asarray(raw, dtype=float).reshape(-1, 3).tolist()
     per_row = np.ndim(temperature_c) == 1
