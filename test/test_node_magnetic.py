@@ -376,7 +376,7 @@ def test_a_magnetometer_k_of_t_is_applied_at_the_temperature(start_node, probe, 
                                  REFERENCE_DIP_DEG)
         dt = held_c - 40.0
         raw = (np.eye(3) + dt * d_scale) @ iscwsa_from_tool(field) + dt * d_bias_nT
-        survey_z, _ = azimuth_of(probe, -iscwsa_from_tool(gravity), raw)
+        survey_z, _, _ = azimuth_of(probe, -iscwsa_from_tool(gravity), raw)
         assert abs(error_deg(survey_z, az_deg)) < 1e-6, (temperature_c, survey_z, az_deg)
     status = probe.wait_status(': temperature')[0]
     assert status.level == DiagnosticStatus.WARN and 'outside the fitted range' in status.message
