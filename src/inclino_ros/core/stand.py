@@ -146,11 +146,8 @@ def fit_stand(readings, truth, min_separation_deg=MIN_SEPARATION_DEG):
     if readings.shape != truth.shape:
         raise ValueError(f'readings {readings.shape} and truth {truth.shape} differ in shape')
     count = readings.shape[0]
-    if count < MIN_POSITIONS:
-        raise StandFitRefused(
-            f'only {count} stand position(s), need at least {MIN_POSITIONS} '
-            '(K and b have 12 unknowns; e.g. each axis up and down)')
-    _refuse_non_finite(readings, 'readings')
+    _refuse_unusable(readings, MIN_POSITIONS, 'stand position(s)',
+                     '(K and b have 12 unknowns; e.g. each axis up and down)')
     _refuse_non_finite(truth, 'truth')
     g_scale = float(np.median(_norms(truth)))
     if not 0.0 < g_scale < math.inf or np.any(_norms(truth) > MAX_READING_RATIO * g_scale):
@@ -273,12 +270,8 @@ def fit_sphere(readings, g):
     failure of the solve.
     """
     readings = as_vectors(readings, 'readings')
-    count = readings.shape[0]
-    if count < MIN_SPHERE_READINGS:
-        raise StandFitRefused(
-            f'only {count} reading(s), need at least {MIN_SPHERE_READINGS} for a sphere fit '
-            '(9 unknowns: upper-triangular K and b)')
-    _refuse_non_finite(readings, 'readings')
+    _refuse_unusable(readings, MIN_SPHERE_READINGS, 'reading(s)',
+                     'for a sphere fit (9 unknowns: upper-triangular K and b)')
     if not 0.0 < g < math.inf:
         raise ValueError(f'g must be a positive finite number, not {g!r}')
     _refuse_beyond(readings, g)
@@ -364,6 +357,13 @@ def rotation_part(matrix):
     if not np.linalg.det(matrix) > 0.0:
         raise ValueError('the matrix mirrors (determinant not positive): no rotation part')
     return polar(matrix)[0]
+
+
+def _refuse_unusable(readings, minimum, what, why):
+    """Refuse (StandFitRefused) fewer than ``minimum`` readings, or any not finite."""
+    if readings.shape[0] < minimum:
+        raise StandFitRefused(f'only {readings.shape[0]} {what}, need at least {minimum} {why}')
+    _refuse_non_finite(readings, 'readings')
 
 
 def _refuse_non_finite(values, name):
