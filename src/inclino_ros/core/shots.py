@@ -159,6 +159,7 @@ class ShotFit:
     used: np.ndarray
     outliers: tuple
     freed_groups: tuple
+    parameter_covariance: np.ndarray = None
 
 
 def _directions_problem(vectors, name, limits):
@@ -491,7 +492,12 @@ def _renumber(labels, kept):
 
 
 def _joint_fit(accel, field, labels, g, reference_total_nT, fit_accel):
-    """Return (model, x, sphere_m, evaluations): closed-form start, then the joint fit."""
+    """
+    Return (model, x, sphere_m, covariance, evaluations): closed-form start, then the joint fit.
+
+    ``covariance``: of x, ``s^2 (J^T J)^-1`` from the last fit's Jacobian J of
+    the weighted residuals and their mean square s^2 per degree of freedom.
+    """
     group_count = int(labels.max()) + 1 if labels.size and labels.max() >= 0 else 0
     if fit_accel:
         sphere_a = _sphere(accel, g, 'accelerometer')
@@ -529,7 +535,41 @@ def _joint_fit(accel, field, labels, g, reference_total_nT, fit_accel):
                                x_scale='jac')
         x, evaluations = result.x, evaluations + result.nfev
         model.set_noise(model.errors(x))
-    return model, x, sphere_m, evaluations
+    return model, x, sphere_m, _covariance(result), evaluations
+
+
+def _covariance(result):
+    """Return ``s^2 (J^T J)^-1`` of a ``least_squares`` result (pseudo-inverse: no refusal)."""
+    jacobian = result.jac
+    freedom = max(jacobian.shape[0] - jacobian.shape[1], 1)
+    return np.linalg.pinv(jacobian.T @ jacobian) * (2.0 * result.cost / freedom)
+
+
+def _stored_parameters(model, x):
+    """
+    Return the parameters a calibration file stores of the fit ``x`` (the covariance's order).
+
+    The accelerometer's ``K_a^-1`` (row-major) and ``b_a`` (``fit_accel``), the
+    map ``R K_m^-1`` taking magnetometer readings (bias removed) into the
+    accelerometer frame (row-major) and ``b_m``, then the tool axis's gamma,
+    beta [rad] (roll groups).
+    """
+    values = model.unpack(x)
+    parts = [values['t_a'].ravel(), values['b_a']] if model.fit_accel else []
+    parts += [(values['rotation'] @ values['t_m']).ravel(), values['o_m']]
+    if model.groups:
+        parts.append(values['tilt'])
+    return np.concatenate(parts)
+
+
+def stored_covariance(model, x, covariance):
+    """Return the covariance of ``_stored_parameters`` from that of x (central differences)."""
+    step = np.maximum(np.sqrt(np.clip(np.diag(covariance), 0.0, None)), 1e-9) * 1e-3
+    jacobian = np.column_stack([
+        (_stored_parameters(model, x + h) - _stored_parameters(model, x - h)) / (2.0 * h[i])
+        for i, h in enumerate(np.diag(step))])
+    stored = jacobian @ covariance @ jacobian.T
+    return 0.5 * (stored + stored.T)
 
 
 def _rms(values):
@@ -571,7 +611,7 @@ def _result(fitted, accel_all, field_all, labels, robust, limits, evaluations):
 
     ``robust``: (kept groups, used shots, outliers, freed groups) of ``fit_shots``.
     """
-    model, x, sphere_m, _ = fitted
+    model, x, sphere_m, covariance, _ = fitted
     kept, used, outliers, freed = robust
     values = model.unpack(x)
     families = model.errors(x)
@@ -631,7 +671,8 @@ def _result(fitted, accel_all, field_all, labels, robust, limits, evaluations):
         groups=tuple(kept), axial_rms_deg=axial_rms, roll_deg=roll,
         condition_number=sphere_m.condition_number, noise_mps2=model.sigma_a * model.g,
         noise_nT=model.sigma_m * model.field_nT, evaluations=evaluations,
-        used=used, outliers=tuple(outliers), freed_groups=tuple(freed))
+        used=used, outliers=tuple(outliers), freed_groups=tuple(freed),
+        parameter_covariance=stored_covariance(model, x, covariance))
     if problems:
         raise ShotFitRefused('; '.join(problems) + ' (the field changed between shots, e.g. '
                              'iron nearby, the tool moved during shots, or a triad is not '
