@@ -101,7 +101,9 @@ def fit_field_stand(fields_nT, attitudes_deg, reference_total_nT, reference_dip_
             scale_matrix=_matrix(k_m), bias_nT=tuple(fit.bias_mps2.tolist()), method='stand',
             condition_number=float(fit.condition_number), rms_residual_nT=rms_nT,
             field_nT=float(reference_total_nT), positions=int(fields_nT.shape[0]),
-            fitted_at=now, temperature_c=temperature_c),
+            fitted_at=now, temperature_c=temperature_c,
+            parameter_covariance=_matrix(fit.parameter_covariance),
+            covariance_stages=('magnetometer',)),
         alignment=MagnetometerAlignment(
             rotation=_matrix(rotation), method='stand', dip_deg=None, dip_rms_deg=None,
             shots=int(fields_nT.shape[0]), fitted_at=now, temperature_c=temperature_c),
