@@ -1,5 +1,5 @@
 """
-Calibrate on the physical simulator, then survey: the coverage of the azimuth and inclination 1 sigma.
+Calibrate on the physical simulator, then survey: the coverage of the azimuth, inclination sigma.
 
 Issue 19 item 2: a calibration's own error belongs in every sigma computed from
 it.  Each draw calibrates a fresh tool of ``sim.sensor_model`` one way
@@ -107,7 +107,8 @@ def ratios(kind, preset, shot_samples, draws, rng):
             survey = run(accel, used, settings, None, field, magnetic, averaged=STATION_SAMPLES)
             out[k, 0, column] = abs(shots_sim.angle_error_deg(
                 survey.magnetic.defined_azimuth_deg[0], azim)) / survey.magnetic.azimuth_std_deg[0]
-            out[k, 1, column] = abs(survey.inclination_deg[0] - incl) / survey.inclination_std_deg[0]
+            out[k, 1, column] = (abs(survey.inclination_deg[0] - incl)
+                                 / survey.inclination_std_deg[0])
     return out
 
 

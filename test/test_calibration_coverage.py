@@ -17,11 +17,10 @@ failed first.
 from dataclasses import replace
 import json
 
+import coverage_sim
 from inclino_ros.calibration.schema import model_from_dict
 import numpy as np
 import pytest
-
-import coverage_sim
 
 DRAWS = 300
 

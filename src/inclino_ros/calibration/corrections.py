@@ -204,7 +204,7 @@ class CalibrationModel:
         if (self.magnetic is not None and self.magnetic.rotation_fitted_at is not None
                 and self.magnetic.rotation_covariance is None):
             notes.append('magnetic: the file holds no parameter covariance of the rotation fit '
-                         "(schema < 6): the azimuth 1 sigma leaves its own error out; fit the "
+                         '(schema < 6): the azimuth 1 sigma leaves its own error out; fit the '
                          'rotation again to record it')
         return tuple(notes)
 
@@ -276,8 +276,10 @@ class CalibrationModel:
             j_f, j_b = [], []
             for name in names:
                 if name == 'stand':
-                    inputs = self.apply(sensor, temperature_c, before='stand') - self.stand.arrays[1]
-                    j_f.append(mount @ affine_jacobian(inputs, np.linalg.inv(self.stand.arrays[0])))
+                    inputs = (self.apply(sensor, temperature_c, before='stand')
+                              - self.stand.arrays[1])
+                    j_f.append(mount @ affine_jacobian(inputs,
+                                                       np.linalg.inv(self.stand.arrays[0])))
                     j_b.append(np.zeros((count, 3, 12)))
                 elif name == 'magnetometer':
                     j_f.append(np.zeros((count, 3, 12)))
