@@ -444,9 +444,13 @@ class _Model:
         spread, never below the shot noise: a group whose pointing wandered
         counts for what it holds.
         """
-        self.sigma_a = max(_rms(families['g']) if self.fit_accel else
+        # The |g| and |B| residuals are left by an ellipsoid of 9 parameters each: their
+        # mean square over N - 9 degrees of freedom, not N, is the noise's.
+        count = families['b'].size
+        unbiased = math.sqrt(count / max(count - 9, 1))
+        self.sigma_a = max(_rms(families['g']) * unbiased if self.fit_accel else
                            _rms(families.get('axial_g', [])) or 1e-4, 1e-9)
-        self.sigma_m = max(_rms(families['b']), 1e-9)
+        self.sigma_m = max(_rms(families['b']) * unbiased, 1e-9)
         label = self.labels[self.labels >= 0]
         for k in range(self.groups):
             self.group_a[k] = max(self.sigma_a, _rms(families['axial_g'][label == k]))
