@@ -246,6 +246,40 @@ class CalibrationModel:
                      if getattr(self, name) is not None
                      and getattr(self, name).fitted_at == stage.fitted_at)
 
+    @cached_property
+    def _fit_layout(self):
+        """
+        Return what ``parameter_blocks`` needs of the stages, built once.
+
+        (the covered stages, their covariance, K^-1 of the stand, the
+        magnetometer's map into the accelerometer frame, the mount's C^-1,
+        seed 002's W as 3x3, the tool axis's angles [rad], the rotation fit's
+        covariance).
+        """
+        soft_iron = np.eye(3)
+        if self.magnetic is not None:
+            soft_iron[:2, :2] = self.magnetic.correction
+        mount = np.eye(3)
+        for stage in (self.installation, self.tool_axis):
+            if stage is not None:
+                mount = stage.inverse_matrix @ mount
+        names, covariance = self.covariance_stages, None
+        if names:
+            sizes = {'stand': 12, 'magnetometer': 12, 'tool_axis': 2}
+            covered = self.magnetometer.covariance_stages
+            start = dict(zip(covered, np.cumsum([0] + [sizes[n] for n in covered])))
+            index = np.concatenate([np.arange(start[n], start[n] + sizes[n]) for n in names])
+            covariance = np.array(self.magnetometer.parameter_covariance)[np.ix_(index, index)]
+        return {
+            'names': names, 'covariance': covariance, 'soft_iron': soft_iron, 'mount': mount,
+            'stand': None if self.stand is None else np.linalg.inv(self.stand.arrays[0]),
+            'magnetometer': None if self.magnetometer is None else (
+                self.magnetometer_rotation @ np.linalg.inv(self.magnetometer.arrays[0])),
+            'angles': None if self.tool_axis is None else (
+                math.radians(self.tool_axis.gamma_deg), math.radians(self.tool_axis.beta_deg)),
+            'rotation': (None if self.magnetic is None or self.magnetic.rotation_covariance is None
+                         else np.array(self.magnetic.rotation_covariance))}
+
     def parameter_blocks(self, sensor, field_nT=None, temperature_c=None):
         """
         Return (C_p, J_f, J_B) of each fit's own error: covariance and Jacobians (M, 3, p).
@@ -257,29 +291,17 @@ class CalibrationModel:
         None: the block does not move that vector).  Blocks: the magnetometer
         fit's (``covariance_stages``), the rotation fit's (seed 002 §2.1).
         """
+        layout = self._fit_layout
         blocks = []
         count = np.shape(sensor)[0]
-        soft_iron = np.eye(3)
-        if self.magnetic is not None:
-            soft_iron[:2, :2] = self.magnetic.correction
-        mount = np.eye(3)
-        for stage in (self.installation, self.tool_axis):
-            if stage is not None:
-                mount = stage.inverse_matrix @ mount
-        names = self.covariance_stages
-        if names:
-            full = np.array(self.magnetometer.parameter_covariance)
-            sizes = {'stand': 12, 'magnetometer': 12, 'tool_axis': 2}
-            start = np.cumsum([0] + [sizes[n] for n in self.magnetometer.covariance_stages])
-            offsets = dict(zip(self.magnetometer.covariance_stages, start))
-            index = np.concatenate([np.arange(offsets[n], offsets[n] + sizes[n]) for n in names])
+        soft_iron, mount = layout['soft_iron'], layout['mount']
+        if layout['names']:
             j_f, j_b = [], []
-            for name in names:
+            for name in layout['names']:
                 if name == 'stand':
                     inputs = (self.apply(sensor, temperature_c, before='stand')
                               - self.stand.arrays[1])
-                    j_f.append(mount @ affine_jacobian(inputs,
-                                                       np.linalg.inv(self.stand.arrays[0])))
+                    j_f.append(mount @ affine_jacobian(inputs, layout['stand']))
                     j_b.append(np.zeros((count, 3, 12)))
                 elif name == 'magnetometer':
                     j_f.append(np.zeros((count, 3, 12)))
@@ -287,27 +309,24 @@ class CalibrationModel:
                         inputs = (self.apply_magnetic(field_nT, temperature_c,
                                                       before='magnetometer')
                                   - self.magnetometer.arrays[1])
-                        matrix = self.magnetometer_rotation @ np.linalg.inv(
-                            self.magnetometer.arrays[0])
-                        j_b.append(soft_iron @ mount @ affine_jacobian(inputs, matrix))
+                        j_b.append(soft_iron @ mount @ affine_jacobian(
+                            inputs, layout['magnetometer']))
                 else:   # the tool axis turns both triads
-                    angles = (math.radians(self.tool_axis.gamma_deg),
-                              math.radians(self.tool_axis.beta_deg))
                     j_f.append(tilt_jacobian(self.apply(sensor, temperature_c,
-                                                        before='tool_axis'), *angles))
+                                                        before='tool_axis'), *layout['angles']))
                     if field_nT is not None:
                         j_b.append(soft_iron @ tilt_jacobian(self.apply_magnetic(
-                            field_nT, temperature_c, before='tool_axis'), *angles))
-            blocks.append((full[np.ix_(index, index)], np.concatenate(j_f, axis=2),
+                            field_nT, temperature_c, before='tool_axis'), *layout['angles']))
+            blocks.append((layout['covariance'], np.concatenate(j_f, axis=2),
                            np.concatenate(j_b, axis=2) if field_nT is not None else None))
-        stage = self.magnetic
-        if field_nT is not None and stage is not None and stage.rotation_covariance is not None:
+        if field_nT is not None and layout['rotation'] is not None:
+            stage = self.magnetic
             inputs = (self.apply_magnetic(field_nT, temperature_c, before='magnetic')[:, :2]
                       - stage.offset_nT)
             jacobian = np.zeros((count, 3, 6))
             jacobian[:, 0, 0:2] = jacobian[:, 1, 2:4] = inputs
             jacobian[:, :2, 4:] = -stage.correction
-            blocks.append((np.array(stage.rotation_covariance), None, jacobian))
+            blocks.append((layout['rotation'], None, jacobian))
         return blocks
 
     def temperature_covariance(self, readings, temperature_c=None, triad='accelerometer'):
