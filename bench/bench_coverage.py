@@ -26,7 +26,7 @@ Calibration cells (issue 19 item 2, ``test/coverage_sim``): each draw calibrates
 simulated tool (fit-magnetometer's 24 one-reading shots; a 12-position stand; a
 36-reading rotation), then surveys one 100-sample station at a random attitude; the
 coverage of the azimuth and inclination sigma with the fits' parameter covariance, and
-without (``former``: files before schema 6).  ``--calibration-draws`` of them per cell
+without (``former``: files before schema 7).  ``--calibration-draws`` of them per cell
 (binomial 1 sigma 0.027 / 0.012 at 300); ``--calibration-only`` runs just these.
 
 Usage: .venv/bin/python bench/bench_coverage.py [--draws 200] [--samples 1000] [--seed 1]
@@ -114,7 +114,7 @@ def calibration_table(draws, seed):
     rng = np.random.default_rng(seed)
     lines = [f'Calibration cells: {draws} calibrations per cell, seed {seed}, each then one '
              f'{coverage_sim.STATION_SAMPLES}-sample station (inclination 10-80 deg, azimuth '
-             "N/E/W); former: without the fits' parameter covariance (schema < 6).", '',
+             "N/E/W); former: without the fits' parameter covariance (schema < 7).", '',
              '| calibration | tool | azimuth 1s/2s | inclination 1s/2s | in band | '
              'former azimuth 1s/2s | former inclination 1s/2s |', '|---|---|---|---|---|---|---|']
     for kind in coverage_sim.CALIBRATIONS:

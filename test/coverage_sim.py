@@ -25,7 +25,7 @@ Calibrations:
   field), ``solve_rotation`` on an empty model (seed 002 §2.1).
 
 ``without_covariance`` drops the fits' parameter covariance (what files before
-schema 6 held): the former sigma.
+schema 7 held): the former sigma.
 """
 
 from dataclasses import replace
@@ -77,7 +77,7 @@ def calibrate(kind, preset, shot_samples, rng):
 
 
 def without_covariance(model):
-    """Return ``model`` without the fits' parameter covariance (a schema-5 file)."""
+    """Return ``model`` without the fits' parameter covariance (a schema-6 file)."""
     if model.magnetometer is not None:
         model = replace(model, magnetometer=replace(
             model.magnetometer, parameter_covariance=None, covariance_stages=None))

@@ -41,15 +41,15 @@ def test_file_keeps_the_covariance_and_older_files_say_they_lack_it():
     rng = np.random.default_rng(5)
     _, model = coverage_sim.calibrate('fit-magnetometer', coverage_sim.TOOLS[0][1], 1, rng)
     doc = json.loads(json.dumps(model.to_dict()))
-    assert doc['schema_version'] == 6
+    assert doc['schema_version'] == 7
     again = model_from_dict(doc)
     assert again == model
     assert again.magnetometer.covariance_stages == ('stand', 'magnetometer', 'tool_axis')
     covariance = np.array(again.magnetometer.parameter_covariance)
     assert covariance.shape == (26, 26) and np.all(np.linalg.eigvalsh(covariance) > -1e-12)
     assert again.uncertainty_notes == ()
-    # A schema-5 file: no covariance, the sigma as before, and the model says so.
-    doc['schema_version'] = 5
+    # A schema-6 file: no covariance, the sigma as before, and the model says so.
+    doc['schema_version'] = 6
     for key in ('parameter_covariance', 'covariance_stages'):
         del doc['magnetometer'][key]
     older = model_from_dict(doc)
