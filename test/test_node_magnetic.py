@@ -338,6 +338,9 @@ def test_rotation_gives_one_calibration_through_the_service_and_the_command(
     for name in ('hard_iron_nT', 'soft_iron'):   # noise-free: rounding only
         np.testing.assert_allclose(node_magnetic.pop(name), command_magnetic.pop(name),
                                    rtol=0, atol=1e-6)
+    # The fit's covariance of noise-free readings: rounding only (below 1e-20 nT^2).
+    np.testing.assert_allclose(node_magnetic.pop('rotation_covariance'),
+                               command_magnetic.pop('rotation_covariance'), rtol=0, atol=1e-20)
     assert node_magnetic.pop('rotation_fitted_at') is not None
     assert command_magnetic.pop('rotation_fitted_at') is not None
     assert node_magnetic == command_magnetic
