@@ -24,6 +24,12 @@ DEFAULT_WAIT_S = 10.0
 #: milliseconds normally, 24 minutes once under ~90 concurrent calls (issue 21).
 TEARDOWN_S = 20
 
+#: Seconds a read-only or idempotent request waits for its answer before it is first sent
+#: again (doubled after each resend; ``LiveSession.answer``).
+RESEND_S = 1.0
+#: Seconds between two checks that the node is still there while a request waits.
+ALIVE_CHECK_S = 1.0
+
 #: The Trigger services of inclinometer_node, what each does, in the user's words.
 SERVICES = {
     'calibrate_level': 'tool on a levelled bench: measure the mounting error (gamma, beta)',
@@ -143,6 +149,71 @@ class LiveSession:
                 break
             self.executor.spin_once(timeout_sec=step_s)
         return done()
+
+    def wait_heard_by(self, target, timeout_s):
+        """
+        Wait until node ``target`` has discovered this session's endpoints; return whether it did.
+
+        A request (and an answer) goes only to the endpoints the other side
+        has discovered: rmw_fastrtps drops a service's answer when it has not
+        matched the client's response reader within 100 ms ("failed to send
+        response (timeout)"), and a request sent before the node matched the
+        client's request writer never reaches it.  Under load the node's
+        discovery lags the client's own (``service_is_ready`` sees only that):
+        3 of 40 concurrent calls lost their answer, 6 of 40 their request.  A
+        node learns a participant's writers, and its readers, in the order
+        they were made: so an answer of the node's read-only
+        ``~/list_parameters`` to a client made after the caller's own proves
+        the node has matched both endpoints of every client made before.
+        That request is resent until answered, within ``timeout_s`` (the
+        node's name in the graph comes later still: not waited for).
+        """
+        from rcl_interfaces.srv import ListParameters
+
+        end = time.monotonic() + timeout_s
+        client = self.node.create_client(ListParameters, f'{node_name(target)}/list_parameters')
+        try:
+            if not self.spin_until(client.service_is_ready, timeout_s):
+                return False
+            answered, _ = self.answer(
+                lambda: client.call_async(ListParameters.Request(
+                    prefixes=['inclino_ping'], depth=1)), lambda: end, resend=True)
+            return answered is not None
+        finally:
+            self.node.destroy_client(client)
+
+    def answer(self, send, deadline, resend, check=lambda: None):
+        """
+        Send a request with ``send()`` (it returns the future) and spin until it is answered.
+
+        Return (the answered future, or None once the monotonic time
+        ``deadline()`` passed first; the number of requests sent).
+        ``resend``: the request is read-only or idempotent, so it is sent
+        again after RESEND_S, 2 RESEND_S, 4 RESEND_S, ... without an answer
+        (a lost request or answer costs a resend, not the call); no other
+        request is ever sent twice.  ``check()`` runs about every
+        ALIVE_CHECK_S while waiting (it raises to give up).
+        """
+        futures = [send()]
+
+        def answered():
+            return next((future for future in futures if future.done()), None)
+
+        resend_after_s, sent = RESEND_S, time.monotonic()
+        while answered() is None:
+            now, end = time.monotonic(), deadline()
+            if now >= end:
+                return None, len(futures)
+            step = min(end - now, ALIVE_CHECK_S)
+            if resend:
+                step = min(step, max(0.0, sent + resend_after_s - now))
+            if self.spin_until(lambda: answered() is not None, step):
+                break
+            check()
+            if resend and time.monotonic() >= sent + resend_after_s:
+                futures.append(send())
+                sent, resend_after_s = time.monotonic(), 2.0 * resend_after_s
+        return answered(), len(futures)
 
     def other_nodes(self):
         """Return the full names of the ROS nodes this session sees, itself left out."""
