@@ -14,7 +14,7 @@ import time
 
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.live import (
-    add_node_arguments, LiveSession, node_name, SERVICES, TEARDOWN_S)
+    add_node_arguments, live_command, LiveSession, node_name, SERVICES, TEARDOWN_S)
 
 #: Services whose request is sent again when no answer comes: doing one twice is doing it
 #: once (each forgets what the node holds).  Every other one captures, stores a station or
@@ -48,6 +48,7 @@ def register(subparsers):
     parser.set_defaults(func=run)
 
 
+@live_command
 def run(args):
     """Call ``args.service`` of ``args.node``; return the exit code."""
     service = args.service

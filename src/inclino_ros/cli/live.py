@@ -9,6 +9,8 @@ says what it did, never with a traceback.
 """
 
 import argparse
+import ctypes
+import functools
 import os
 import re
 import signal
@@ -20,8 +22,9 @@ from inclino_ros.cli.options import MAX_WAIT_S, wait_s
 DEFAULT_NODE = '/inclinometer'
 #: Seconds a command waits for the node (its service, its subscription) by default.
 DEFAULT_WAIT_S = 10.0
-#: Seconds the rclpy teardown of a live command may take before the kernel ends it (SIGALRM):
-#: milliseconds normally, 24 minutes once under ~90 concurrent calls (issue 21).
+#: Seconds the rclpy teardown of a live command may take before a watchdog ends the process
+#: with the command's exit code: milliseconds normally, 24 minutes once under ~90 concurrent
+#: calls (issue 21).
 TEARDOWN_S = 20
 
 #: Seconds a read-only or idempotent request waits for its answer before it is first sent
@@ -106,32 +109,38 @@ class LiveSession:
         return self
 
     def __exit__(self, *exc_info):
+        """Close the session now, or when the running ``live_command`` returns its exit code."""
+        if _CLOSING:
+            _CLOSING[-1].append(self)
+        else:
+            self.close(1)
+
+    def close(self, code):
         """
         Destroy the node, shut rclpy down, restore SIGTERM; never hang there.
 
         What the command says is said by now (flushed).  The teardown runs in
         the DDS layer, where Python's signal handlers never run: under ~90
         concurrent calls one caller spun in ``destroy_node`` for 24 minutes,
-        deaf to SIGTERM.  So during it SIGTERM and SIGINT kill the process
-        (their default action, taken by the kernel), and ``signal.alarm``
-        ends it after ``TEARDOWN_S`` (exit status 128 + SIGALRM), whatever
-        the DDS layer does.  In order: the executor first (nothing spins any
-        more), then the node, then the context.
+        deaf to SIGTERM (1 of 40 for 20 s, its answer printed).  So during it
+        SIGTERM and SIGINT kill the process (their default action, taken by
+        the kernel), and after ``TEARDOWN_S`` a watchdog outside Python ends
+        the process with the command's exit ``code`` (``_exit_later``),
+        whatever the DDS layer does.  In order: the executor first (nothing
+        spins any more), then the node, then the context.
         """
         import rclpy
         for stream in (sys.stdout, sys.stderr):
             stream.flush()
         previous_int = signal.signal(signal.SIGINT, signal.SIG_DFL)
         signal.signal(signal.SIGTERM, signal.SIG_DFL)
-        previous_alarm = signal.signal(signal.SIGALRM, signal.SIG_DFL)
-        signal.alarm(TEARDOWN_S)
+        cancel = _exit_later(TEARDOWN_S, code)
         try:
             self.executor.shutdown()
             self.node.destroy_node()
             rclpy.try_shutdown()
         finally:
-            signal.alarm(0)
-            signal.signal(signal.SIGALRM, previous_alarm)
+            cancel()
             signal.signal(signal.SIGINT, previous_int)
             signal.signal(signal.SIGTERM, self._previous_term)
 
@@ -231,3 +240,73 @@ class LiveSession:
 
 def _interrupt(signum, frame):
     raise KeyboardInterrupt
+
+
+#: Per running ``live_command``: the sessions to close once it has its exit code.
+_CLOSING = []
+
+
+def live_command(run):
+    """Decorate a live command's ``run(args)``: its sessions close after it, with its exit code."""
+    @functools.wraps(run)
+    def wrapped(args):
+        _CLOSING.append([])
+        code = 1   # what main() answers for an exception
+        try:
+            code = run(args)
+            return code
+        finally:
+            for session in _CLOSING.pop():
+                session.close(code)
+    return wrapped
+
+
+class _SigEvent(ctypes.Structure):
+    """``struct sigevent`` of Linux (64 bytes) for SIGEV_THREAD."""
+
+    _fields_ = [('value', ctypes.c_void_p), ('signo', ctypes.c_int), ('notify', ctypes.c_int),
+                ('function', ctypes.c_void_p), ('attribute', ctypes.c_void_p),
+                ('_pad', ctypes.c_int * 8)]
+
+
+class _TimerSpec(ctypes.Structure):
+    """``struct itimerspec``: no interval, a first expiry in whole seconds."""
+
+    _fields_ = [('interval_s', ctypes.c_long), ('interval_ns', ctypes.c_long),
+                ('value_s', ctypes.c_long), ('value_ns', ctypes.c_long)]
+
+
+_SIGEV_THREAD = 2
+_CLOCK_MONOTONIC = 1
+
+
+def _exit_later(seconds, code):
+    """
+    End the process with exit ``code`` after ``seconds`` unless cancelled; return the canceller.
+
+    A POSIX timer that calls ``_exit(code)`` in a thread of the C library's
+    own (SIGEV_THREAD): it needs neither Python's lock nor its signal
+    handlers, both unreachable while the DDS layer spins.  Where there is no
+    such timer, the kernel's ``alarm`` ends the process instead (exit status
+    128 + SIGALRM).
+    """
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        event = _SigEvent(value=int(code), notify=_SIGEV_THREAD,
+                          function=ctypes.cast(libc._exit, ctypes.c_void_p).value)
+        timer = ctypes.c_void_p()
+        if libc.timer_create(_CLOCK_MONOTONIC, ctypes.byref(event), ctypes.byref(timer)) != 0:
+            raise OSError(ctypes.get_errno(), 'timer_create failed')
+        if libc.timer_settime(timer, 0, ctypes.byref(_TimerSpec(value_s=int(seconds))),
+                              None) != 0:
+            libc.timer_delete(timer)
+            raise OSError(ctypes.get_errno(), 'timer_settime failed')
+    except (AttributeError, OSError):   # no POSIX timers here
+        previous = signal.signal(signal.SIGALRM, signal.SIG_DFL)
+        signal.alarm(int(seconds))
+
+        def cancel_alarm():
+            signal.alarm(0)
+            signal.signal(signal.SIGALRM, previous)
+        return cancel_alarm
+    return lambda: libc.timer_delete(timer)

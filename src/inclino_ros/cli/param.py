@@ -13,7 +13,7 @@ import sys
 import time
 
 from inclino_ros.cli.helptext import add_command
-from inclino_ros.cli.live import add_node_arguments, LiveSession, node_name
+from inclino_ros.cli.live import add_node_arguments, live_command, LiveSession, node_name
 
 #: A negative number in any of Python's float spellings (argparse's own misses -1e-3, -inf).
 NEGATIVE_NUMBER = re.compile(r'^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|infinity|nan)$',
@@ -53,6 +53,7 @@ def register(subparsers):
         sub.set_defaults(func=run)
 
 
+@live_command
 def run(args):
     """Run ``param list|get|set``; return the exit code."""
     from rclpy.parameter_client import AsyncParameterClient
