@@ -79,7 +79,7 @@ def run(args):
 
 def answer(session, send, read_only=True):
     """
-    Send a request with ``send()``; return the answer (TimeoutError if none comes in time).
+    Send the request ``send`` makes; return the reply (TimeoutError if none comes in time).
 
     A ``read_only`` one (list, get, describe) is sent again while no answer
     comes; a set is sent once: no answer says it may or may not be set.
