@@ -8,20 +8,21 @@ temperature polynomial (``VERSION_4_FIELDS``): ``upgraded`` gives an older
 section those fields, with the value that says "unknown" or "none".  Version 4
 files lack the temperature fits' parameter covariance (``VERSION_5_FIELDS``;
 without it the residual stands for the fit's error, as before) and the
-temperature the magnetometer, its alignment and the tool axis stood for.
+temperature the magnetometer, its alignment and the tool axis stood for;
+version 5 files the magnetometer's temperature polynomial (``VERSION_6_FIELDS``).
 """
 
 from inclino_ros.calibration.corrections import STAGES
 
-SCHEMA_VERSION = 5
+SCHEMA_VERSION = 6
 #: Versions load_model reads.
-READABLE_VERSIONS = (1, 2, 3, 4, 5)
+READABLE_VERSIONS = (1, 2, 3, 4, 5, 6)
 #: Sections of each readable schema version.
 SECTIONS = {1: ('installation',),
             2: ('temperature', 'stand', 'installation', 'magnetic'),
             3: STAGES + ('magnetometer_temperature', 'magnetometer', 'magnetometer_alignment',
                          'magnetic')}
-SECTIONS[4] = SECTIONS[5] = SECTIONS[3]
+SECTIONS[4] = SECTIONS[5] = SECTIONS[6] = SECTIONS[3]
 #: Fields version 3 added, with the value an older file's section gets.
 VERSION_3_FIELDS = {
     'installation': {'temperature_c': None},
@@ -47,8 +48,15 @@ VERSION_5_FIELDS = {
     'magnetometer_alignment': {'temperature_c': None},
     'tool_axis': {'temperature_c': None},
 }
+#: Fields version 6 added: the magnetometer's K_m(T), b_m(T) of a stand at several
+#: temperatures (issue 18).
+VERSION_6_FIELDS = {
+    'magnetometer': {'scale_coefficients': None, 'bias_coefficients_nT': None, 't_min_c': None,
+                     't_max_c': None},
+}
 #: The fields each version added, in order.
-ADDED_FIELDS = ((3, VERSION_3_FIELDS), (4, VERSION_4_FIELDS), (5, VERSION_5_FIELDS))
+ADDED_FIELDS = ((3, VERSION_3_FIELDS), (4, VERSION_4_FIELDS), (5, VERSION_5_FIELDS),
+                (6, VERSION_6_FIELDS))
 
 
 def upgraded(section, name, version):

@@ -59,7 +59,7 @@ from functools import partial
 
 from inclino_ros.calibration.continuous_log import (
     GYRO_COLUMNS, log_segments, segment_limits, sphere_readings, TIME_COLUMN)
-from inclino_ros.calibration.magnetometer import fit_field_stand, mean_temperature_c
+from inclino_ros.calibration.magnetometer import fit_field_stand
 from inclino_ros.calibration.model import CalibrationModel, readings_temperature_c
 from inclino_ros.calibration.plausibility import check_accelerometer_readings
 from inclino_ros.calibration.stand_fit import (
@@ -341,17 +341,24 @@ def fit_positions(args, readings, attitude_deg, times_s, stood_c, lines):
                     rms_deg=result.rms_inclination_deg))
 
 
-def plateau_lines(plateaus):
-    """Return a multi-temperature stand's plateaus, order, residual and 1 sigma as text lines."""
+def plateau_lines(plateaus, unit='m/s^2', residual=None):
+    """
+    Return a multi-temperature stand's plateaus, order, residual and 1 sigma as text lines.
+
+    ``residual``: (name, values [deg] per plateau) of the residual to show; None: each
+    plateau fit's RMS inclination residual (the accelerometer's).  ``unit``: of b.
+    """
+    name, values = residual or ('RMS inclination residual',
+                                [fit.rms_inclination_deg for fit in plateaus.fits])
     return [f'positions at {len(plateaus.fits)} temperature plateaus: K(T) and b(T), every '
             f'element a polynomial of T of order {plateaus.order} (chi-square per order tried: '
             + ', '.join(f'{order}: {chi:.3g} for {dof} dof' for order, chi, dof
                         in plateaus.chi_square)
             + f'), valid over {plateaus.range_c[0]:.1f} .. {plateaus.range_c[1]:.1f} C'] + [
-        f'  plateau {t:6.2f} C: {fit.attitude.size} positions, RMS inclination residual '
-        f'{fit.rms_inclination_deg:.5f} deg, 1 sigma of K elements <= {sigma[:9].max():.2g}, '
-        f'of b <= {sigma[9:].max():.2g} m/s^2'
-        for t, fit, sigma in zip(plateaus.plateaus_c, plateaus.fits, plateaus.element_sigma)]
+        f'  plateau {t:6.2f} C: {fit.attitude.size} positions, {name} {value:.5f} deg, '
+        f'1 sigma of K elements <= {sigma[:9].max():.2g}, of b <= {sigma[9:].max():.2g} {unit}'
+        for t, fit, sigma, value in zip(plateaus.plateaus_c, plateaus.fits,
+                                        plateaus.element_sigma, values)]
 
 
 def fit_magnetometer(args, existing, fields, attitude_deg, times_s, temperature_c, stand,
@@ -373,23 +380,25 @@ def fit_magnetometer(args, existing, fields, attitude_deg, times_s, temperature_
             'no reference field (--reference-total-nT and --reference-dip-deg, or --site)'))
         return None
     paired = np.isfinite(fields).all(axis=1)
-    fields = existing.apply_magnetic(
-        fields[paired], None if temperature_c is None else temperature_c[paired],
-        before='magnetometer')
-    positions, means, _, position = group_positions(fields, attitude_deg[paired])
+    temperature_c = None if temperature_c is None else temperature_c[paired]
+    fields = existing.apply_magnetic(fields[paired], temperature_c, before='magnetometer')
+    positions, means, counts, position = group_positions(fields, attitude_deg[paired])
+    # What each position's field stood for: its temperature stage's reference, else its own.
+    stood_c = (None if existing.magnetometer_temperature is None and temperature_c is None
+               else np.bincount(position, weights=np.broadcast_to(readings_temperature_c(
+                   existing.magnetometer_temperature, temperature_c), position.shape)) / counts)
     try:
         position_noise_deg(fields, None if times_s is None else times_s[paired], position,
                            len(means), still_limits(args), ' (magnetometer)')
         fit = fit_field_stand(means, positions, total_nT, dip_deg, stand,
-                              args.max_field_rms_deg, readings_temperature_c(
-                                  existing.magnetometer_temperature, mean_temperature_c(
-                                      None if temperature_c is None
-                                      else temperature_c[paired])))
+                              args.max_field_rms_deg, stood_c)
     except (CaptureRefused, StandFitRefused) as err:
         raise Refused(str(err)) from None
     lines.append(f'magnetometer (seed 001 Eq. 12) against {total_nT:.1f} nT, dip '
                  f'{dip_deg:.3f} deg ({source}): {len(means)} positions, field residual '
                  f'{fit.rms_residual_deg:.4f} deg RMS (worst {fit.residual_deg.max():.4f})')
+    if fit.plateaus is not None:
+        lines += plateau_lines(fit.plateaus, 'nT', ('RMS field residual', fit.plateau_rms_deg))
     lines += matrix_lines('K_m (m = K_m B + b_m, symmetric part)',
                           fit.magnetometer.scale_matrix, '10.6f')
     lines.append('bias_nT: ' + ' '.join(f'{v:.1f}' for v in fit.magnetometer.bias_nT)

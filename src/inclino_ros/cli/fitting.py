@@ -344,11 +344,12 @@ def matrix_lines(name, matrix, fmt):
 
 def warn_outside_range(model, temperature_c, command):
     """Say on stderr how many temperatures lie outside a multi-temperature stand's range."""
-    if model.stand is None or temperature_c is None:
+    if temperature_c is None:
         return
-    outside = int(np.count_nonzero(model.stand.outside_range(temperature_c)))
-    if outside:
-        print(f'{command}: warning: {outside} of {np.size(temperature_c)} temperature readings '
-              f"lie outside the stand stage's fitted range {model.stand.t_min_c:g} .. "
-              f'{model.stand.t_max_c:g} C: K and b held at the nearer end there',
-              file=sys.stderr)
+    for name, stage in model.polynomial_stages:
+        outside = int(np.count_nonzero(stage.outside_range(temperature_c)))
+        if outside:
+            print(f'{command}: warning: {outside} of {np.size(temperature_c)} temperature '
+                  f"readings lie outside the {name} stage's fitted range {stage.t_min_c:g} .. "
+                  f'{stage.t_max_c:g} C: K and b held at the nearer end there',
+                  file=sys.stderr)

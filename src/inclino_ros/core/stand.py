@@ -261,7 +261,9 @@ def fit_sphere(readings, g):
 
     Linear algebraic fit: ``u^T M u + l . u = 1`` with ``u = A / g`` gives
     the centre ``c = -M^-1 l / 2``, ``M / (1 + c^T M c) = R^T R`` (Cholesky,
-    R upper triangular) and ``K = R^-1``, ``b = g c``.  Its bias from noise
+    R upper triangular) and ``K = R^-1``, ``b = g c``; ``u`` is taken about
+    the readings' mean (added back to c), which keeps the design well
+    conditioned when the centre lies far from zero.  Its bias from noise
     is of order (noise / g)^2, negligible for a still, averaged capture.
 
     Raises StandFitRefused for fewer than MIN_SPHERE_READINGS readings,
@@ -289,7 +291,12 @@ def fit_sphere(readings, g):
 def _fit_sphere(readings, g):
     """Return the SphereFit of checked, finite readings (see ``fit_sphere``)."""
     count = readings.shape[0]
-    u = readings / g
+    # Centred on the readings' mean: the algebraic design of readings whose centre lies far
+    # from zero (a magnetometer's hard iron as large as the field, on real instruments) is
+    # ill-conditioned however well they spread; the ellipsoid is found about the mean and
+    # moved back.
+    offset = np.mean(readings, axis=0) / g
+    u = readings / g - offset
     x, y, z = u.T
     design = np.column_stack([x * x, y * y, z * z, 2 * x * y, 2 * x * z, 2 * y * z, x, y, z])
     condition = _condition_number(design)
@@ -308,7 +315,7 @@ def _fit_sphere(readings, g):
                               'positive definite): not a still accelerometer?') from None
     scale_matrix = np.linalg.inv(upper)
     _refuse_singular(scale_matrix)
-    bias = g * centre
+    bias = g * (centre + offset)
     residual = np.linalg.norm(correct_stand(readings, scale_matrix, bias), axis=1) - g
     return SphereFit(scale_matrix=scale_matrix, bias_mps2=bias, condition_number=condition,
                      residual_mps2=residual, rms_residual_mps2=_rms(residual))
