@@ -93,11 +93,19 @@ class LiveSession:
     """One rclpy node of a live command; use as a context manager."""
 
     def __init__(self, name):
-        """Initialise rclpy (no signal handlers) and create node ``name``."""
+        """
+        Initialise rclpy (no signal handlers) and create node ``name``.
+
+        What the DDS layer prints goes to stderr (``_DdsOutputToStderr``): with
+        dozens of commands starting at once, Fast DDS's shared-memory port locks
+        collide and it prints "RTPS_TRANSPORT_SHM Error ... open_and_lock_file
+        failed" on stdout, before the answer a script reads.
+        """
         import rclpy
         from rclpy.executors import SingleThreadedExecutor
         from rclpy.signals import SignalHandlerOptions
 
+        self._stdout = _DdsOutputToStderr()
         self._previous_term = signal.signal(signal.SIGTERM, _interrupt)
         rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
         self.node = rclpy.create_node(name, start_parameter_services=False)
@@ -143,6 +151,7 @@ class LiveSession:
             cancel()
             signal.signal(signal.SIGINT, previous_int)
             signal.signal(signal.SIGTERM, self._previous_term)
+            self._stdout.restore()
 
     def spin(self, seconds):
         """Process callbacks for ``seconds``."""
@@ -240,6 +249,41 @@ class LiveSession:
 
 def _interrupt(signum, frame):
     raise KeyboardInterrupt
+
+
+class _DdsOutputToStderr:
+    """
+    While it lasts, file descriptor 1 is stderr's; Python's ``sys.stdout`` keeps the real stdout.
+
+    The DDS layer (C++) writes its log to descriptor 1; the command's own
+    output goes through ``sys.stdout``, now a copy of the original descriptor.
+    """
+
+    def __init__(self):
+        """Swap: descriptor 1 to stderr, ``sys.stdout`` to a duplicate of the original."""
+        self.stream = sys.stdout
+        self.saved = None
+        try:
+            fileno = self.stream.fileno()
+        except (AttributeError, OSError, ValueError):   # no file (a test's buffer)
+            return
+        self.stream.flush()
+        self.saved = os.dup(fileno)
+        sys.stdout = open(os.dup(self.saved), 'w', encoding=self.stream.encoding,
+                          errors=self.stream.errors,
+                          buffering=1 if self.stream.line_buffering else -1)
+        os.dup2(sys.stderr.fileno(), fileno)
+
+    def restore(self):
+        """Put descriptor 1 and ``sys.stdout`` back."""
+        if self.saved is None:
+            return
+        sys.stdout.flush()
+        sys.stdout.close()
+        os.dup2(self.saved, self.stream.fileno())
+        os.close(self.saved)
+        self.saved = None
+        sys.stdout = self.stream
 
 
 #: Per running ``live_command``: the sessions to close once it has its exit code.
