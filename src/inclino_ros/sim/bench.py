@@ -121,6 +121,27 @@ def make_tool(sensor='ideal', gamma_deg=0.0, beta_deg=0.0, roll_deg=0.0,
                    accelerometer_axes=axes, gravity_mps2=gravity_mps2)
 
 
+def command_tool(sensor, mount_deg, noise_mps2, mag_noise_nT, ideal_noise, names, axes=3):
+    """
+    Return the tool of a simulating command (``make_tool``): the preset, mount and noise asked.
+
+    ``mount_deg`` (gamma, beta, roll, magnetometer (3,)); ``noise_mps2``,
+    ``mag_noise_nT`` None keep the preset's own noise, except for the ``ideal``
+    preset (no noise of its own), which takes ``ideal_noise`` (m/s^2, nT);
+    ValueError for a negative noise, ``names`` the two options as the message
+    names them.
+    """
+    if sensor == 'ideal':
+        noise_mps2 = ideal_noise[0] if noise_mps2 is None else noise_mps2
+        mag_noise_nT = ideal_noise[1] if mag_noise_nT is None else mag_noise_nT
+    if (noise_mps2 is not None and noise_mps2 < 0.0) or (
+            mag_noise_nT is not None and mag_noise_nT < 0.0):
+        raise ValueError(f'{names[0]} and {names[1]} must not be negative')
+    gamma_deg, beta_deg, roll_deg, magnetometer_deg = mount_deg
+    return make_tool(sensor, gamma_deg, beta_deg, roll_deg, tuple(magnetometer_deg), noise_mps2,
+                     mag_noise_nT, axes)
+
+
 #: The bench's default tool (module docstring).
 DEMO_TOOL = make_tool('ideal', DEMO_GAMMA_DEG, DEMO_BETA_DEG, noise_mps2=DEMO_NOISE_MPS2,
                       mag_noise_nT=DEMO_MAG_NOISE_NT)
