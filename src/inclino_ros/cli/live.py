@@ -3,14 +3,15 @@ What the live commands (``play``, ``calibrate``, ``call``, ``param``, ``monitor`
 
 The ``--node`` and ``--wait-s`` options, node names, the node's services;
 each command's rclpy node is a LiveSession (``node.session``: Ctrl-C and
-SIGTERM end it cleanly, never with a traceback).
+SIGTERM end it cleanly, never with a traceback, its teardown never hangs).
 """
 
 import argparse
 import re
 
 from inclino_ros.cli.options import MAX_WAIT_S, wait_s
-from inclino_ros.node.session import domain_hint, LiveSession  # noqa: F401 (public here too)
+from inclino_ros.node.session import (  # noqa: F401 (public here too)
+    domain_hint, live_command, LiveSession, node_name, TEARDOWN_S)
 
 DEFAULT_NODE = '/inclinometer'
 #: Seconds a command waits for the node (its service, its subscription) by default.
@@ -41,11 +42,6 @@ def add_node_arguments(parser, wait=True):
 #: A full node name (ROS 2 naming rules: tokens of letters, digits and underscores, not
 #: starting with a digit, separated by single slashes).
 _NODE_NAME = re.compile(r'^(/[A-Za-z_][A-Za-z0-9_]*)+$')
-
-
-def node_name(name):
-    """Return a node name as a full name: ``inclinometer`` -> ``/inclinometer``."""
-    return '/' + name.strip('/')
 
 
 def checked_node_name(text):

@@ -15,7 +15,7 @@ import time
 
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.live import (
-    add_node_arguments, domain_hint, LiveSession, namespace_of, node_name)
+    add_node_arguments, domain_hint, live_command, LiveSession, namespace_of, node_name)
 from inclino_ros.cli.options import between
 from inclino_ros.report.monitor import progress_text, View  # noqa: F401 (progress_text: public)
 
@@ -43,6 +43,7 @@ def register(subparsers):
     parser.set_defaults(func=run)
 
 
+@live_command
 def run(args):
     """Show the view every period until Ctrl-C or ``--count`` views; return 0."""
     from diagnostic_msgs.msg import DiagnosticArray
