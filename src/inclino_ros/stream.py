@@ -24,7 +24,8 @@ from functools import partial
 import math
 
 from inclino_ros import scalar_chain
-from inclino_ros.calibration.plausibility import field_reading_ok
+from inclino_ros.calibration.plausibility import check_for_sensor, field_reading_ok, Implausible
+from inclino_ros.calibration.store import axes_refusal, check_axes_maps
 from inclino_ros.core.magnetics import true_azimuth_deg
 from inclino_ros.core.screening import ACCEPTED, count_reasons, REASONS
 from inclino_ros.core.temperature import in_range
@@ -32,7 +33,7 @@ from inclino_ros.io.bag import (
     BagError, concatenate, IMU, ImuSeries, MAGNETIC_FIELD, not_measured_covariance, read,
     topic_info, VECTOR3_STAMPED, Vector3Series)
 from inclino_ros.io.timing import pair_nearest, pairing_tolerance
-from inclino_ros.pipeline import average, imu_covariances, MagneticSettings, run
+from inclino_ros.pipeline import average, imu_covariances, MagneticSettings, run, Settings
 import numpy as np
 
 #: The topics ``inclino process`` writes.
@@ -403,6 +404,32 @@ def survey_table(header, rows, codes, columns, outside=None):
              + [(name, full[name]) for name in columns]
              + [('status', row_status(codes, outside))])
     return table, [name for name, new in zip(header, renamed) if name != new]
+
+
+def replay_settings(model, path, range_option, **settings):
+    """
+    Return the pipeline Settings a recording is corrected with by ``model`` (the file ``path``).
+
+    ``settings``: those of ``pipeline.Settings`` (``accelerometer_axes``
+    None: the model's).  ValueError (CalibrationFileError for the maps) when
+    they disagree with the model: another number of axes
+    (``store.axes_refusal``), a model implausible for the sensor's range
+    (``plausibility.check_for_sensor``; ``range_option`` names what sets the
+    range), readings turned by other axes maps than it was fitted in
+    (``store.check_axes_maps``).
+    """
+    settings['accelerometer_axes'] = settings['accelerometer_axes'] or model.accelerometer_axes
+    reason = axes_refusal(model, settings['accelerometer_axes'], path)
+    if reason is not None:
+        raise ValueError(reason)
+    try:
+        check_for_sensor(model, settings['accelerometer_range_mps2'])
+    except Implausible as err:
+        raise ValueError(f'{path}: {err} ({range_option})') from None
+    settings = Settings(**settings)
+    check_axes_maps(model, (settings.accelerometer_axes_map, settings.magnetometer_axes_map),
+                    path)
+    return settings
 
 
 def recorded_magnetometer(path, topic, max_pairing_s, reference, noise_std_nT,

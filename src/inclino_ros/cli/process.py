@@ -65,9 +65,7 @@ import sys
 from inclino_ros.calibration.inputs import (
     bag_temperatures, imu_count, known_temperatures, log_series)
 from inclino_ros.calibration.model import (
-    CalibrationFileError, check_axes_maps, missing_temperature, MissingTemperature)
-from inclino_ros.calibration.plausibility import check_for_sensor, Implausible
-from inclino_ros.calibration.store import axes_refusal
+    CalibrationFileError, missing_temperature, MissingTemperature)
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_sensor_argument, load_calibration, NODE_DEFAULTS, node_option, warn_outside_range)
@@ -79,9 +77,8 @@ from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core.averaging import Averager
 from inclino_ros.io.bag import BagWriter, CHUNK_SIZE, STORAGES
 from inclino_ros.io.files import Outputs
-from inclino_ros.pipeline import Settings
 from inclino_ros.stream import (
-    IMU_TOPIC, recorded_magnetometer, replay_recording, Summary, SURVEY_TOPIC)
+    IMU_TOPIC, recorded_magnetometer, replay_recording, replay_settings, Summary, SURVEY_TOPIC)
 from tqdm import tqdm
 
 
@@ -254,25 +251,15 @@ def _prepare(args, log=None):
                   if model.magnetic is not None else ''), file=sys.stderr)
     for note in model.uncertainty_notes:
         print(f'inclino process: warning: {args.calibration}: {note}', file=sys.stderr)
-    axes = args.axes or model.accelerometer_axes
-    reason = axes_refusal(model, axes, args.calibration)
-    if reason is not None:
-        raise CommandError(reason)
     try:
-        check_for_sensor(model, args.range_mps2)
-    except Implausible as err:
-        raise CommandError(f'{args.calibration}: {err} (--range-mps2)') from None
-    try:
-        settings = Settings(
-            accelerometer_axes=axes, gravity_mps2=args.gravity_mps2,
-            accelerometer_range_mps2=args.range_mps2,
+        settings = replay_settings(
+            model, args.calibration, '--range-mps2', accelerometer_axes=args.axes,
+            gravity_mps2=args.gravity_mps2, accelerometer_range_mps2=args.range_mps2,
             toolface_convention=args.toolface_convention, noise_std_mps2=args.noise_std_mps2,
             toolface_max_std_deg=args.toolface_max_std_deg,
             g_total_tolerance_mps2=args.g_total_tolerance_mps2,
             two_axis_max_inclination_deg=args.two_axis_max_inclination_deg,
             **settings_maps(args))
-        check_axes_maps(model, (args.accelerometer_axes_map, args.magnetometer_axes_map),
-                        args.calibration)
     except (ValueError, CalibrationFileError) as err:
         raise CommandError(str(err)) from None
     if log is not None:
