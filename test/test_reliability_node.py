@@ -16,7 +16,7 @@ import subprocess
 import time
 
 from hypothesis import given, HealthCheck, settings, strategies as st
-from inclino_ros.calibration.model import load_model
+from inclino_ros.calibration.model import CalibrationModel, load_model, save_model
 from inclino_ros.node.capture import Capture, MAX_TIMED_ROWS
 import numpy as np
 import pytest
@@ -132,6 +132,20 @@ def test_bad_start_up_parameters_are_one_line(tmp_path, arguments, reason):
     log = result.stdout + result.stderr
     assert result.returncode == 1, log
     assert reason in log and 'Traceback' not in log and 'refusing to start' in log, log
+
+
+def test_a_calibration_for_another_number_of_axes_is_one_line(tmp_path):
+    """The node refuses a 3-axis file for a 2-axis sensor by the rule ``process`` uses."""
+    path = tmp_path / 'c.json'
+    save_model(str(path), CalibrationModel(accelerometer_axes=3))
+    result = subprocess.run(
+        [NODE_EXECUTABLE, '--ros-args', '-p', f'calibration_file:={path}',
+         '-p', f'stations_file:={tmp_path / "s.json"}', '-p', 'accelerometer_axes:=2'],
+        capture_output=True, text=True, timeout=60)
+    log = result.stdout + result.stderr
+    assert result.returncode == 1, log
+    assert f'{path} is for a 3-axis accelerometer, not 2 axes' in log, log
+    assert 'Traceback' not in log, log
 
 
 def test_a_stations_file_that_is_a_folder(start_node, tmp_path):

@@ -28,6 +28,7 @@ from inclino_ros.calibration.model import (
     read_model_history, stage_ages_s, stale_stages, utc_now_iso)
 from inclino_ros.calibration.plausibility import check_for_sensor, Implausible
 from inclino_ros.calibration.stations import load_stations, StationsFileError
+from inclino_ros.calibration.store import axes_refusal
 from inclino_ros.core.averaging import Averager
 from inclino_ros.core.magnetics import QcLimits
 from inclino_ros.io.bag import encode, encode_float64, IMU, MAGNETIC_FIELD
@@ -208,11 +209,9 @@ class InclinometerNode(Node):
             self.get_logger().warning(
                 f'{self.calibration_file} names no sensor: taken as sensor_id '
                 f'{self.sensor_id!r}, written into it on the next calibration')
-        if model.accelerometer_axes != axes:
-            raise CalibrationFileError(
-                self.calibration_file,
-                f'made for a {model.accelerometer_axes}-axis accelerometer, but '
-                f'accelerometer_axes is {axes}')
+        reason = axes_refusal(model, axes, self.calibration_file)
+        if reason is not None:
+            raise CalibrationFileError(self.calibration_file, reason)
         try:
             check_for_sensor(model, self.settings.accelerometer_range_mps2)
         except Implausible as err:
