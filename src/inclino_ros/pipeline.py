@@ -252,7 +252,10 @@ def run(raw, model, settings, temperature_c=None, field_nT=None,
     Screen, correct and resolve a batch of raw readings (N x 3, m/s^2, sensor axes).
 
     ``temperature_c`` (scalar or (N,)) feeds the model's temperature stages;
-    None compensates at the reference temperature.  ``field_nT`` (N x 3,
+    None (or NaN for a row) compensates at the reference temperature and
+    widens every 1 sigma by the drift over the fitted range
+    (``_TemperatureStage.compensation_covariance``; whether that is allowed:
+    ``provenance.missing_temperature``).  ``field_nT`` (N x 3,
     magnetometer axes, NaN rows where no reading is paired) adds the azimuth.
     ``averaged``: each row is the mean of that many samples (a station), one
     count or one per row (N,): its noise is the per-sample noise /

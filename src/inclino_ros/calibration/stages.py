@@ -15,7 +15,8 @@ from inclino_ros.core.installation import (
     inverse_installation_matrix, pseudo_inclination, to_tool_frame)
 from inclino_ros.core.stand import correct_stand, rotation_part
 from inclino_ros.core.temperature import (
-    compensate_temperature, in_range, normalised_temperature, TemperatureFit)
+    compensate_temperature, in_range, normalised_temperature, TemperatureFit,
+    unknown_temperature_covariance)
 from inclino_ros.core.uncertainty import temperature_compensation_covariance
 import numpy as np
 
@@ -276,24 +277,32 @@ class _TemperatureStage:
 
     def compensation_covariance(self, readings, temperature_c=None):
         """
-        Return the covariance (M, 3, 3) of the compensated ``readings`` from the fit's own error.
+        Return the covariance (M, 3, 3) of the compensated ``readings``: the fit's error, or none.
 
-        ``uncertainty.temperature_compensation_covariance`` at the clamped
-        temperature (None or NaN: the reference, zero); zero for a file
-        without the fit's covariance (its error is the residual's, in
-        ``residual_angle_rad``).
+        At a known temperature: ``uncertainty.temperature_compensation_covariance``
+        at the clamped temperature (zero for a file without the fit's
+        covariance: its error is the residual's, in ``residual_angle_rad``).
+        Without one (None, or NaN for a sample) the reading was compensated at
+        the reference temperature: ``temperature.unknown_temperature_covariance``,
+        the drift over the fitted range (``provenance.missing_temperature``:
+        the rule that allows it).
         """
         readings = np.asarray(readings, dtype=float)
-        if self.parameter_covariance is None:
-            return np.zeros(readings.shape + (3,))
-        if temperature_c is None:
-            temperature_c = self.reference_temperature_c
-        temperature_c = np.broadcast_to(self.clamp(temperature_c), readings.shape[:1])
-        u, u_reference = (normalised_temperature(t, self.t_min_c, self.t_max_c)
-                          for t in (temperature_c, self.reference_temperature_c))
-        return temperature_compensation_covariance(
-            readings, u, u_reference, self.parameter_covariance,
-            self._bias_coefficients is not None)
+        count = readings.shape[0]
+        temperature_c = np.broadcast_to(
+            np.nan if temperature_c is None else np.asarray(temperature_c, dtype=float),
+            (count,))
+        covariance = np.zeros(readings.shape + (3,))
+        if self.parameter_covariance is not None:
+            u, u_reference = (normalised_temperature(t, self.t_min_c, self.t_max_c)
+                              for t in (self.clamp(temperature_c), self.reference_temperature_c))
+            covariance = temperature_compensation_covariance(
+                readings, u, u_reference, self.parameter_covariance,
+                self._bias_coefficients is not None)
+        unknown = np.isnan(temperature_c)
+        if unknown.any():
+            covariance[unknown] += unknown_temperature_covariance(readings[unknown], self.fit)
+        return covariance
 
     def residual_angle_rad(self, magnitude):
         """Return the fit's RMS residual as an angle against a vector of ``magnitude``."""
