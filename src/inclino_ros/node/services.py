@@ -111,7 +111,9 @@ class CalibrationServices:
                 node.model.apply(captured.raw, captured.temperatures_c, before='stand'),
                 inclination_deg, toolface_deg, self.still_limits('stand'), captured.times_s,
                 readings_temperature_c(node.model.temperature, captured.temperature_c),
-                fields, azimuth_deg, gravity_mps2=node.settings.gravity_mps2)
+                fields, azimuth_deg, gravity_mps2=node.settings.gravity_mps2,
+                field_temperature_c=readings_temperature_c(node.model.magnetometer_temperature,
+                                                           captured.temperature_c))
         except (CaptureRefused, Implausible) as err:
             return self.collector.refuse(
                 response, str(err), f'{len(self.positions)} positions kept')
