@@ -389,3 +389,43 @@ def still_segments(stamps_ns, accel, field, window_s, max_deg, min_s):
             close(k)
             run_start = None
     return segments
+
+
+def own_noise(vectors, times_s=None):
+    """
+    Return (sigma, n_eff) of still readings' own noise; (NaN, M) below MIN_SAMPLES.
+
+    ``vectors`` (M, 3) readings of one sensor, ``times_s`` (M,) or None:
+    ``assess`` of their tangent angles gives the per-sample sigma of the
+    direction (times the mean's length: the unit of the readings) and the
+    white samples n_eff the mean is worth with its correlation
+    (``core.correlated_noise``): the mean's 1 sigma is ``sigma / sqrt(n_eff)``.
+    """
+    vectors = np.asarray(vectors, dtype=float).reshape(-1, 3)
+    if vectors.shape[0] < MIN_SAMPLES:
+        return math.nan, float(vectors.shape[0])
+    try:
+        stillness = assess(tangent_angles(vectors), times_s)
+    except ValueError:
+        return math.nan, float(vectors.shape[0])
+    return (math.radians(stillness.noise_deg) * float(np.linalg.norm(vectors.mean(axis=0))),
+            stillness.effective_samples)
+
+
+def floored_count(sigma, effective, samples, noise_floor):
+    """
+    Return the count of white samples of noise ``noise_floor`` a mean is worth (issue 19 item 4).
+
+    The one rule of every averaged 1 sigma (captures, averaged output
+    windows): the readings' own noise ``sigma`` with ``effective`` (n_eff,
+    ``own_noise``) gives the mean's 1 sigma ``sigma / sqrt(n_eff)``; the
+    configured per-sample noise is its floor: ``n_eff min(1, (noise_floor /
+    sigma)^2)``, so that ``noise_floor / sqrt(count)`` is the larger of the
+    two.  A NaN ``sigma`` (too few readings to tell): ``samples`` (white
+    noise at the floor).  Element-wise.
+    """
+    sigma, effective, samples = (np.asarray(v, dtype=float) for v in (sigma, effective, samples))
+    with np.errstate(invalid='ignore', divide='ignore'):
+        ratio = np.where(sigma > noise_floor, (noise_floor / sigma) ** 2, 1.0)
+    return np.where(np.isfinite(sigma), effective * ratio, samples)
+
