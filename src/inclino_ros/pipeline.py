@@ -391,7 +391,11 @@ def average(windows, model, settings, magnetic_settings=None):
     compensate at the reference temperature): ``rows`` are their indices.
     With ``magnetic_settings`` the mean fields give the azimuth.
     """
-    kept = ~(windows.scatter_mps2 > MOVING_SIGMA * settings.noise_std_mps2)
+    # The per-sample noise: the window's own (within its blocks, a steady turn taken out),
+    # the configured one its floor: a noise above the configured is no motion.
+    noise = settings.noise_std_mps2 if windows.noise is None else np.fmax(
+        settings.noise_std_mps2, windows.noise)
+    kept = ~(windows.scatter_mps2 > MOVING_SIGMA * noise)
     known = np.isfinite(windows.temperature_c)
     parts = []
     for rows in (np.flatnonzero(kept & ~known), np.flatnonzero(kept & known)):

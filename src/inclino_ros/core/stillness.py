@@ -429,3 +429,26 @@ def floored_count(sigma, effective, samples, noise_floor):
         ratio = np.where(sigma > noise_floor, (noise_floor / sigma) ** 2, 1.0)
     return np.where(np.isfinite(sigma), effective * ratio, samples)
 
+
+#: The configured per-sample noise is checked against the measured one: a measured noise
+#: more than this many times the configured is said (issue 19 item 4: the configured
+#: noise is a floor and a check).
+NOISE_CHECK_FACTOR = 2.0
+
+
+def noise_check(measured, configured, name, unit):
+    """
+    Return the warning when the ``measured`` per-sample noise exceeds ``configured``, or None.
+
+    More than NOISE_CHECK_FACTOR times the configured ``name`` [``unit``]:
+    every per-sample 1 sigma and QC limit taken from it is that much too
+    tight (the averaged ones use the measured noise, ``floored_count``).
+    A NaN ``measured`` (nothing measured) is no warning.
+    """
+    if not measured > NOISE_CHECK_FACTOR * configured:
+        return None
+    return (f'measured per-sample noise {measured:.4g} {unit} is {measured / configured:.1f} '
+            f'times the configured {name} {configured:.4g} {unit} (more than '
+            f'{NOISE_CHECK_FACTOR:g} times): per-sample 1 sigma and QC limits are too tight; '
+            f'set {name} to the measured noise')
+

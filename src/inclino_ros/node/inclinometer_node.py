@@ -308,6 +308,9 @@ class InclinometerNode(Node):
             self._capture_fed.trigger()
         if self.averager is not None:
             self.stats.count_windows(result.windows_moving, result.windows_dropped)
+            for text in self.stats.check_noise(result.noise_measured, (
+                    self.settings.noise_std_mps2, self.param('magnetometer_noise_std_nT'))):
+                self.get_logger().warning(text)
         if refused:
             self.temperature.withheld += sum(out.survey.stamps_ns.size
                                              for out in result.published)

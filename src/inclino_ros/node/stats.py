@@ -8,6 +8,7 @@ from inclino_ros.calibration.model import (
     age_seconds, missing_temperature, MissingTemperature, MOUNT_STAGES)
 from inclino_ros.calibration.plausibility import field_reading_ok, temperature_ok
 from inclino_ros.core.screening import count_reasons, REASONS
+from inclino_ros.core.stillness import noise_check
 from inclino_ros.core.temperature import in_range
 from inclino_ros.io.timing import pair_nearest, pairing_tolerance
 import numpy as np
@@ -27,6 +28,7 @@ class InputStats:
         self._period_g_sum = 0.0
         self._period_start_s = None
         self.windows = None   # averaged output: [moving, dropped] windows, not published
+        self.noise_warnings = {}   # name: what noise_check said (kept: said once)
 
     def count(self, survey):
         """Count a batch (a ``pipeline.Survey``): accepted samples, G-totals, NaN toolfaces."""
@@ -41,6 +43,23 @@ class InputStats:
             self.dropped_total[code] += dropped
             self._period_reasons[code] += dropped
             self._period_dropped += dropped
+
+    def check_noise(self, measured, configured):
+        """
+        Return the new warnings of measured noise beyond the configured (``stillness.noise_check``).
+
+        ``measured``, ``configured``: (accelerometer [m/s^2], magnetometer [nT]);
+        each warning is returned once (to be logged) and kept for the diagnostics.
+        """
+        new = []
+        for value, floor, name, unit in zip(
+                measured, configured, ('accelerometer_noise_std_mps2',
+                                       'magnetometer_noise_std_nT'), ('m/s^2', 'nT')):
+            text = noise_check(value, floor, name, unit)
+            if text is not None and name not in self.noise_warnings:
+                self.noise_warnings[name] = text
+                new.append(text)
+        return new
 
     def count_windows(self, moving, dropped):
         """Count averaged windows not published: of a moving tool, and not gravity."""
@@ -73,6 +92,9 @@ class InputStats:
             status.message = f'G-total {g_mean:.4f} m/s^2 is off gravity {gravity_mps2}'
         else:
             status.message = f'{rate_hz:.1f} samples/s'
+        if self.noise_warnings:   # said on every status once measured (configuration)
+            status.level = max(status.level, DiagnosticStatus.WARN)
+            status.message = '; '.join([status.message, *self.noise_warnings.values()])
         values = {'rate_hz': f'{rate_hz:.2f}', 'g_total_mps2': f'{g_mean:.5f}',
                   'accepted_total': str(self.accepted_total),
                   'dropped_total': str(sum(self.dropped_total)),
@@ -82,6 +104,8 @@ class InputStats:
         if self.windows is not None:
             values.update(windows_moving=str(self.windows[0]),
                           windows_dropped=str(self.windows[1]))
+        values.update({f'noise_check_{name}': text
+                       for name, text in self.noise_warnings.items()})
         status.values = [KeyValue(key=k, value=v) for k, v in values.items()]
         self._period_accepted = self._period_dropped = self._period_toolface_nan = 0
         self._period_reasons = [0] * len(REASONS)
