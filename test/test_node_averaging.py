@@ -1,6 +1,5 @@
 """The live node's averaged survey output (output.average_samples, output.rate_hz)."""
 
-import math
 
 from diagnostic_msgs.msg import DiagnosticStatus
 from inclino_ros.sim import sensor_model
@@ -105,8 +104,9 @@ def test_a_moving_tool_gives_no_station_and_the_diagnostics_say_so(start_node, p
 
 def test_a_noise_beyond_the_configured_one_is_said_once(start_node, probe):
     """
-    The configured noise is a floor and a check (issue 19 item 4): configured 0.002 m/s^2,
-    the readings' own 0.01: the windows of 50 measure ~0.01 (5 times, beyond
+    The configured noise is a floor and a check (issue 19 item 4).
+
+    Configured 0.002 m/s^2, the readings' own 0.01: the windows of 50 measure ~0.01 (5 times, beyond
     stillness.NOISE_CHECK_FACTOR 2): the input diagnostics WARN naming it, the log says it
     once; each window's 1 sigma is its own noise's, not the floor's (variance ~25 times the
     floor's 0.002^2 / 50).  Main said nothing and published the floor's.

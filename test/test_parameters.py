@@ -1,4 +1,4 @@
-"""The parameter table is one list: node, config YAML and README agree with it."""
+"""The parameter table is one list: node, config YAML and doc/node-interfaces.md agree with it."""
 
 import os
 
@@ -27,9 +27,9 @@ def test_config_yaml_holds_every_default():
     assert values == {p.name: p.default for p in PARAMETERS}
 
 
-def test_readme_shows_the_current_parameter_table():
-    """The README's parameter table is the one generated from the declarations."""
-    with open(os.path.join(ROOT, 'README.md')) as stream:
+def test_doc_shows_the_current_parameter_table():
+    """The parameter table of doc/node-interfaces.md is the one generated from the declarations."""
+    with open(os.path.join(ROOT, 'doc', 'node-interfaces.md')) as stream:
         assert markdown_table() in stream.read()
 
 

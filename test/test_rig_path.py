@@ -1,9 +1,10 @@
-"""The README's rig section is what CI runs: its colcon steps are those of scripts/test-colcon."""
+"""The rig section of doc/install-and-rig.md is what CI runs (scripts/test-colcon's steps)."""
 
 import os
 import re
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+RIG = '## On a rig with ROS 2 Jazzy installed'
 
 
 def read(*path):
@@ -13,8 +14,8 @@ def read(*path):
 
 
 def rig_commands():
-    """Return the ``colcon``/``source`` commands of the README's rig section, in order."""
-    section = read('README.md').split('## On a rig with ROS 2 Jazzy installed', 1)[1]
+    """Return the ``colcon``/``source`` commands of the rig section, in order."""
+    section = read('doc', 'install-and-rig.md').split(RIG, 1)[1]
     section = section.split('\n## ', 1)[0]
     # the rig block is tagged ``console`` (not run by the README check) or ``bash``
     block = re.search(r'```(?:console|bash)\n(.*?)```', section, re.DOTALL).group(1)
@@ -27,7 +28,7 @@ def rig_commands():
 
 
 def test_ci_runs_the_readme_rig_steps_in_order():
-    """Each colcon step of the README is a command of scripts/test-colcon, in the same order."""
+    """Each colcon step of the rig section is a command of scripts/test-colcon, in order."""
     commands = rig_commands()
     assert commands == ['colcon list', 'colcon build --packages-select inclino_ros',
                         'source install/setup.bash',
@@ -42,8 +43,8 @@ def test_ci_runs_the_readme_rig_steps_in_order():
 
 
 def test_ci_starts_the_node_where_ros2_run_finds_it():
-    """``ros2 run`` of the README is the package's lib/ executable with the same parameters."""
-    section = read('README.md').split('## On a rig with ROS 2 Jazzy installed', 1)[1]
+    """``ros2 run`` of the rig section is the lib/ executable with the same parameters."""
+    section = read('doc', 'install-and-rig.md').split(RIG, 1)[1]
     assert ('ros2 run inclino_ros inclinometer_node --ros-args \\\n    --params-file '
             'install/inclino_ros/share/inclino_ros/config/inclinometer.yaml') in section
     script = read('scripts', 'test-colcon')

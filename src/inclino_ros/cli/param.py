@@ -26,8 +26,8 @@ def register(subparsers):
     parser = add_command(
         subparsers, 'param', "list, read or change the running node's parameters",
         'List, read or change the parameters of the running inclinometer node, as ros2 param '
-        'does on a full ROS 2 install (the README table says what each means; "live" ones '
-        'may be changed while it runs).',
+        'does on a full ROS 2 install (the table of doc/node-interfaces.md says what each '
+        'means; "live" ones may be changed while it runs).',
         'Exit 0 on success, 1 when the node refused a value (the reason is printed), 2 when '
         'no node answers within --wait-s or it has no such parameter.')
     actions = parser.add_subparsers(dest='action', required=True, metavar='ACTION')

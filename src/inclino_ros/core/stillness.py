@@ -451,4 +451,3 @@ def noise_check(measured, configured, name, unit):
             f'times the configured {name} {configured:.4g} {unit} (more than '
             f'{NOISE_CHECK_FACTOR:g} times): per-sample 1 sigma and QC limits are too tight; '
             f'set {name} to the measured noise')
-

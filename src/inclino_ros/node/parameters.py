@@ -1,7 +1,7 @@
 """
 The node's parameters: one table of names, defaults, ranges and meanings.
 
-Defaults here are the same as ``config/inclinometer.yaml``; the README's
+Defaults here are the same as ``config/inclinometer.yaml``; doc/node-interfaces.md's
 parameter table is made from this list (``python -m inclino_ros.node.parameters``).
 No ROS types here: the offline commands take their defaults and ranges from
 this table without importing rcl_interfaces; the node turns each entry into
@@ -256,7 +256,7 @@ def refusal(name, value):
 
 
 def markdown_table():
-    """Return the README's parameter table."""
+    """Return the parameter table of doc/node-interfaces.md."""
     rows = ['| parameter | default | range | live | meaning |',
             '|---|---|---|---|---|']
     for p in PARAMETERS:

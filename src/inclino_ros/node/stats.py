@@ -46,7 +46,7 @@ class InputStats:
 
     def check_noise(self, measured, configured):
         """
-        Return the new warnings of measured noise beyond the configured (``stillness.noise_check``).
+        Return the new warnings of a measured noise beyond the configured (``noise_check``).
 
         ``measured``, ``configured``: (accelerometer [m/s^2], magnetometer [nT]);
         each warning is returned once (to be logged) and kept for the diagnostics.
