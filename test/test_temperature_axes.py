@@ -15,7 +15,6 @@ axis the model is the simulator's: what is left is the fit's noise, ~1e-5 in K_T
 deg C, i.e. a few thousandths of a degree: 0.01 / 0.03 deg are several sigma away.
 """
 
-import csv
 import math
 
 from inclino_ros.calibration.model import load_model
@@ -23,6 +22,7 @@ from inclino_ros.cli.main import main
 from inclino_ros.pipeline import MagneticSettings, run, Settings
 from inclino_ros.sim import sensor_model
 import numpy as np
+from test_survey_cli import write_rows as write
 
 MAP = 'rpy:0,0,45'
 DRIFT = ((2e-4,), (-2e-4,), (2e-4,))
@@ -32,14 +32,6 @@ TOOL = sensor_model.Tool(
     magnetometer=sensor_model.Triad(scale_drift=DRIFT, noise_std=1.0))
 # Heating attitudes where every axis of both the tool and the board (-22.5 deg) reads.
 HEATING = ((55.0, 22.5, 0.0), (125.0, 202.5, 0.0))
-
-
-def write(path, header, rows):
-    """Write a CSV file."""
-    with open(path, 'w', newline='') as stream:
-        writer = csv.writer(stream)
-        writer.writerow(header)
-        writer.writerows(rows)
 
 
 def test_drift_is_fitted_and_applied_in_the_sensor_axes(tmp_path):
