@@ -7,8 +7,14 @@ mount tilts 0.3 deg between 28 and 60 deg C, the z bias drifts 14 mg): (a) today
 20 -> 64 deg C; (b) ``core.stand.fit_stand_plateaus`` on nine positions at 28, 44 and 60 deg C
 (also (c): plateaus 28 and 60 only).  Each calibration corrects 400 held-out attitudes read
 noise-free at 28..60 deg C; the table gives the angle between corrected and true gravity (RMS /
-max).  Writes ``bench/results/stand_temperatures.md``.  Run:
-``.venv/bin/python bench/bench_stand_temperatures.py`` (~10 s).
+max).  The magnetometer, the same way on ``sim.bench.drifting_magnetometer_tool`` (its bracket
+turning a further 0.2 deg about y and 0.1 deg about z over 28..60 deg C, its z bias drifting
+400 nT; 20 nT a sample): (a) ``fit-stand`` of twelve positions with azimuths at 28 deg C then
+``fit-temperature --triad magnetometer`` on the same heating run (per-axis bias and scale drift
+of the field); (b), (c) ``fit-stand`` over the plateaus: K_m(T), b_m(T); the angle between the
+corrected and the true field of 400 held-out attitudes and azimuths read noise-free.  Writes
+``bench/results/stand_temperatures.md``.  Run:
+``.venv/bin/python bench/bench_stand_temperatures.py`` (~20 s).
 """
 
 import csv
@@ -20,14 +26,17 @@ import tempfile
 from inclino_ros.calibration.model import load_model
 from inclino_ros.core.stand import fit_stand_plateaus, stand_specific_force
 from inclino_ros.sim.bench import (
-    drifting_mount_tool, held_out_errors_deg, plateau_stand, simulate_heating, simulate_stand,
-    StandRun, TURNED_OVER_HEATING_ATTITUDES_DEG)
+    drifting_magnetometer_tool, drifting_mount_tool, field_plateau_stand,
+    held_out_errors_deg, held_out_field_errors_deg, plateau_stand, simulate_heating,
+    simulate_stand, StandRun, TURNED_OVER_HEATING_ATTITUDES_DEG)
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 G = 9.80665
 TOOL = drifting_mount_tool()
+MAG_TOOL = drifting_magnetometer_tool()
 TEMPERATURES_C = (28.0, 36.0, 44.0, 52.0, 60.0)
+REFERENCE = ['--reference-total-nT', '50000', '--reference-dip-deg', '60']
 
 
 def write_csv(path, columns):
@@ -64,6 +73,32 @@ def per_axis_drift_model(work):
     return load_model(calibration)
 
 
+def inclino(*argv):
+    """Run the ``inclino`` command of this interpreter's environment; raise on failure."""
+    command = os.path.join(os.path.dirname(sys.executable), 'inclino')
+    subprocess.run([command, *map(str, argv)], check=True, capture_output=True)
+
+
+def magnetometer_models(work):
+    """Return {name: calibration} of the magnetometer: per-axis drift and plateau stands."""
+    heating = simulate_heating(StandRun(MAG_TOOL, seed=1), TURNED_OVER_HEATING_ATTITUDES_DEG,
+                               t_start_c=20.0, t_end_c=64.0)
+    write_csv(os.path.join(work, 'mag_heating.csv'), {
+        'temperature_c': heating.temperature_c, 'attitude': heating.segment,
+        'bx': heating.mag_nT[:, 0], 'by': heating.mag_nT[:, 1], 'bz': heating.mag_nT[:, 2]})
+    models = {}
+    for name, plateaus_c in (('drift', (28.0,)), ('three', (28.0, 44.0, 60.0)),
+                             ('two', (28.0, 60.0))):
+        stand, calibration = (os.path.join(work, f'mag_{name}.{ext}') for ext in ('csv', 'json'))
+        write_csv(stand, field_plateau_stand(MAG_TOOL, plateaus_c))
+        inclino('fit-stand', stand, *REFERENCE, '--calibration', calibration)
+        if name == 'drift':
+            inclino('fit-temperature', os.path.join(work, 'mag_heating.csv'), '--triad',
+                    'magnetometer', '--calibration', calibration)
+        models[name] = load_model(calibration)
+    return models
+
+
 def plateau_fit(plateaus_c):
     """Return the fit_stand_plateaus of nine positions at each plateau."""
     means, attitudes, temperatures = plateau_stand(TOOL, plateaus_c)
@@ -75,6 +110,7 @@ def main():
     """Run the three calibrations and write the table."""
     with tempfile.TemporaryDirectory() as work:
         model = per_axis_drift_model(work)
+        magnetometer = magnetometer_models(work)
     three, two = plateau_fit((28.0, 44.0, 60.0)), plateau_fit((28.0, 60.0))
     methods = [('stand at 28 C + fit-temperature (per-axis bias and scale drift, order 2)',
                 model.apply),
@@ -87,6 +123,21 @@ def main():
             error = errors_deg(correct, temperature)
             cells.append(f'{np.sqrt(np.mean(error ** 2)):.4f} / {error.max():.4f}')
         rows.append(f'| {name} | ' + ' | '.join(cells) + ' |')
+    mag_rows = []
+    three, two = magnetometer['three'].magnetometer, magnetometer['two'].magnetometer
+    for name, key in (('stand at 28 C + fit-temperature --triad magnetometer (per-axis bias and '
+                       'scale drift)', 'drift'),
+                      (f'stand at 28, 44, 60 C (K_m(T), b_m(T), order '
+                       f'{len(three.scale_coefficients) - 1} chosen)', 'three'),
+                      (f'stand at 28, 60 C (order {len(two.scale_coefficients) - 1})', 'two')):
+        model = magnetometer[key]
+        cells = []
+        for temperature in TEMPERATURES_C:
+            error = held_out_field_errors_deg(
+                MAG_TOOL, lambda b, t, model=model: model.apply_magnetic(
+                    b, t, before='installation'), temperature)
+            cells.append(f'{np.sqrt(np.mean(error ** 2)):.4f} / {error.max():.4f}')
+        mag_rows.append(f'| {name} | ' + ' | '.join(cells) + ' |')
     text = '\n'.join([
         '# Multi-temperature stand against per-axis drift (a mount that turns with T)',
         '',
@@ -96,7 +147,17 @@ def main():
         '[deg].',
         '',
         '| calibration | ' + ' | '.join(f'{t:g} C' for t in TEMPERATURES_C) + ' |',
-        '|---|' + '---|' * len(TEMPERATURES_C), *rows, ''])
+        '|---|' + '---|' * len(TEMPERATURES_C), *rows, '',
+        '## The magnetometer (K_m(T), b_m(T))',
+        '',
+        'sim.bench.drifting_magnetometer_tool (the board as above; the magnetometer bracket',
+        'turning a further 0.2 deg about y and 0.1 deg about z over 28-60 C, z bias 400 nT over',
+        'it; 20 nT a sample), twelve positions with azimuths, 100 samples each; 400 held-out',
+        'attitudes and azimuths read noise-free; angle between corrected and true field, RMS /',
+        'max [deg].',
+        '',
+        '| calibration | ' + ' | '.join(f'{t:g} C' for t in TEMPERATURES_C) + ' |',
+        '|---|' + '---|' * len(TEMPERATURES_C), *mag_rows, ''])
     os.makedirs(os.path.join(HERE, 'results'), exist_ok=True)
     with open(os.path.join(HERE, 'results', 'stand_temperatures.md'), 'w') as out:
         out.write(text)

@@ -222,10 +222,15 @@ def test_bad_input_is_refused_and_the_file_is_untouched(tmp_path, name):
 
 
 def write_shots_bag(path, tool, incl, tf, azim, rng):
-    """Write a bag of the tool held 1.5 s at each attitude, 0.5 s turning to the next."""
-    rate_hz, still, moving = 100, 150, 50
+    """
+    Write a bag of the tool held 2.5 s at each attitude, 0.5 s turning to the next.
+
+    The one still rule (``stillness.find_still_segments``) leaves out the first and last
+    0.5 s window of a still run (the tool settling, the hand taking it): 1.5 s remain.
+    """
+    rate_hz, still, moving = 100, 250, 50
     parts = []
-    for k in range(len(incl)):   # held 1.5 s, then 0.5 s turning to the next attitude
+    for k in range(len(incl)):   # held 2.5 s, then 0.5 s turning to the next attitude
         nxt = (k + 1) % len(incl)
         frac = np.concatenate([np.zeros(still), np.linspace(0.0, 1.0, moving)])
         parts.append([incl[k] + frac * (incl[nxt] - incl[k]), tf[k] + frac * (tf[nxt] - tf[k]),

@@ -65,11 +65,11 @@ def test_temperature_is_clamped_and_defaults_to_the_reference():
 
 
 def test_round_trip_with_every_stage(tmp_path):
-    """A model with all stages saves and loads back equal; the file is version 6."""
+    """A model with all stages saves and loads back equal; the file is version 7."""
     path = tmp_path / 'calibration.json'
     save_model(path, MODEL)
     assert load_model(path) == MODEL
-    assert json.loads(path.read_text())['schema_version'] == 6
+    assert json.loads(path.read_text())['schema_version'] == 7
 
 
 def test_version_1_file_still_loads(tmp_path):
@@ -195,3 +195,66 @@ def test_version_2_file_has_no_magnetometer_stage(tmp_path):
     path.write_text(json.dumps(doc))
     with pytest.raises(CalibrationFileError, match='unknown sections'):
         load_model(path)
+
+
+#: K_m(T) = K_m + (T - 40) dK, b_m(T) = b_m + (T - 40) db over 20..60 C (issue 18).
+D_SCALE = ((2e-4, 1e-5, 0.0), (0.0, -1e-4, 2e-5), (3e-5, 0.0, 1e-4))
+D_BIAS_NT = (2.0, -1.5, 12.5)
+MAGNETOMETER_OF_T = replace(
+    MAGNETOMETER, method='stand', temperature_c=40.0,
+    scale_coefficients=(MAGNETOMETER.scale_matrix, D_SCALE),
+    bias_coefficients_nT=(MAGNETOMETER.bias_nT, D_BIAS_NT), t_min_c=20.0, t_max_c=60.0)
+
+
+def test_magnetometer_of_temperature_round_trips_and_inverts_the_sensor(tmp_path):
+    """
+    K_m(T), b_m(T) (schema 6) save and load back equal and undo ``m = K_m(T) B + b_m(T)``.
+
+    The forward model written out here at each reading's temperature; beyond the range
+    K_m and b_m of the nearer end.  Main had no such fields (the file was refused).
+    """
+    model = replace(FULL, magnetometer=MAGNETOMETER_OF_T)
+    path = tmp_path / 'calibration.json'
+    save_model(path, model)
+    assert load_model(path) == model
+    rng = np.random.default_rng(2)
+    truth = rng.normal(size=(12, 3)) * 30000.0
+    temperatures_c = np.concatenate([rng.uniform(20.0, 60.0, 10), [10.0, 75.0]])
+    held = np.clip(temperatures_c, 20.0, 60.0) - 40.0
+    raw = np.array([(np.array(MAGNETOMETER.scale_matrix) + dt * np.array(D_SCALE)) @ b
+                    + np.array(MAGNETOMETER.bias_nT) + dt * np.array(D_BIAS_NT)
+                    for b, dt in zip(truth, held)])
+    np.testing.assert_allclose(MAGNETOMETER_OF_T.apply(raw, temperatures_c), truth, atol=1e-8)
+    assert MAGNETOMETER_OF_T.outside_range(temperatures_c).tolist() == [False] * 10 + [True] * 2
+    assert [name for name, _ in model.polynomial_stages] == ['magnetometer']
+    # Without a temperature: K_m, b_m at the stage's own temperature.
+    np.testing.assert_allclose(MAGNETOMETER_OF_T.apply(raw[:1]), MAGNETOMETER.apply(raw[:1]))
+
+
+BAD_MAGNETOMETER_OF_T = {
+    'range only': ({'scale_coefficients': None}, 'are all given or none'),
+    'first term': ({'bias_coefficients_nT': [[0.0, 0.0, 0.0], list(D_BIAS_NT)]},
+                   "bias_nT must be the polynomials' first terms"),
+    'range': ({'t_max_c': 30.0}, 'does not contain its temperature 40.0 C'),
+    'shape': ({'bias_coefficients_nT': [list(D_BIAS_NT)]}, 'finite numbers of shape (2, 3)'),
+}
+
+
+@pytest.mark.parametrize('name', sorted(BAD_MAGNETOMETER_OF_T))
+def test_invalid_magnetometer_polynomial_is_a_loud_error(tmp_path, name):
+    """A K_m(T), b_m(T) that is half given, off its first terms or its range: refused."""
+    changes, reason = BAD_MAGNETOMETER_OF_T[name]
+    doc = replace(FULL, magnetometer=MAGNETOMETER_OF_T).to_dict()
+    doc['magnetometer'] = dict(doc['magnetometer'], **changes)
+    assert reason in load_refusal(tmp_path, doc)
+
+
+def test_version_5_magnetometer_loads_constant(tmp_path):
+    """A version 5 file's magnetometer (no polynomial fields) loads with constant K_m, b_m."""
+    doc = FULL.to_dict()
+    doc['schema_version'] = 5
+    for key in ('scale_coefficients', 'bias_coefficients_nT', 't_min_c', 't_max_c'):
+        del doc['magnetometer'][key]
+    path = tmp_path / 'calibration.json'
+    path.write_text(json.dumps(doc))
+    assert load_model(path) == FULL and not load_model(path).magnetometer.temperature_dependent

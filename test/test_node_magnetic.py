@@ -4,7 +4,8 @@ import json
 import math
 
 from diagnostic_msgs.msg import DiagnosticStatus
-from inclino_ros.calibration.model import CalibrationModel, load_model, save_model
+from inclino_ros.calibration.model import (
+    CalibrationModel, load_model, Magnetometer, save_model, utc_now_iso)
 from inclino_ros.core.magnetics import forward, iscwsa_from_tool
 import numpy as np
 import pytest
@@ -293,3 +294,39 @@ def test_rotation_gives_one_calibration_through_the_service_and_the_command(
     assert command_magnetic['interference_nT'] == [0.0, 0.0, 0.0]
     assert command_magnetic['msa_method'] is None
     assert command_magnetic['rotation_temperature_c'] == pytest.approx(temperature_c)
+
+
+def test_a_magnetometer_k_of_t_is_applied_at_the_temperature(start_node, probe, tmp_path):
+    """
+    K_m(T), b_m(T) of a multi-temperature stand (issue 18) in the live node, from imu/temperature.
+
+    K_m(T) = I + (T - 40) dK, b_m(T) = (T - 40) db over 20..60 C: a field read through them at T
+    gives the true azimuth (rounding only); beyond the range K_m and b_m of the nearer end,
+    and the temperature diagnostics say so.  At 55 C the readings are ~2.5 % and 4700 nT off:
+    read with K_m(40 C) the azimuth would be degrees off (main had no K_m(T)).
+    """
+    d_scale = np.diag([2e-3, -1.5e-3, 1e-3])
+    d_bias_nT = np.array([300.0, -200.0, 150.0])
+    eye = tuple(map(tuple, np.eye(3).tolist()))
+    save_model(tmp_path / 'calibration.json', CalibrationModel(3, magnetometer=Magnetometer(
+        scale_matrix=eye, bias_nT=(0.0, 0.0, 0.0), method='stand', condition_number=1.0,
+        rms_residual_nT=1.0, field_nT=REFERENCE_TOTAL_NT, positions=36,
+        fitted_at=utc_now_iso(), temperature_c=40.0,
+        scale_coefficients=(eye, tuple(map(tuple, d_scale.tolist()))),
+        bias_coefficients_nT=((0.0, 0.0, 0.0), tuple(d_bias_nT.tolist())), t_min_c=20.0,
+        t_max_c=60.0)))
+    start_node(**{'magnetic.reference_total_nT': REFERENCE_TOTAL_NT,
+                  'magnetic.reference_dip_deg': REFERENCE_DIP_DEG})
+    probe.wait_for_node()
+    for temperature_c, held_c, (incl_deg, az_deg, tf_deg) in (
+            (20.0, 20.0, (45.0, 100.0, 10.0)), (55.0, 55.0, (70.0, 250.0, 200.0)),
+            (75.0, 60.0, (30.0, 20.0, 120.0))):
+        probe.set_temperature(temperature_c)
+        gravity, field = forward(incl_deg, az_deg, tf_deg, G, REFERENCE_TOTAL_NT,
+                                 REFERENCE_DIP_DEG)
+        dt = held_c - 40.0
+        raw = (np.eye(3) + dt * d_scale) @ iscwsa_from_tool(field) + dt * d_bias_nT
+        survey_z, _ = azimuth_of(probe, -iscwsa_from_tool(gravity), raw)
+        assert abs(error_deg(survey_z, az_deg)) < 1e-6, (temperature_c, survey_z, az_deg)
+    status = probe.wait_status(': temperature')[0]
+    assert status.level == DiagnosticStatus.WARN and 'outside the fitted range' in status.message

@@ -1,5 +1,6 @@
 """Stand calibration and temperature compensation in the live node (seed 001)."""
 
+import csv
 import math
 
 from diagnostic_msgs.msg import DiagnosticStatus
@@ -102,6 +103,78 @@ def test_stand_positions_solve_into_a_correction(node_and_probe, tmp_path):
     cleared = probe.call('clear_positions')
     assert cleared.success and cleared.message == 'cleared 10 stand positions'
     assert node.stop() == 0
+
+
+#: Samples of one stand capture and the zero-sum pattern the readings repeat (period 6): any
+#: 60 (30) consecutive samples of a position hold whole periods, so the node's capture and
+#: the command's rows of a position have one mean whichever samples the capture took.
+CAPTURE_SAMPLES = 60
+PATTERN_MPS2 = 1e-4 * np.array([[1.0, -0.5, 0.25], [-1.0, 0.25, -0.5], [0.5, 1.0, -0.25],
+                                [-0.5, -0.25, 1.0], [0.25, -1.0, 0.5], [-0.25, 0.5, -1.0]])
+
+
+def position_samples(incl_deg, tf_deg, count):
+    """Return ``count`` readings of the flawed sensor at an attitude, the pattern added."""
+    return sensor_reading(incl_deg, tf_deg) + PATTERN_MPS2[np.arange(count) % len(PATTERN_MPS2)]
+
+
+def test_node_and_fit_stand_write_the_same_stand_stage(node_and_probe, tmp_path):
+    """
+    The same stand run through the live ~/capture_position services and fit-stand: one stage.
+
+    Nine positions are captured by a real node (``~/capture_position``, then
+    ``~/solve_stand_calibration``) and the same samples, as a CSV, go through
+    ``inclino fit-stand``: the two calibration files hold the same stand stage.  The
+    positions differ in sample count (30 and 60) and temperature (25.5 C at the first, 24 C
+    at the others, within the 2 C limit): the stage stands for the mean over the
+    positions, 24 + 1.5 / 9 C, by both doors (the command once took the mean over the
+    samples, 24.08 C).  A sample the transport lost would shift a position's mean by at most
+    max|pattern| / 30: K and b are compared to a tenth of that (1e-12 when none is lost,
+    far below the sensor's own errors of 1e-3).
+    """
+    from inclino_ros.cli.main import main as inclino
+
+    _, probe = node_and_probe(**{'temperature.max_stage_difference_c': 2.0})
+    rows = []
+    for number, (incl_deg, tf_deg) in enumerate(POSITIONS_DEG):
+        count, temperature_c = (30, 25.5) if number == 0 else (CAPTURE_SAMPLES, 24.0)
+        samples = position_samples(incl_deg, tf_deg, count)
+        probe.set_parameters(stand__inclination_deg=incl_deg, stand__toolface_deg=tf_deg,
+                             stand__samples=count)
+        probe.set_temperature(temperature_c)
+        answer = probe.calibrate(lambda i: samples[i % count], service='capture_position')
+        assert answer.success, answer.message
+        # Every sample sent is corrected before the stand turns: none of this position is
+        # left queued for the next capture (the node takes its samples in order).
+        probe.survey_for(lambda: probe.publish(samples[0]))
+        rows += [(incl_deg, tf_deg, temperature_c, *reading) for reading in samples]
+    solved = probe.call('solve_stand_calibration')
+    assert solved.success, solved.message
+
+    with open(tmp_path / 'stand.csv', 'w', newline='') as stream:
+        writer = csv.writer(stream)
+        writer.writerow(('inclination_deg', 'toolface_deg', 'temperature_c', 'ax', 'ay', 'az'))
+        writer.writerows([repr(float(v)) for v in row] for row in rows)
+    assert inclino(['fit-stand', str(tmp_path / 'stand.csv'), '--calibration',
+                    str(tmp_path / 'command.json'), '--max-temperature-difference-c',
+                    '2.0']) == 0
+    node, command = (load_model(tmp_path / name)
+                     for name in ('calibration.json', 'command.json'))
+    lost_tol = 0.1 * np.max(np.abs(PATTERN_MPS2)) / 30
+    np.testing.assert_allclose(command.stand.scale_matrix, node.stand.scale_matrix,
+                               rtol=0, atol=lost_tol / G)
+    np.testing.assert_allclose(command.stand.bias_mps2, node.stand.bias_mps2, rtol=0,
+                               atol=lost_tol)
+    assert np.max(np.abs(np.array(node.stand.scale_matrix) - TRUE_K)) < 1e-5
+    assert node.stand.temperature_c == pytest.approx(24.0 + 1.5 / 9, abs=1e-9)
+    assert command.stand.temperature_c == pytest.approx(node.stand.temperature_c, abs=1e-9)
+    numbers = ('scale_matrix', 'bias_mps2', 'fitted_at', 'rms_inclination_deg',
+               'condition_number')
+    node_doc, command_doc = node.to_dict(), command.to_dict()
+    for doc in (node_doc, command_doc):
+        for name in numbers:
+            doc['stand'].pop(name, None)
+    assert command_doc == node_doc
 
 
 def temperature_model(tmp_path):

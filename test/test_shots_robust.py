@@ -52,20 +52,28 @@ def test_every_real_instrument_is_calibrated(tmp_path, name):
         assert 'outlier shot 14 (roll group 1)' in out
     model = load_model(calibration)
     assert model.tool_axis is not None and model.tool_axis.roll_groups == 2
-    table = np.genfromtxt(SAP6 / f'{name}.csv', delimiter=',', names=True, dtype=None,
-                          encoding='utf-8')
+    used = np.ones(24, dtype=bool)
+    used[{'BB': 21, 'FG': 13}.get(name, [])] = False
+    assert 3.0 < roll_set_rms_deg(CalibrationModel(3), SAP6 / f'{name}.csv', used) < 90.0
+    assert roll_set_rms_deg(model, SAP6 / f'{name}.csv', used) < SAP6_MAX_ROLL_RMS_DEG
+
+
+def roll_set_rms_deg(model, path, used):
+    """
+    Return the azimuth RMS [deg] of a 24-shot set's two roll sets about their circular means.
+
+    ``path``: the set's CSV (8 sphere shots, then roll sets of 8); ``used`` (24,) the shots
+    counted; the azimuths through ``model``.
+    """
+    table = np.genfromtxt(path, delimiter=',', names=True, dtype=None, encoding='utf-8')
     accel = np.column_stack([table[c] for c in ('ax', 'ay', 'az')])
     field = np.column_stack([table[c] for c in ('bx', 'by', 'bz')])
     group = np.array([-1] * 8 + [0] * 8 + [1] * 8)
-    used = np.ones(24, dtype=bool)
-    used[{'BB': 21, 'FG': 13}.get(name, [])] = False
-    for the_model, low, high in ((CalibrationModel(3), 3.0, 90.0),
-                                 (model, 0.0, SAP6_MAX_ROLL_RMS_DEG)):
-        azimuth = magnetics.survey_of(the_model.apply(accel), the_model.apply_magnetic(
-            field, before='magnetic'))['azimuth_deg']
-        deviation = np.concatenate([circular_deviation_deg(azimuth[(group == k) & used])
-                                    for k in (0, 1)])
-        assert low < np.sqrt(np.mean(deviation ** 2)) < high
+    azimuth = magnetics.survey_of(model.apply(accel), model.apply_magnetic(
+        field, before='magnetic'))['azimuth_deg']
+    deviation = np.concatenate([circular_deviation_deg(azimuth[(group == k) & used])
+                                for k in (0, 1)])
+    return float(np.sqrt(np.mean(deviation ** 2)))
 
 
 def hand_held_set(seed, wander_deg=0.0, outliers=(), iron_nT=0.0):
@@ -250,3 +258,28 @@ def test_real_roll_sets_are_found_without_their_column(tmp_path, name):
     assert code == 0, err
     assert '2 roll group(s) found in the order of the shots' in out
     assert 'shots 9-16, shots 17-24' in out
+
+
+CAL_DATA = pathlib.Path(__file__).parent / 'data' / 'mag_cal_cal_data'
+#: Roll-set azimuth RMS [deg] each of these instruments reaches (measured 0.24-0.54); raw 37-62.
+CAL_DATA_MAX_ROLL_RMS_DEG = 0.65
+
+
+@pytest.mark.parametrize('name', ['ab', 'ai', 'bh', 'bi', 'ee', 'fb', 'hj', 'hj2', 'jd'])
+def test_nine_more_real_instruments_are_calibrated(tmp_path, name):
+    """
+    Nine more real instruments (mag_cal_cal_data, SOURCE.md): each calibrates, its roll sets agree.
+
+    Main refused eight: ``ab``'s raw field (113000 nT median: 80 uT of hard iron) beyond the
+    plausible 100000 nT, seven for an ill-conditioned ellipsoid design (condition 114-747 of
+    readings centred far from zero).  Measured here 0.24-0.54 deg RMS over both roll sets.
+    """
+    calibration = tmp_path / 'cal.json'
+    code, out, err = quiet(['fit-magnetometer', CAL_DATA / f'{name}.csv', '--calibration',
+                            calibration, '--report-dir', tmp_path])
+    assert code == 0, err
+    model = load_model(calibration)
+    assert model.tool_axis is not None and model.tool_axis.roll_groups == 2
+    every = np.ones(24, dtype=bool)
+    assert 20.0 < roll_set_rms_deg(CalibrationModel(3), CAL_DATA / f'{name}.csv', every) < 90.0
+    assert roll_set_rms_deg(model, CAL_DATA / f'{name}.csv', every) < CAL_DATA_MAX_ROLL_RMS_DEG

@@ -203,18 +203,37 @@ def test_tail_probabilities_follow_the_f_law():
         assert 3 <= np.count_nonzero(np.array(p_values) < 0.01) <= 57
 
 
-def test_two_attitudes_back_to_back_are_two_shots():
-    """A bag turned between two still windows was one shot (the mean of both attitudes)."""
-    from inclino_ros.core.stillness import still_segments
+def back_to_back(turn_accel=True):
+    """Return (times_s, accel, field) of 6 s at 100 Hz turned at 3 s (a window boundary)."""
     rng = np.random.default_rng(21)
-    stamps = np.arange(600) * 10_000_000                       # 6 s at 100 Hz
-    turned = np.arange(600) >= 300                             # at 3 s, a window boundary
-    accel = np.where(turned[:, None], [0.0, 9.80665, 0.0], [0.0, 0.0, 9.80665])
+    turned = np.arange(600) >= 300
+    accel = np.where(turned[:, None] & turn_accel, [0.0, 9.80665, 0.0], [0.0, 0.0, 9.80665])
     field = np.where(turned[:, None], [20000.0, 0.0, 40000.0], [20000.0, 40000.0, 0.0])
     accel = accel + rng.normal(0.0, 0.01, accel.shape)
     field = field + rng.normal(0.0, 10.0, field.shape)
-    segments = still_segments(stamps, accel, field, 0.5, 0.5, 1.0)
-    assert [(int(a), int(b)) for a, b in segments] == [(0, 300), (300, 600)]
+    return np.arange(600) * 0.01, accel, field
+
+
+def test_two_attitudes_back_to_back_are_two_segments():
+    """
+    A stream turned between two still windows gives two segments, not one mean of both.
+
+    The one still rule of logs and bags (``find_still_segments``): each run's first and
+    last 0.5 s window left out, so 50..250 and 350..550.  The former log rule refused the
+    joined run as a whole (no segment at all).
+    """
+    from inclino_ros.core.stillness import find_still_segments
+    times_s, accel, field = back_to_back()
+    assert find_still_segments(times_s, accel) == [(50, 250), (350, 550)]
+    assert find_still_segments(times_s, accel, fields=field) == [(50, 250), (350, 550)]
+
+
+def test_a_turn_only_the_magnetometer_sees_splits_the_shots():
+    """A turn about gravity moves only the field: with the field judged too, two shots."""
+    from inclino_ros.core.stillness import find_still_segments
+    times_s, accel, field = back_to_back(turn_accel=False)
+    assert find_still_segments(times_s, accel) == [(50, 550)]
+    assert find_still_segments(times_s, accel, fields=field) == [(50, 250), (350, 550)]
 
 
 def correlated_captures(rho, count, samples, seed):

@@ -23,7 +23,9 @@ from dataclasses import dataclass
 import math
 
 from inclino_ros.calibration.plausibility import field_reading_ok
-from inclino_ros.core.screening import count_reasons, REASONS
+from inclino_ros.core.magnetics import true_azimuth_deg
+from inclino_ros.core.screening import ACCEPTED, count_reasons, REASONS
+from inclino_ros.core.temperature import in_range
 from inclino_ros.io.bag import ImuSeries, not_measured_covariance, Vector3Series
 from inclino_ros.io.timing import pair_nearest, pairing_tolerance
 from inclino_ros.pipeline import average, imu_covariances, MagneticSettings, run
@@ -305,3 +307,70 @@ def replay(batches, write, model, settings, summary, temperature=None, magnetome
             summary.written += published.inclination_deg.size
         if progress is not None:
             progress.update(batch.stamps_ns.size)
+
+
+#: Status of a surveyed row whose temperature lies outside the fitted range of a temperature stage.
+OUTSIDE_FIT = 'temperature_outside_fit'
+
+
+def survey_columns(result, declination_deg, with_qc, toolface_zero):
+    """
+    Return ``{name: (accepted mask, values of the accepted rows)}`` of a surveyed table.
+
+    The angles, totals and their 1 sigma of a ``pipeline.Survey`` (``inclino
+    survey``); with a field the azimuth, dip, ``toolface_zero``, the true
+    azimuth with ``declination_deg`` and, ``with_qc`` (a reference field),
+    the survey QC.
+    """
+    accepted = result.accepted
+    azimuth = result.magnetic
+    if azimuth is None:    # no magnetometer: no azimuth, no field QC
+        values = {'inclination_deg': result.inclination_deg,
+                  'toolface_deg': result.toolface_deg, 'g_total_mps2': result.g_total_mps2,
+                  'inclination_std_deg': result.inclination_std_deg,
+                  'toolface_std_deg': result.toolface_std_deg}
+        return {name: (accepted, value) for name, value in values.items()}
+    values = {'inclination_deg': result.inclination_deg, 'toolface_deg': result.toolface_deg,
+              'azimuth_deg': azimuth.defined_azimuth_deg, 'g_total_mps2': result.g_total_mps2,
+              'b_total_nT': azimuth.b_total_nT, 'dip_deg': azimuth.dip_deg,
+              'inclination_std_deg': result.inclination_std_deg,
+              'toolface_std_deg': result.toolface_std_deg,
+              'azimuth_std_deg': azimuth.azimuth_std_deg,
+              'g_total_std_mps2': azimuth.g_total_std_mps2,
+              'b_total_std_nT': azimuth.b_total_std_nT, 'dip_std_deg': azimuth.dip_std_deg}
+    values['toolface_zero'] = [toolface_zero] * int(np.count_nonzero(accepted))
+    if declination_deg is not None:
+        values['true_azimuth_deg'] = true_azimuth_deg(azimuth.defined_azimuth_deg,
+                                                      declination_deg)
+    if with_qc:
+        qc = azimuth.qc
+        values.update(b_total_delta_nT=qc.b_total_delta_nT, dip_delta_deg=qc.dip_delta_deg,
+                      g_total_delta_mps2=qc.g_total_delta, qc_b_total=qc.b_total_ok,
+                      qc_dip=qc.dip_ok, qc_g_total=qc.g_total_ok, qc_ok=qc.ok)
+    return {name: (accepted, value) for name, value in values.items()}
+
+
+def outside_fit(model, temperature_c):
+    """Return which rows lie outside the fitted range of a temperature stage (None: none)."""
+    if temperature_c is None:
+        return None
+    outside = np.zeros(temperature_c.shape, dtype=bool)
+    for stage in (model.temperature, model.magnetometer_temperature):
+        if stage is not None:
+            outside |= ~in_range(temperature_c, stage)
+    return outside
+
+
+def row_status(codes, outside=None):
+    """
+    Return each row's status: ``ok``, the drop reason (``screening.REASONS``) or OUTSIDE_FIT.
+
+    ``outside``: rows whose temperature lies outside the calibration's fitted
+    range (``outside_fit``): an accepted one is OUTSIDE_FIT (the compensation
+    holds the range's edge there).
+    """
+    status = ['ok' if code == ACCEPTED else REASONS[code] for code in codes]
+    if outside is not None and outside.any():
+        status = [OUTSIDE_FIT if far and text == 'ok' else text
+                  for text, far in zip(status, outside)]
+    return status

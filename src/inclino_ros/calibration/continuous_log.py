@@ -1,5 +1,5 @@
 """
-A continuous log as the fits take it: its still segments (``core.stillness.find_still_segments``).
+A continuous log as the fits take it: its still segments (``stillness.find_still_segments``).
 
 A user's own recording (a CSV with a time column, the accelerometer and
 optionally a gyro and the temperature) holds the tool still in several poses
@@ -42,12 +42,17 @@ class LogSegments:
                 f'({min(duration)}..{max(duration)} samples a segment)']
 
 
-def segment_limits(max_drift_deg_per_s, max_sem_deg, max_rate_deg_per_s=None):
-    """Return the SegmentLimits of a command's still options (the capture's own limits)."""
+def segment_limits(max_drift_deg_per_s, max_sem_deg, sem_name='--max-sem-deg', **segment):
+    """
+    Return the SegmentLimits of a command's still options (the capture's own limits).
+
+    ``sem_name``: the option of ``max_sem_deg`` as the messages name it;
+    ``segment``: other SegmentLimits fields (``window_s``, ``min_s``,
+    ``max_rate_deg_per_s``), their defaults otherwise.
+    """
     still = StillLimits(max_drift_deg_per_s=max_drift_deg_per_s, max_sem_deg=max_sem_deg,
-                        drift_name='--max-drift-deg-per-s', sem_name='--max-sem-deg')
-    return SegmentLimits(still=still, **({} if max_rate_deg_per_s is None else
-                                         {'max_rate_deg_per_s': max_rate_deg_per_s}))
+                        drift_name='--max-drift-deg-per-s', sem_name=sem_name)
+    return SegmentLimits(still=still, **segment)
 
 
 def log_segments(times_s, readings, gyro_radps=None, temperature_c=None,

@@ -21,6 +21,7 @@ accelerometer frame, then the same mount, then seed 002's corrections:
 1. ``magnetometer_temperature``: the same temperature model in nT;
 2. ``magnetometer``: seed 001 Eq. 12, ``K_m^-1 (m - b_m)`` (scale,
    non-orthogonality, hard and soft iron) from the stand or the ellipsoid;
+   from a stand at several temperatures K_m(T), b_m(T), as the stand's;
 3. ``magnetometer_alignment``: the rotation of the magnetometer's axes into
    the accelerometer's sensing axes (identity without the stage: the
    magnetometer sits on the accelerometer's axes), then the rotation the
@@ -107,6 +108,19 @@ class CalibrationModel:
         return rotation
 
     @property
+    def polynomial_stages(self):
+        """
+        Return the (name, stage) of the stands whose K and b are polynomials of T, in order.
+
+        ``stand`` and ``magnetometer`` fitted at several temperature plateaus
+        (``stages._PolynomialOfTemperature``): valid over their fitted range
+        only, held at its nearer end beyond it.
+        """
+        return tuple((name, stage) for name, stage in (('stand', self.stand),
+                                                       ('magnetometer', self.magnetometer))
+                     if stage is not None and stage.temperature_dependent)
+
+    @property
     def calibrated(self):
         """Whether any accelerometer correction stage is present."""
         return bool(self.stages)
@@ -150,6 +164,8 @@ class CalibrationModel:
                 continue
             if name == 'magnetometer_temperature':
                 b_nT = stage.apply(b_nT.reshape(-1, 3), temperature_c).reshape(b_nT.shape)
+            elif name == 'magnetometer':   # K_m(T), b_m(T) of a multi-temperature stand
+                b_nT = stage.apply(b_nT, temperature_c)
             else:
                 b_nT = stage.apply(b_nT)
         return b_nT

@@ -15,12 +15,14 @@ import math
 
 from inclino_ros.calibration.model import (
     Magnetometer, MagnetometerAlignment, readings_temperature_c, Stand, ToolAxis, utc_now_iso)
+from inclino_ros.calibration.stand_fit import stood_for_c, temperature_plateaus
 from inclino_ros.core.attitude import angle_between
 from inclino_ros.core.constants import STANDARD_GRAVITY_MPS2
 from inclino_ros.core.installation import installation_matrix, to_tool_frame
 from inclino_ros.core.magnetics import expected_field_tool_nT
 from inclino_ros.core.shots import find_roll_groups, fit_shots, ShotLimits, tilt_angles
-from inclino_ros.core.stand import fit_stand, rotation_part, StandFitRefused
+from inclino_ros.core.stand import (
+    fit_stand, plateau_numbers, plateau_stand_fit, rotation_part, StandFitRefused)
 import numpy as np
 
 
@@ -56,10 +58,12 @@ class FieldStandFit:
     alignment: MagnetometerAlignment
     residual_deg: np.ndarray   # (P,) angle between the corrected and the expected field
     rms_residual_deg: float
+    plateaus: object = None    # core.stand.TemperatureStandFit of a multi-temperature stand
+    plateau_rms_deg: np.ndarray = None  # (plateaus,) RMS of residual_deg per plateau
 
 
 def fit_field_stand(fields_nT, attitudes_deg, reference_total_nT, reference_dip_deg, stand,
-                    max_rms_deg, temperature_c=None):
+                    max_rms_deg, temperatures_c=None):
     """
     Return the FieldStandFit of the magnetometer at stand positions, or raise StandFitRefused.
 
@@ -71,18 +75,30 @@ def fit_field_stand(fields_nT, attitudes_deg, reference_total_nT, reference_dip_
     refusals.  ``stand`` is the accelerometer's new stand stage: the fitted
     K_m maps the readings into the tool frame, which is its frame.  Refused
     too when the RMS angle between corrected and expected fields over the
-    positions exceeds ``max_rms_deg``.  ``temperature_c``: what the readings
-    stood for (``provenance.readings_temperature_c``), recorded by both stages.
+    positions exceeds ``max_rms_deg``.  ``temperatures_c`` (P,): what each
+    position's readings stood for (``provenance.readings_temperature_c``;
+    None or None entries: unknown), their mean recorded by both stages.
+
+    Positions at two or more temperature plateaus (``stand_fit.temperature_plateaus``,
+    the accelerometer's rule) give K_m(T), b_m(T) (``stand.fit_stand_plateaus``): the
+    stage's polynomials are those of the fit times the constant turn the
+    alignment takes out at the plateaus' centre, so that the chain
+    (``Stand.rotation`` R K_m(T)^-1) is the fitted correction at every T.
     """
     fields_nT = np.asarray(fields_nT, dtype=float).reshape(-1, 3)
     attitudes_deg = np.asarray(attitudes_deg, dtype=float).reshape(-1, 3)
     truth = expected_field_tool_nT(attitudes_deg[:, 0], attitudes_deg[:, 1],
                                    attitudes_deg[:, 2], reference_total_nT, reference_dip_deg)
     try:
-        fit = fit_stand(fields_nT, truth)
+        plateaus = temperature_plateaus(fields_nT, truth, temperatures_c)
+        if plateaus is None:
+            fit = fit_stand(fields_nT, truth)
+            corrected = fit.apply(fields_nT)
+        else:
+            fit = plateau_stand_fit(plateaus, fields_nT, truth, temperatures_c)
+            corrected = plateaus.apply(fields_nT, np.asarray(temperatures_c, dtype=float))
     except StandFitRefused as err:
         raise StandFitRefused(f'magnetometer: {err.reason}') from None
-    corrected = fit.apply(fields_nT)
     residual_deg = np.degrees(angle_between(corrected, truth))
     rms_deg = float(np.sqrt(np.mean(residual_deg ** 2)))
     if rms_deg > max_rms_deg:
@@ -96,16 +112,31 @@ def fit_field_stand(fields_nT, attitudes_deg, reference_total_nT, reference_dip_
                                      accelerometer_rotation(stand))
     now = utc_now_iso()
     rms_nT = float(np.sqrt(np.mean(np.sum((corrected - truth) ** 2, axis=1))))
+    polynomial, plateau_rms_deg = {}, None
+    temperature_c = stood_for_c(temperatures_c)
+    if plateaus is not None:
+        turn = accelerometer_rotation(stand) @ rotation
+        scale = plateaus.scale_coefficients @ turn
+        scale[0] = k_m
+        polynomial = {'scale_coefficients': tuple(map(_matrix, scale)),
+                      'bias_coefficients_nT': tuple(map(tuple, plateaus.bias_coefficients
+                                                        .tolist())),
+                      't_min_c': plateaus.range_c[0], 't_max_c': plateaus.range_c[1]}
+        temperature_c = plateaus.centre_c
+        number = plateau_numbers(temperatures_c)
+        plateau_rms_deg = np.sqrt(np.bincount(number, weights=residual_deg ** 2)
+                                  / np.bincount(number))
     return FieldStandFit(
         magnetometer=Magnetometer(
             scale_matrix=_matrix(k_m), bias_nT=tuple(fit.bias_mps2.tolist()), method='stand',
             condition_number=float(fit.condition_number), rms_residual_nT=rms_nT,
             field_nT=float(reference_total_nT), positions=int(fields_nT.shape[0]),
-            fitted_at=now, temperature_c=temperature_c),
+            fitted_at=now, temperature_c=temperature_c, **polynomial),
         alignment=MagnetometerAlignment(
             rotation=_matrix(rotation), method='stand', dip_deg=None, dip_rms_deg=None,
             shots=int(fields_nT.shape[0]), fitted_at=now, temperature_c=temperature_c),
-        residual_deg=residual_deg, rms_residual_deg=rms_deg)
+        residual_deg=residual_deg, rms_residual_deg=rms_deg, plateaus=plateaus,
+        plateau_rms_deg=plateau_rms_deg)
 
 
 def mean_temperature_c(temperature_c):

@@ -8,22 +8,23 @@ temperature polynomial (``VERSION_4_FIELDS``): ``upgraded`` gives an older
 section those fields, with the value that says "unknown" or "none".  Version 4
 files lack the temperature fits' parameter covariance (``VERSION_5_FIELDS``;
 without it the residual stands for the fit's error, as before) and the
-temperature the magnetometer, its alignment and the tool axis stood for.
-Version 5 files' temperature stages were fitted in the tool axes
-(``VERSION_6_FIELDS``: no ``axes_map``, issue 19 item 7).
+temperature the magnetometer, its alignment and the tool axis stood for;
+version 5 files the magnetometer's temperature polynomial (``VERSION_6_FIELDS``).
+Version 6 files' temperature stages were fitted in the tool axes
+(``VERSION_7_FIELDS``: no ``axes_map``, issue 19 item 7).
 """
 
 from inclino_ros.calibration.corrections import STAGES
 
-SCHEMA_VERSION = 6
+SCHEMA_VERSION = 7
 #: Versions load_model reads.
-READABLE_VERSIONS = (1, 2, 3, 4, 5, 6)
+READABLE_VERSIONS = (1, 2, 3, 4, 5, 6, 7)
 #: Sections of each readable schema version.
 SECTIONS = {1: ('installation',),
             2: ('temperature', 'stand', 'installation', 'magnetic'),
             3: STAGES + ('magnetometer_temperature', 'magnetometer', 'magnetometer_alignment',
                          'magnetic')}
-SECTIONS[4] = SECTIONS[5] = SECTIONS[6] = SECTIONS[3]
+SECTIONS[4] = SECTIONS[5] = SECTIONS[6] = SECTIONS[7] = SECTIONS[3]
 #: Fields version 3 added, with the value an older file's section gets.
 VERSION_3_FIELDS = {
     'installation': {'temperature_c': None},
@@ -49,14 +50,20 @@ VERSION_5_FIELDS = {
     'magnetometer_alignment': {'temperature_c': None},
     'tool_axis': {'temperature_c': None},
 }
-#: Fields version 6 added: the sensor axes a temperature drift is per (issue 19 item 7).
+#: Fields version 6 added: the magnetometer's K_m(T), b_m(T) of a stand at several
+#: temperatures (issue 18).
 VERSION_6_FIELDS = {
+    'magnetometer': {'scale_coefficients': None, 'bias_coefficients_nT': None, 't_min_c': None,
+                     't_max_c': None},
+}
+#: Fields version 7 added: the sensor axes a temperature drift is per (issue 19 item 7).
+VERSION_7_FIELDS = {
     'temperature': {'axes_map': None},
     'magnetometer_temperature': {'axes_map': None},
 }
 #: The fields each version added, in order.
 ADDED_FIELDS = ((3, VERSION_3_FIELDS), (4, VERSION_4_FIELDS), (5, VERSION_5_FIELDS),
-                (6, VERSION_6_FIELDS))
+                (6, VERSION_6_FIELDS), (7, VERSION_7_FIELDS))
 
 
 def upgraded(section, name, version):

@@ -226,9 +226,12 @@ def _stand_polynomial(values, name):
     Raise ValueError unless K(T), b(T) are all given or none, shaped and finite, T in range.
 
     Coefficients (order + 1) x 3 x 3 and (order + 1) x 3 of ``T - temperature_c``,
-    ``t_min_c < t_max_c`` holding ``temperature_c``; all four None: constant K, b.
+    ``t_min_c < t_max_c`` holding ``temperature_c``; all four None: constant K, b.  The
+    stand's (bias in m/s^2) and the magnetometer's (nT) alike.
     """
-    keys = ('scale_coefficients', 'bias_coefficients_mps2', 't_min_c', 't_max_c')
+    unit = 'nT' if name == 'magnetometer' else 'mps2'
+    bias_terms, bias_key = f'bias_coefficients_{unit}', f'bias_{unit}'
+    keys = ('scale_coefficients', bias_terms, 't_min_c', 't_max_c')
     given = [values[key] is not None for key in keys]
     if not any(given):
         return
@@ -240,12 +243,13 @@ def _stand_polynomial(values, name):
     order = scale.shape[0]
     values['scale_coefficients'] = tuple(tuple(map(tuple, term)) for term in _finite(
         values, name, 'scale_coefficients', (order, 3, 3)).tolist())
-    values['bias_coefficients_mps2'] = tuple(map(tuple, _finite(
-        values, name, 'bias_coefficients_mps2', (order, 3)).tolist()))
+    values[bias_terms] = tuple(map(tuple, _finite(values, name, bias_terms,
+                                                  (order, 3)).tolist()))
+    tolerance = 1e-9 * max(1.0, float(np.max(np.abs(values[bias_key]))))
     if not np.allclose(values['scale_coefficients'][0], values['scale_matrix'], rtol=0,
-                       atol=1e-9) or not np.allclose(values['bias_coefficients_mps2'][0],
-                                                     values['bias_mps2'], rtol=0, atol=1e-9):
-        raise ValueError(f"{name}: scale_matrix and bias_mps2 must be the polynomials' first "
+                       atol=1e-9) or not np.allclose(values[bias_terms][0], values[bias_key],
+                                                     rtol=0, atol=tolerance):
+        raise ValueError(f"{name}: scale_matrix and {bias_key} must be the polynomials' first "
                          'terms (their values at temperature_c)')
     if not values['t_min_c'] <= values['temperature_c'] <= values['t_max_c'] \
             or values['t_min_c'] == values['t_max_c']:
@@ -303,7 +307,9 @@ STAGE_FIELDS = {
         'scale_matrix': _array(3, 3), 'bias_nT': _array(3), 'condition_number': _number,
         'rms_residual_nT': _number, 'field_nT': _number,
         'method': _choice('stand', 'ellipsoid'), 'positions': _count, 'fitted_at': _time,
-        'temperature_c': _temperature}, (),
+        'temperature_c': _temperature, 'scale_coefficients': _kept,
+        'bias_coefficients_nT': _kept, 't_min_c': _optional(_number),
+        't_max_c': _optional(_number)}, (_stand_polynomial,),
         plausibility.check_magnetometer),
     'magnetometer_alignment': (MagnetometerAlignment, {
         'rotation': _array(3, 3), 'method': _choice('dip', 'stand', 'given'),

@@ -81,18 +81,70 @@ class ToolAxis(_SeedZeroRotation):
     temperature_c: float = None  # what the fitted readings stood for; None: unknown
 
 
+class _PolynomialOfTemperature:
+    """
+    A linear correction ``K^-1 (v - b)`` whose K and b may be polynomials of T (issue 18).
+
+    One rule for both triads' stands (``Stand``, ``Magnetometer``): fitted at
+    two or more temperature plateaus (``core.stand.fit_stand_plateaus``)
+    every element of K and b is a polynomial of ``T - temperature_c``
+    (``scale_coefficients`` (order + 1) x 3 x 3, the bias's (order + 1) x 3;
+    ``arrays`` their values at ``temperature_c``), valid over ``t_min_c`` ..
+    ``t_max_c``: ``apply`` takes K(T), b(T) at each reading's temperature,
+    held at the nearer end of the range beyond it (``outside_range`` counts
+    those).  Without the polynomials, constant K and b.
+    """
+
+    def apply(self, f, temperature_c=None):
+        """
+        Return ``K^-1 (f - b)`` (seed 001 Eq. 11) for ``f`` of shape (N, 3).
+
+        With K(T), b(T) (a multi-temperature stand) at ``temperature_c``
+        (scalar or (N,), clamped to the fitted range; None: at the stage's
+        temperature).
+        """
+        if self.scale_coefficients is None or temperature_c is None:
+            return correct_stand(f, self.arrays[0], self.arrays[1])
+        f = np.asarray(f, dtype=float)
+        flat = f.reshape(-1, 3)
+        scale, bias = self.at(np.broadcast_to(np.asarray(temperature_c, dtype=float),
+                                              flat.shape[:1]))
+        return np.linalg.solve(scale, (flat - bias)[..., None])[..., 0].reshape(f.shape)
+
+    def at(self, temperature_c):
+        """Return (K, b) at ``temperature_c`` (clamped to the range): (..., 3, 3), (..., 3)."""
+        if self.scale_coefficients is None:
+            return self.arrays
+        held = np.clip(np.asarray(temperature_c, dtype=float), self.t_min_c, self.t_max_c)
+        powers = np.power.outer(held - self.temperature_c,
+                                np.arange(len(self.scale_coefficients)))
+        return (np.tensordot(powers, np.array(self.scale_coefficients), axes=1),
+                np.tensordot(powers, np.array(self.bias_coefficients), axes=1))
+
+    def outside_range(self, temperature_c):
+        """Return which temperatures lie outside a multi-temperature stand's range (bool)."""
+        temperature_c = np.asarray(temperature_c, dtype=float)
+        if self.scale_coefficients is None:
+            return np.zeros(temperature_c.shape, dtype=bool)
+        return ~in_range(temperature_c, self)
+
+    @property
+    def temperature_dependent(self):
+        """Return whether K and b are polynomials of T (a multi-temperature stand)."""
+        return self.scale_coefficients is not None
+
+    @property
+    def reference_temperature_c(self):
+        """Return the temperature K and b stand for without a temperature input (the centre)."""
+        return self.temperature_c
+
+
 @dataclass(frozen=True)
-class Stand:
+class Stand(_PolynomialOfTemperature):
     """
     Seed 001 scale/misalignment matrix K and bias b: ``G = K^-1 (A - b)``.
 
-    Fitted at two or more temperature plateaus (``core.stand.fit_stand_plateaus``)
-    every element of K and b is a polynomial of ``T - temperature_c``
-    (``scale_coefficients`` (order + 1) x 3 x 3, ``bias_coefficients_mps2``
-    (order + 1) x 3; ``scale_matrix`` and ``bias_mps2`` their values at
-    ``temperature_c``), valid over ``t_min_c`` .. ``t_max_c``: ``apply`` takes
-    K(T), b(T) at each reading's temperature, held at the nearer end of the
-    range beyond it (``outside_range`` counts those).
+    K(T), b(T) of a stand at several temperature plateaus: ``_PolynomialOfTemperature``.
     """
 
     scale_matrix: tuple        # K, 3 rows of 3, dimensionless
@@ -109,51 +161,14 @@ class Stand:
     t_max_c: float = None
 
     @property
+    def bias_coefficients(self):
+        """Return the coefficients of b(T) (None: constant)."""
+        return self.bias_coefficients_mps2
+
+    @property
     def tilt_std_rad(self):
         """Return the fit's own inclination residual as the stage's tilt 1 sigma [rad]."""
         return math.radians(self.rms_inclination_deg or 0.0)
-
-    def apply(self, f, temperature_c=None):
-        """
-        Return ``K^-1 (f - b)`` (seed 001 Eq. 11) for ``f`` of shape (N, 3).
-
-        With K(T), b(T) (a multi-temperature stand) at ``temperature_c``
-        (scalar or (N,), clamped to the fitted range; None: at the stage's
-        temperature).
-        """
-        if self.scale_coefficients is None or temperature_c is None:
-            return correct_stand(f, self.arrays[0], self.arrays[1])
-        f = np.asarray(f, dtype=float).reshape(-1, 3)
-        scale, bias = self.at(np.broadcast_to(np.asarray(temperature_c, dtype=float),
-                                              f.shape[:1]))
-        return np.linalg.solve(scale, (f - bias)[..., None])[..., 0]
-
-    def at(self, temperature_c):
-        """Return (K, b) at ``temperature_c`` (clamped to the range): (..., 3, 3), (..., 3)."""
-        if self.scale_coefficients is None:
-            return self.arrays
-        held = np.clip(np.asarray(temperature_c, dtype=float), self.t_min_c, self.t_max_c)
-        powers = np.power.outer(held - self.temperature_c,
-                                np.arange(len(self.scale_coefficients)))
-        return (np.tensordot(powers, np.array(self.scale_coefficients), axes=1),
-                np.tensordot(powers, np.array(self.bias_coefficients_mps2), axes=1))
-
-    def outside_range(self, temperature_c):
-        """Return which temperatures lie outside a multi-temperature stand's range (bool)."""
-        temperature_c = np.asarray(temperature_c, dtype=float)
-        if self.scale_coefficients is None:
-            return np.zeros(temperature_c.shape, dtype=bool)
-        return ~in_range(temperature_c, self)
-
-    @property
-    def reference_temperature_c(self):
-        """Return the temperature K and b stand for without a temperature input (the centre)."""
-        return self.temperature_c
-
-    @property
-    def temperature_dependent(self):
-        """Return whether K and b are polynomials of T (a multi-temperature stand)."""
-        return self.scale_coefficients is not None
 
     @cached_property
     def arrays(self):
@@ -173,7 +188,7 @@ class Stand:
 
 
 @dataclass(frozen=True)
-class Magnetometer:
+class Magnetometer(_PolynomialOfTemperature):
     """
     The magnetometer's own correction ``B = K_m^-1 (m - b_m)`` (seed 001 Eq. 12) [nT].
 
@@ -181,7 +196,9 @@ class Magnetometer:
     b_m the bias and hard iron (and any field fixed to the tool when it was
     fitted).  ``method``: ``stand`` (Eq. 12 against the field expected at
     known stand attitudes) or ``ellipsoid`` (``inclino fit-magnetometer``,
-    no reference: K_m symmetric, scaled to ``field_nT``).
+    no reference: K_m symmetric, scaled to ``field_nT``).  A stand at several
+    temperature plateaus gives K_m(T), b_m(T) (``_PolynomialOfTemperature``):
+    ``scale_matrix`` and ``bias_nT`` are their values at ``temperature_c``.
     """
 
     scale_matrix: tuple        # K_m, 3 rows of 3
@@ -193,15 +210,20 @@ class Magnetometer:
     positions: int             # stand positions or shots
     fitted_at: str
     temperature_c: float = None  # what the fitted readings stood for; None: unknown
+    scale_coefficients: tuple = None   # K_m(T): powers of (T - temperature_c); None: constant
+    bias_coefficients_nT: tuple = None  # b_m(T), likewise
+    t_min_c: float = None              # the plateaus' range; None: constant K_m, b_m
+    t_max_c: float = None
+
+    @property
+    def bias_coefficients(self):
+        """Return the coefficients of b_m(T) (None: constant)."""
+        return self.bias_coefficients_nT
 
     @cached_property
     def arrays(self):
         """Return K_m and b_m as numpy arrays, built once."""
         return np.array(self.scale_matrix), np.array(self.bias_nT)
-
-    def apply(self, b_nT):
-        """Return ``K_m^-1 (m - b_m)`` for readings (N, 3)."""
-        return correct_stand(b_nT, *self.arrays)
 
 
 @dataclass(frozen=True)

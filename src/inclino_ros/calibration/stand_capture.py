@@ -14,7 +14,7 @@ magnetometer's K_m and bias (Eq. 12, ``magnetometer.fit_field_stand``).
 from dataclasses import dataclass
 import math
 
-from inclino_ros.calibration.magnetometer import fit_field_stand, mean_temperature_c
+from inclino_ros.calibration.magnetometer import fit_field_stand
 from inclino_ros.calibration.plausibility import check_accelerometer_readings
 from inclino_ros.calibration.stand_fit import repeatability_note, solve_stand
 from inclino_ros.calibration.still_capture import (
@@ -40,7 +40,7 @@ class Position:
     field_nT: tuple = None     # mean raw magnetometer reading, None when not captured
     field_std_deg: float = None  # per-sample noise of the field's direction
     temperature_c: float = None  # what the readings stood for; None: unknown
-    field_temperature_c: float = None  # what the field readings stood for; None: unknown
+    field_temperature_c: float = None  # what the field stood for (its own temperature stage)
 
 
 def repeated_position(positions, inclination_deg, toolface_deg, azimuth_deg=0.0,
@@ -83,9 +83,9 @@ def average_position(samples, inclination_deg, toolface_deg, limits, times_s=Non
     vertical (the azimuth axis of a stand) shows in it alone.  With
     ``gravity_mps2``, raises Implausible for readings that are not a still
     tool's in m/s^2 (``plausibility.check_accelerometer_readings``).
-    ``temperature_c``, ``field_temperature_c``: what the accelerometer and
-    the field readings stood for (``provenance.readings_temperature_c`` of
-    each triad's temperature stage).
+    ``temperature_c``, ``field_temperature_c``: what the readings and the
+    fields stood for (``provenance.readings_temperature_c`` of each triad's
+    temperature stage).
     """
     samples = np.asarray(samples, dtype=float)
     if gravity_mps2 is not None:
@@ -108,8 +108,7 @@ def average_position(samples, inclination_deg, toolface_deg, limits, times_s=Non
                     reading_mps2=tuple(samples.mean(axis=0).tolist()),
                     std_deg=stillness.white_noise_deg, samples=int(samples.shape[0]),
                     azimuth_deg=float(azimuth_deg), field_nT=field, field_std_deg=field_std_deg,
-                    temperature_c=temperature_c,
-                    field_temperature_c=None if field is None else field_temperature_c)
+                    temperature_c=temperature_c, field_temperature_c=field_temperature_c)
 
 
 def solve_positions(positions, gravity_mps2, max_rms_deg, reference=None,
@@ -122,8 +121,9 @@ def solve_positions(positions, gravity_mps2, max_rms_deg, reference=None,
     their repeatability: ``stand_fit.repeatability_note``); with
     ``reference`` (total nT, dip deg) and a field at every position the
     magnetometer is fitted too (``magnetometer.fit_field_stand``, refused
-    beyond ``max_field_rms_deg``; both its stages record the mean temperature
-    the positions' fields stood for); the note says why it was not otherwise.
+    beyond ``max_field_rms_deg``; positions at two or more temperature
+    plateaus give K_m(T), b_m(T) as they give K(T), b(T)); the note says why
+    it was not otherwise.
     """
     readings = np.array([p.reading_mps2 for p in positions]).reshape(-1, 3)
     attitudes = np.array([(p.inclination_deg, p.toolface_deg, p.azimuth_deg)
@@ -141,7 +141,6 @@ def solve_positions(positions, gravity_mps2, max_rms_deg, reference=None,
         return (stand, None, f'magnetometer not fitted: no field at position(s) {without}',
                 repeats)
     fields = np.array([p.field_nT for p in positions])
-    stood_c = mean_temperature_c([np.nan if p.field_temperature_c is None
-                                  else p.field_temperature_c for p in positions])
     return (stand, fit_field_stand(fields, attitudes, *reference, stand, max_field_rms_deg,
-                                   stood_c), None, repeats)
+                                   [p.field_temperature_c for p in positions]),
+            None, repeats)

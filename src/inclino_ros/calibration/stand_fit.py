@@ -23,7 +23,7 @@ The stand stage from stand positions or free readings: one rule for the node and
 
 from dataclasses import dataclass, replace
 
-from inclino_ros.calibration.provenance import utc_now_iso
+from inclino_ros.calibration.provenance import readings_temperature_c, utc_now_iso
 from inclino_ros.calibration.stages import Stand
 from inclino_ros.calibration.still_capture import CaptureRefused, require_still_vectors
 from inclino_ros.core.stand import (
@@ -43,6 +43,38 @@ class StandSolution:
     attitudes_deg: np.ndarray  # (P, 2) inclination, toolface of the positions; None: sphere
     refusal: str
     plateaus: object = None  # core.stand.TemperatureStandFit of a multi-temperature stand
+
+
+def stand_readings(model, readings, temperature_c=None):
+    """
+    Return (readings, stood_c) a stand fit takes: the file's stages before the stand applied.
+
+    As ``~/capture_position`` takes them: the temperature stage of ``model``
+    corrects the readings at their temperatures ``temperature_c`` (None: at
+    its reference); ``stood_c`` (N,) the temperature each reading stood for
+    (``provenance.readings_temperature_c``: the stage's reference, else its
+    own), None when neither is known.
+    """
+    readings = np.asarray(readings, dtype=float)
+    stood_c = (None if model.temperature is None and temperature_c is None else
+               np.broadcast_to(readings_temperature_c(model.temperature, temperature_c),
+                               readings.shape[:1]).astype(float))
+    return model.apply(readings, temperature_c, before='stand'), stood_c
+
+
+def position_stood_c(stage, temperature_c, position, counts):
+    """
+    Return the temperature each position's readings stood for [C], or None when unknown.
+
+    The reference of their temperature ``stage`` (a stage compensates to it),
+    else the mean of their own ``temperature_c`` (N,) over each position's
+    readings (``position`` (N,) numbers, ``counts`` (P,) readings a position;
+    ``provenance.readings_temperature_c``).
+    """
+    if stage is None and temperature_c is None:
+        return None
+    return np.bincount(position, weights=np.broadcast_to(
+        readings_temperature_c(stage, temperature_c), np.shape(position))) / counts
 
 
 def group_positions(readings, attitude_deg):

@@ -11,10 +11,12 @@ write over a file that changed since the writer read it
 (``CalibrationChanged``).
 """
 
+from dataclasses import replace
 import json
 import os
 
 from inclino_ros.calibration import history
+from inclino_ros.calibration.corrections import CalibrationModel
 from inclino_ros.calibration.provenance import utc_now_iso
 from inclino_ros.calibration.schema import AXES_MAP_SENSORS, model_from_dict
 from inclino_ros.core.mounting import axes_map_matrix
@@ -150,3 +152,37 @@ def check_axes_maps(model, maps, path):
             raise CalibrationFileError(
                 path, f'was fitted with the {name} axes map {fitted!r}, but the readings are '
                 f'turned by {used!r}: use the map it was fitted in, or fit again')
+
+
+def axes_refusal(model, axes, path):
+    """Return why ``model`` cannot correct an ``axes``-axis accelerometer, or None."""
+    if axes is None or model.accelerometer_axes == axes:
+        return None
+    return f'{path} is for a {model.accelerometer_axes}-axis accelerometer, not {axes} axes'
+
+
+def model_to_update(model, path, sensor_id=None, axes=3, maps=None):
+    """
+    Return the model a fit updates: ``model`` (the file's, None: none) or a new one.
+
+    A new model has ``axes`` accelerometer axes (3 when None), names
+    ``sensor_id`` and records ``maps`` (the (accelerometer, magnetometer)
+    axes maps the readings are turned by; None: readings in tool axes
+    already).  A file fitted in other maps is a CalibrationFileError
+    (``check_axes_maps``); one for another number of accelerometer axes
+    than ``axes`` (None: any) a ValueError (``axes_refusal``: a stand and a
+    temperature stage need three).  The model returned names ``sensor_id``
+    (if given) and records ``maps``.
+    """
+    if model is None:
+        return CalibrationModel(accelerometer_axes=axes or 3, sensor_id=sensor_id or None,
+                                axes_maps=maps)
+    if maps is not None:
+        check_axes_maps(model, maps, path)
+    model = replace(model, sensor_id=sensor_id or model.sensor_id,
+                    axes_maps=maps or model.axes_maps)
+    reason = axes_refusal(model, axes, path)
+    if reason is not None:
+        raise ValueError(reason + ('; stand and temperature stages need three'
+                                   if axes == 3 else ''))
+    return model

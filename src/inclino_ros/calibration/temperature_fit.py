@@ -17,6 +17,7 @@ record one: a stand captured at 35 deg C keeps working.
 
 from inclino_ros.calibration.provenance import common_stage_temperature, utc_now_iso
 from inclino_ros.calibration.stages import MagnetometerTemperature, Temperature
+from inclino_ros.core.attitude import angle_between, inclination
 from inclino_ros.core.temperature import (
     fit_temperature, fit_temperature_drift, REFERENCE_TEMPERATURE_C, TemperatureFitRefused)
 import numpy as np
@@ -136,3 +137,45 @@ def solve_temperature(model, triad, temperature_c, readings, attitude, order, re
                      'stage(s) record no temperature: compensating to '
                      f'{result.reference_temperature_c:g} C assumes they were captured there')
     return stage_of(triad, result, temperature_c.size, axes_map), result, notes
+
+
+def _per_attitude_reference(values, attitude, temperature_c, reference_c):
+    """Return each sample's attitude value nearest ``reference_c`` (the run's own baseline)."""
+    baseline = np.empty_like(values)
+    for label in np.unique(attitude):
+        mine = attitude == label
+        nearest = np.argmin(np.abs(temperature_c[mine] - reference_c))
+        baseline[mine] = values[mine][nearest]
+    return baseline
+
+
+def inclination_errors(previous, model, readings, temperature_c, attitude):
+    """Return (before, after, name): inclination change over the run per attitude [deg]."""
+    reference_c = model.temperature.reference_temperature_c
+    before = np.degrees(inclination(previous.apply(readings)))
+    after = np.degrees(inclination(model.apply(readings, temperature_c)))
+    baseline = _per_attitude_reference(after, attitude, temperature_c, reference_c)
+    return before - baseline, after - baseline, 'inclination error'
+
+
+def direction_errors(previous, model, readings, temperature_c, attitude):
+    """Return (before, after, name): field direction change over the run per attitude [deg]."""
+    reference_c = model.magnetometer_temperature.reference_temperature_c
+    before = previous.apply_magnetic(readings)
+    after = model.apply_magnetic(readings, temperature_c)
+    baseline = _per_attitude_reference(after, attitude, temperature_c, reference_c)
+    return (np.degrees(angle_between(before, baseline)),
+            np.degrees(angle_between(after, baseline)), 'field direction error')
+
+
+def run_errors(triad, previous, model, readings, temperature_c, attitude):
+    """
+    Return (before, after, name) of a heating run: its error over the run [deg], per attitude.
+
+    ``previous`` the model without the new temperature stage of ``triad``,
+    ``model`` with it: the accelerometer's inclination, the magnetometer's
+    field direction, against each attitude's value at the stage's reference
+    temperature (``inclination_errors``, ``direction_errors``).
+    """
+    errors = inclination_errors if triad == 'accelerometer' else direction_errors
+    return errors(previous, model, readings, temperature_c, attitude)

@@ -27,13 +27,14 @@ import sys
 import tempfile
 import time
 
-from inclino_ros.cli.compare import angle_error_deg, station_rows
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.live import LiveSession
 from inclino_ros.cli.options import add_force_argument
-from inclino_ros.cli.play import publish_timed, Timeline
 from inclino_ros.io.bag import concatenate, IMU, read
 from inclino_ros.io.files import Outputs
+from inclino_ros.io.timing import Timeline
+from inclino_ros.node.playback import publish_timed
+from inclino_ros.report.demo import plot, station_table, table_lines
 import numpy as np
 
 RATE = 2.0  # replay speed factor
@@ -208,84 +209,6 @@ def segment(series, mask):
     return type(series)(*(getattr(series, f.name)[mask] for f in fields(series)))
 
 
-def station_table(truth, answers):
-    """
-    Return one row per station: truth and the mean raw/corrected/offline answers.
-
-    ``truth`` (N, 3) of the station samples; ``answers`` maps raw, corrected,
-    offline to (N, 3) aligned answers (NaN where none came).
-    """
-    rows = None
-    for name, values in answers.items():
-        per_station = station_rows(truth, values, min_inclination_deg=0.0)
-        rows = rows or [{'station': k + 1, 'true_inclination_deg': r['true_inclination_deg'],
-                         'true_toolface_deg': r['true_toolface_deg']}
-                        for k, r in enumerate(per_station)]
-        for row, r in zip(rows, per_station):
-            row.update({f'{name}_inclination_deg': r['inclination_deg'],
-                        f'{name}_toolface_deg': r['toolface_deg'],
-                        f'{name}_samples': r['samples']})
-    return rows
-
-
-def print_table(rows):
-    """Print raw vs corrected vs true per station."""
-    print(f'{"st":>3} {"true I":>8} {"raw I":>8} {"corr I":>8} {"err raw":>8} '
-          f'{"err corr":>9} | {"true TF":>8} {"raw TF":>8} {"corr TF":>8} {"err raw":>8} '
-          f'{"err corr":>9}   [deg]')
-    for r in rows:
-        ti, tt = r['true_inclination_deg'], r['true_toolface_deg']
-        print(f'{r["station"]:>3} {ti:8.3f} {r["raw_inclination_deg"]:8.3f} '
-              f'{r["corrected_inclination_deg"]:8.3f} {r["raw_inclination_deg"] - ti:8.3f} '
-              f'{r["corrected_inclination_deg"] - ti:9.4f} | {tt:8.2f} '
-              f'{r["raw_toolface_deg"]:8.2f} {r["corrected_toolface_deg"]:8.2f} '
-              f'{angle_error_deg(r["raw_toolface_deg"], tt):8.2f} '
-              f'{angle_error_deg(r["corrected_toolface_deg"], tt):9.3f}')
-
-
-def plot(rows, path):
-    """
-    Write the signed errors per station as a PNG: raw, live corrected, offline, targets.
-
-    Inclination target: +-TARGET_DEG; toolface: the error a tilt of TARGET_DEG
-    causes, TARGET_DEG / sin(I).  A symmetric-log axis shows degrees and
-    thousandths of a degree on one scale.
-    """
-    import matplotlib
-    matplotlib.use('Agg')
-    from matplotlib import pyplot
-
-    true_i = np.array([r['true_inclination_deg'] for r in rows])
-    true_t = [r['true_toolface_deg'] for r in rows]
-    fig, (ax_i, ax_t) = pyplot.subplots(2, 1, figsize=(8, 8), sharex=True)
-    for name, style, label in (
-            ('raw', {'marker': 'o', 'color': 'tab:red'}, 'live, uncalibrated'),
-            ('corrected', {'marker': 's', 'color': 'tab:green'}, 'live, after ~/calibrate_level'),
-            ('offline', {'marker': 'D', 'markersize': 10, 'markerfacecolor': 'none',
-                         'color': 'tab:blue'}, 'offline, inclino process')):
-        err_i = np.array([r[f'{name}_inclination_deg'] for r in rows]) - true_i
-        err_t = angle_error_deg([r[f'{name}_toolface_deg'] for r in rows], true_t)
-        ax_i.plot(true_i, err_i, linestyle='', label=label, **style)
-        ax_t.plot(true_i, err_t, linestyle='', label=label, **style)
-    grid = np.geomspace(true_i.min(), true_i.max(), 200)
-    target_t = np.degrees(np.arctan(np.tan(np.radians(TARGET_DEG)) / np.sin(np.radians(grid))))
-    for ax, target, text in ((ax_i, np.full_like(grid, TARGET_DEG), f'target +-{TARGET_DEG} deg'),
-                             (ax_t, target_t, f'target: a {TARGET_DEG} deg tilt error')):
-        ax.fill_between(grid, -target, target, color='tab:green', alpha=0.15, label=text)
-        ax.axhline(0.0, color='black', linewidth=0.8)
-        ax.set_xscale('log')
-        ax.set_yscale('symlog', linthresh=1e-3)
-        ax.grid(True, which='both', alpha=0.3)
-        ax.legend(fontsize='small')
-    ax_i.set_ylabel('inclination error [deg]')
-    ax_t.set_ylabel('toolface error [deg]')
-    ax_t.set_xlabel('true inclination of the station [deg]')
-    ax_i.set_title('inclino_ros demo: signed error per station (mean of its samples)')
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    pyplot.close(fig)
-
-
 def run(args):
     """Run the demo; exit 0 when the corrected answers beat the raw ones."""
     from inclino_ros.cli.main import main as inclino
@@ -348,7 +271,7 @@ def run(args):
     rows = station_table(truth[seg > 0], {'raw': raw, 'corrected': corrected,
                                           'offline': offline})
     print('== 7. results (mean of each station)')
-    print_table(rows)
+    print('\n'.join(table_lines(rows)))
     worst = {name: max(abs(r[f'{name}_inclination_deg'] - r['true_inclination_deg'])
                        for r in rows) for name in ('raw', 'corrected', 'offline')}
     live_vs_offline = max(abs(r['corrected_inclination_deg'] - r['offline_inclination_deg'])
@@ -360,6 +283,6 @@ def run(args):
     with outputs:
         with open(outputs.path(os.path.join(out, 'results.json')), 'x') as stream:
             json.dump(rows, stream, indent=2)
-        plot(rows, outputs.path(png))
+        plot(rows, outputs.path(png), TARGET_DEG)
     print(f'wrote {png} and {os.path.join(out, "results.json")}')
     return 0 if worst['corrected'] < worst['raw'] else 1

@@ -21,27 +21,21 @@ that is not level, or a temperature far from the stand stage's.
 """
 
 from dataclasses import replace
-import math
 import sys
 
-from inclino_ros.calibration.continuous_log import (
-    GYRO_COLUMNS, longest_still_part, segment_limits, TIME_COLUMN)
-from inclino_ros.calibration.level_capture import (
-    CaptureRefused, LevelLimits, solve_level_capture)
+from inclino_ros.calibration.continuous_log import segment_limits
+from inclino_ros.calibration.inputs import level_input
+from inclino_ros.calibration.level_capture import CaptureRefused, LevelLimits, solve_level_capture
 from inclino_ros.calibration.model import readings_temperature_c, temperature_conflict
-from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
-    add_common_arguments, add_still_options, axes_maps, AXIS_COLUMNS, finish_figure, has_topic,
-    is_bag, load_existing, new_figure, NODE_DEFAULTS, node_option, read_csv, read_topic, Refused,
-    report_paths, report_residuals, run_fit, sample_temperatures, save, tool_axes, write_text)
+    add_common_arguments, add_still_options, axes_maps, load_existing, NODE_DEFAULTS, node_option,
+    Refused, report_paths, run_fit, save, source_of, tool_axes, write_text)
 from inclino_ros.cli.helptext import add_command
-from inclino_ros.cli.play import in_window
-from inclino_ros.core.installation import level_axis_angles
-from inclino_ros.io.report import Residual
+from inclino_ros.io.report import residual_lines
+from inclino_ros.report.common import Fitted
+from inclino_ros.report.level import block_residuals, BLOCKS, capture_lines, plot_level
 import numpy as np
 
-#: Parts the level capture is cut into for the residual table.
-BLOCKS = 5
 REPORT_NAME = 'fit_level'
 
 
@@ -88,48 +82,15 @@ def run(args):
     return run_fit('fit-level', args, fit)
 
 
-def load_input(args):
-    """
-    Return the level window: readings (N, 3) in sensor axes, temperature_c, times_s.
-
-    ``temperature_c`` (N,) or None; ``times_s`` (N,) or None (a CSV without
-    ``time_s``: the samples in order).
-    """
-    if not is_bag(args.input):
-        table = read_csv(args.input, AXIS_COLUMNS,
-                         optional=('temperature_c', TIME_COLUMN) + GYRO_COLUMNS)
-        readings = np.column_stack([table[name] for name in AXIS_COLUMNS])
-        temperature_c, times_s = table.get('temperature_c'), table.get(TIME_COLUMN)
-        if times_s is None:
-            return readings, temperature_c, times_s
-        gyro = (np.column_stack([table[name] for name in GYRO_COLUMNS])
-                if all(name in table for name in GYRO_COLUMNS) else None)
-        try:
-            taken, note = longest_still_part(times_s, readings, gyro, segment_limits(
-                args.max_drift_deg_per_s, args.max_sem_deg))
-        except ValueError as err:
-            raise Refused(f'{args.input}: {err}') from None
-        if note:
-            print(f'inclino fit-level: {note}', file=sys.stderr)
-        return (readings[taken], None if temperature_c is None else temperature_c[taken],
-                times_s[taken])
-    imu = read_topic(args.input, args.raw_topic)
-    window = in_window(imu.stamps_ns, args.start_s, args.end_s)
-    if not window.any():
-        raise CommandError(f'no {args.raw_topic} message from {args.start_s} to {args.end_s} '
-                           f's (the topic spans 0 .. '
-                           f'{(imu.stamps_ns.max() - imu.stamps_ns.min()) * 1e-9:.3f} s)')
-    temperature_c = (sample_temperatures(imu, args.input, args.temperature_topic)[0][window]
-                     if has_topic(args.input, args.temperature_topic) else None)
-    return imu.linear_acceleration_mps2[window], temperature_c, imu.stamps_ns[window] * 1e-9
-
-
 def fit(args, lines, outputs):
     """Solve the installation stage of ``args.input`` into ``args.calibration``."""
     existing = load_existing(args.calibration, args.sensor_id, axes=args.axes,
                              maps=axes_maps(args))
     axes = args.axes or existing.accelerometer_axes
-    readings, temperature_c, times_s = load_input(args)
+    readings, temperature_c, times_s, note = level_input(source_of(args), segment_limits(
+        args.max_drift_deg_per_s, args.max_sem_deg))
+    if note:
+        print(f'inclino fit-level: {note}', file=sys.stderr)
     readings = tool_axes(args, readings)
     if axes == 2:
         readings[:, 2] = 0.0   # a two-axis sensor has no z reading
@@ -150,65 +111,17 @@ def fit(args, lines, outputs):
     except CaptureRefused as err:
         raise Refused(str(err)) from None
     applied = [name for name in ('temperature', 'stand') if getattr(existing, name)]
-    lines += [
-        f'level capture: {installation.sample_count} samples'
-        + (f' after the {" and ".join(applied)} stage of the file' if applied else ''),
-        f'gamma_deg={installation.gamma_deg:.4f} beta_deg={installation.beta_deg:.4f} '
-        f'theta_deg={installation.theta_deg:.4f} (noise {installation.std_deg:.4f} deg per '
-        f'sample, 1 sigma of the angles {math.degrees(installation.tilt_std_rad):.4f} deg, '
-        f'G-total {installation.g_total_mps2:.4f} m/s^2)']
+    lines += capture_lines(installation, applied)
     g_mps2 = args.gravity_mps2 if axes == 2 else None
-    report_residuals(args, lines, block_residuals(level, installation, g_mps2),
-                     f"tilt of each {BLOCKS}th of the capture minus the whole capture's")
+    rows = block_residuals(level, installation, g_mps2)
+    lines += residual_lines(rows, f'tilt of each {BLOCKS}th of the capture minus the whole '
+                                  "capture's")
     png, txt = report_paths(args, REPORT_NAME)
     plot_level(outputs.path(png), level, installation, g_mps2)
     # The level bench measures the whole mount: a tool axis on top would count twice.
-    save(args, replace(existing, installation=installation, tool_axis=None), outputs)
+    model = save(args, replace(existing, installation=installation, tool_axis=None), outputs)
     lines += [f'wrote {args.calibration}: installation stage'
               + (f', {" and ".join(applied)} stage kept' if applied else ''),
               f'report: {png}, {txt}']
     write_text(outputs.path(txt), lines)
-
-
-def axis_tilts_deg(level, two_axis_g):
-    """Return the tilts theta'_x1, theta'_y1 (N, 2) [deg] of each sample (seed 000 Eqs. 11-12)."""
-    g = np.full(level.shape[0], two_axis_g) if two_axis_g else np.linalg.norm(level, axis=1)
-    return np.degrees(np.stack(level_axis_angles(level, g), axis=1))
-
-
-def block_residuals(level, installation, two_axis_g):
-    """
-    Return the Residual rows of the capture cut in BLOCKS: each axis tilt's mean minus the whole's.
-
-    The stated noise of a block's mean is the stage's per-sample noise
-    ``std_deg`` over the square root of the block's samples: a block far
-    above it is a drift or a knock the stillness check let through.
-    """
-    tilts_deg = axis_tilts_deg(level, two_axis_g)
-    rows = []
-    for number, block in enumerate(np.array_split(np.arange(level.shape[0]), BLOCKS)):
-        if block.size == 0:
-            continue
-        noise_deg = installation.std_deg / math.sqrt(block.size)
-        for column, name in enumerate(("theta'_x1", "theta'_y1")):
-            rows.append(Residual(
-                f'block {number + 1}/{BLOCKS} ({block.size} samples) {name}',
-                float(tilts_deg[block, column].mean() - tilts_deg[:, column].mean()),
-                noise_deg, 'deg'))
-    return rows
-
-
-def plot_level(path, level, installation, two_axis_g):
-    """Plot the axis tilts of every sample and their mean (seed 000 Eqs. 11-12)."""
-    tilts_deg = axis_tilts_deg(level, two_axis_g)
-    pyplot, fig, axes = new_figure(2, f'inclino fit-level: gamma {installation.gamma_deg:.4f} '
-                                      f'deg, beta {installation.beta_deg:.4f} deg')
-    sample = np.arange(level.shape[0])
-    for ax, column, name in zip(axes, tilts_deg.T, ("theta'_x1", "theta'_y1")):
-        ax.plot(sample, column, '.', markersize=3, label=f'{name} per sample')
-        ax.axhline(column.mean(), color='black',
-                   label=f'mean {column.mean():.4f} deg (spread {column.std():.4f} deg)')
-        ax.set_ylabel(f'{name} [deg]')
-    for ax in axes:
-        ax.set_xlabel('sample of the level capture [number]')
-    finish_figure(pyplot, fig, axes, path)
+    return Fitted(model, tuple(rows))

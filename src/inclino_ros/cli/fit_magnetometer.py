@@ -6,10 +6,13 @@ force, tool frame, z along the tool axis), ``bx, by, bz`` (nT, same frame)
 and optionally ``roll_group`` (rows with the same non-empty value were
 taken with the tool axis held in one direction and the tool turned about
 it) and ``temperature_c``; one row per still shot.  Or a bag: the still
-segments of ``--raw-topic`` and ``--mag-topic`` are found (every window of
-``--still-window-s`` whose directions spread less than ``--max-still-deg``
-on both triads, joined into segments of at least ``--min-still-s``) and each
-becomes a shot; roll sets among them are found as in a CSV without
+segments of ``--raw-topic`` and ``--mag-topic`` are found by the one still
+rule of every stream (``stillness.find_still_segments``, as for a
+continuous log: windows of ``--still-window-s`` in which neither triad's
+direction moves, significantly and by more than ``--max-still-deg`` or
+faster than ``--max-drift-deg-per-s``, joined while neighbours agree, the
+first and last window of a run left out, at least ``--min-still-s`` left)
+and each becomes a shot; roll sets among them are found as in a CSV without
 ``roll_group`` (consecutive shots pointing one way while the tool turns).
 
 One joint fit (``core.shots``) finds the magnetometer ellipsoid (hard iron,
@@ -43,25 +46,26 @@ weighted by its own pointing wander (reported), and one that wandered beyond
 """
 
 from dataclasses import replace
-import math
 import sys
 
+from inclino_ros.calibration.continuous_log import segment_limits
+from inclino_ros.calibration.inputs import bag_shots
 from inclino_ros.calibration.magnetometer import calibrate_from_shots
 from inclino_ros.calibration.plausibility import check_field_unit, Implausible
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
-    add_file_arguments, finish_figure, is_bag, load_existing, new_figure, read_topic, Refused,
-    report_paths, report_residuals, run_fit, save, TEMPERATURE_TOPIC, write_text)
-from inclino_ros.cli.fitting import MAG_PAIRING_TOLERANCE_NT, NODE_DEFAULTS
+    add_file_arguments, is_bag, load_existing, MAG_PAIRING_TOLERANCE_NT, NODE_DEFAULTS,
+    node_option, Refused, report_paths, run_fit, save, source_of, TEMPERATURE_TOPIC, write_text)
 from inclino_ros.cli.options import between, node_parameter, positive
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core import magnetics
-from inclino_ros.core import stillness
 from inclino_ros.core.shots import ShotFitRefused, ShotLimits
+from inclino_ros.core.stillness import SegmentLimits
 from inclino_ros.io import tables
-from inclino_ros.io.report import REFUSED, Residual, USED
-from inclino_ros.io.timing import pair_nearest
-import numpy as np
+from inclino_ros.io.report import residual_lines
+from inclino_ros.report.common import Fitted
+from inclino_ros.report.magnetometer import (
+    fit_table_lines, plot_report, robust_lines, shot_residuals, summary_lines)
 
 REPORT_NAME = 'fit_magnetometer'
 ACCEL_COLUMNS = ('ax', 'ay', 'az')
@@ -101,13 +105,17 @@ def register(subparsers):
     bag.add_argument('--temperature-topic', default=TEMPERATURE_TOPIC,
                      help='sensor_msgs/Temperature topic, if the bag has it (default: '
                           '%(default)s)')
-    bag.add_argument('--still-window-s', type=positive, default=0.5,
+    bag.add_argument('--still-window-s', type=positive, default=SegmentLimits.window_s,
                      help='window of the stillness test [s] (default: %(default)s)')
     bag.add_argument('--max-still-deg', type=between(1e-6, 90.0), default=0.5,
-                     help='largest spread of the directions in a still window [deg] '
-                          '(default: %(default)s)')
-    bag.add_argument('--min-still-s', type=positive, default=1.0,
-                     help='shortest still segment taken as a shot [s] (default: %(default)s)')
+                     help="a still segment's direction (either triad) moves no further from "
+                          'its mean, significantly for its noise [deg] (default: %(default)s)')
+    node_option(bag, '--max-drift-deg-per-s', 'still.max_drift_deg_per_s',
+                'a window or segment whose direction drifts faster [deg/s], significantly for '
+                'its noise, moved')
+    bag.add_argument('--min-still-s', type=positive, default=SegmentLimits.min_s,
+                     help='shortest still segment taken as a shot, its first and last window '
+                          'left out [s] (default: %(default)s)')
     bag.add_argument('--max-pairing-s', type=node_parameter('magnetic.max_pairing_s'),
                      default=0.05,
                      help='largest time between an Imu sample and its magnetometer message '
@@ -123,28 +131,15 @@ def run(args):
 
 
 def read_bag_shots(args, lines):
-    """Return the shots of the still segments of a bag (roll groups: found by the fit)."""
-    imu = read_topic(args.input, args.raw_topic)
-    mag = read_topic(args.input, args.mag_topic)
-    field, paired = pair_nearest(imu.stamps_ns, mag.stamps_ns, mag.field_nT,
-                                 round(args.max_pairing_s * 1e9), MAG_PAIRING_TOLERANCE_NT)
-    order = np.argsort(imu.stamps_ns[paired], kind='stable')
-    stamps = imu.stamps_ns[paired][order]
-    accel = imu.linear_acceleration_mps2[paired][order]
-    field = field[paired][order]
-    if stamps.size < 2:
-        raise Refused(f'{args.input}: fewer than two {args.raw_topic} samples with a paired '
-                      f'{args.mag_topic} reading')
-    segments = stillness.still_segments(stamps, accel, field, args.still_window_s,
-                                        args.max_still_deg, args.min_still_s)
-    lines.append(f'{len(segments)} still segment(s) found in {args.input} '
-                 f'({stamps.size} paired samples)')
-    if len(segments) > tables.MAX_SHOTS:
-        raise Refused(f'{len(segments)} still segments are more shots than a fit takes '
-                      f'({tables.MAX_SHOTS}): take a longer --min-still-s')
-    shots_a = np.array([accel[a:b].mean(axis=0) for a, b in segments]).reshape(-1, 3)
-    shots_b = np.array([field[a:b].mean(axis=0) for a, b in segments]).reshape(-1, 3)
-    return shots_a, shots_b, None, None
+    """Return the shots of a bag's still segments (``inputs.bag_shots``; roll groups: none)."""
+    accel, field, paired = bag_shots(source_of(args), args.max_pairing_s,
+                                     MAG_PAIRING_TOLERANCE_NT, segment_limits(
+                                         args.max_drift_deg_per_s, args.max_still_deg,
+                                         '--max-still-deg', window_s=args.still_window_s,
+                                         min_s=args.min_still_s))
+    lines.append(f'{accel.shape[0]} still segment(s) found in {args.input} '
+                 f'({paired} paired samples)')
+    return accel, field, None, None
 
 
 def fit(args, lines, outputs):
@@ -188,147 +183,17 @@ def fit(args, lines, outputs):
                                          model.apply_magnetic(field, before='magnetic'))
                      for model in (existing, result.model))
     lines += summary_lines(result, labels, before, after, total_nT, dip_ref, source)
-    report_residuals(args, lines, shot_residuals(result.fit, labels),
-                     '|B| of each shot after the fit minus the fitted field')
+    rows = shot_residuals(result.fit, labels)
+    lines += residual_lines(rows, '|B| of each shot after the fit minus the fitted field')
     png, txt = report_paths(args, REPORT_NAME)
     if args.plot:
         plot_report(outputs.path(png), labels, before, after, result.fit.field_nT,
                     args.gravity_mps2)
-    save(args, result.model, outputs)
+    model = save(args, result.model, outputs)
     written = ['magnetometer', 'magnetometer_alignment'] + (
         ['tool_axis'] if result.fit.tool_axis is not None else []) + (
         ['stand (method sphere)'] if result.fit.accel_matrix is not None else [])
     lines += [f'wrote the stages {", ".join(written)} to {args.calibration}',
               f'report: {txt}' + (f', {png}' if args.plot else '')]
     write_text(outputs.path(txt), lines)
-
-
-def circular_spread_deg(angles_deg):
-    """Return the RMS deviation [deg] of angles from their circular mean."""
-    mean = math.degrees(math.atan2(np.mean(np.sin(np.radians(angles_deg))),
-                                   np.mean(np.cos(np.radians(angles_deg)))))
-    return float(np.sqrt(np.mean(((np.asarray(angles_deg) - mean + 180.0) % 360.0 - 180.0) ** 2)))
-
-
-def group_spreads(labels, survey, used):
-    """Return [(azimuth spread, inclination spread)] [deg] per roll group, ``used`` shots."""
-    if labels is None:
-        return []
-    return [(circular_spread_deg(survey['azimuth_deg'][(labels == k) & used]),
-             float(np.std(survey['inclination_deg'][(labels == k) & used])))
-            for k in range(int(labels.max()) + 1)]
-
-
-def robust_lines(fit, labels):
-    """Return the lines naming the outlier shots left out and the roll groups taken as free."""
-    lines = [f'outlier shot {shot + 1}'
-             + ('' if labels is None or labels[shot] < 0 else f' (roll group {labels[shot] + 1})')
-             + f': {sigma:.1f} robust sigma from the others, left out of the fit (the tool '
-             'moved, or iron was near)' for shot, sigma in fit.outliers]
-    lines += [f'roll group {group + 1} taken as free shots (no tool axis from it): {why}'
-              for group, why in fit.freed_groups]
-    lines += [f'roll group {k + 1}: pointing wander {fit.axial_rms_deg[k]:.3f} deg RMS along '
-              'the tool axis (its weight in the fit)' for k in fit.groups]
-    return lines
-
-
-def shot_residuals(fit, labels):
-    """
-    Return the Residual rows of each shot: its |B| after the fit minus the fitted field [nT].
-
-    Against the noise the fit found per shot (``noise_nT``); an outlier shot
-    left out of the fit is refused, with how many robust sigma it stood off.
-    """
-    outliers, rows = dict(fit.outliers), []
-    for i, b_total_nT in enumerate(fit.b_total_nT):
-        group = '' if labels is None or labels[i] < 0 else f' (roll group {labels[i] + 1})'
-        note = '' if fit.used[i] else (f'outlier, {outliers.get(i, float("nan")):.1f} robust '
-                                       'sigma from the others: left out')
-        rows.append(Residual(f'shot {i + 1}{group}', float(b_total_nT - fit.field_nT),
-                             float(fit.noise_nT), 'nT', USED if fit.used[i] else REFUSED, note))
-    return rows
-
-
-def fit_table_lines(fit, labels):
-    """Return the per-shot |g|, |B| and dip the fit leaves (a refused fit's figures)."""
-    lines = [f'{"shot":>4} {"group":>5} {"|g| [m/s^2]":>12} {"|B| [nT]":>10} {"dip [deg]":>10}']
-    for i in range(len(fit.b_total_nT)):
-        group = '' if labels is None or labels[i] < 0 else str(labels[i] + 1)
-        lines.append(f'{i + 1:>4} {group:>5} {fit.g_total_mps2[i]:12.5f} '
-                     f'{fit.b_total_nT[i]:10.1f} {fit.dip_per_shot_deg[i]:10.4f}'
-                     + ('' if fit.used[i] else '  outlier, left out'))
-    return lines
-
-
-def summary_lines(result, labels, before, after, total_nT, dip_ref, source):
-    """Return the text summary of a shot calibration."""
-    fit = result.fit
-    model = result.model
-    lines = [f'{len(fit.b_total_nT)} shots, {len(fit.groups)} roll group(s); joint fit in '
-             f'{fit.evaluations} evaluations; noise found: {fit.noise_mps2:.3g} m/s^2, '
-             f'{fit.noise_nT:.3g} nT per shot']
-    lines += list(result.notes) + robust_lines(fit, labels)
-    lines.append(f'field scaled to {fit.field_nT:.1f} nT '
-                 + (f'(reference, {source})' if total_nT is not None
-                    else "(the magnetometer's own mean scale: no reference given)"))
-    lines.append(f'dip found {fit.dip_deg:.4f} deg, RMS over the shots {fit.dip_rms_deg:.4f} deg'
-                 + ('' if dip_ref is None else
-                    f'; reference {dip_ref:.4f} deg ({fit.dip_deg - dip_ref:+.4f})'))
-    k_m, bias = model.magnetometer.arrays
-    lines.append('magnetometer K_m: ' + '; '.join(' '.join(f'{v:.6f}' for v in row)
-                                                  for row in k_m)
-                 + '  bias/hard iron nT: ' + ' '.join(f'{v:.1f}' for v in bias))
-    lines.append(f'magnetometer axes turned {model.magnetometer_alignment.angle_deg:.4f} deg '
-                 "into the accelerometer's")
-    if model.tool_axis is not None:
-        axis = model.tool_axis
-        lines.append(f'tool axis from the roll groups: gamma_deg={axis.gamma_deg:.4f} '
-                     f'beta_deg={axis.beta_deg:.4f} (axial RMS left {axis.axial_rms_deg:.4f} deg)')
-    lines.append(f'{"shot":>4} {"group":>5} {"|g| before":>11} {"after":>9} {"|B| before":>11} '
-                 f'{"after":>9} {"dip before":>10} {"after":>8}')
-    for i in range(len(fit.b_total_nT)):
-        group = '' if labels is None or labels[i] < 0 else str(labels[i] + 1)
-        lines.append(f'{i + 1:>4} {group:>5} {before["g_total_mps2"][i]:11.5f} '
-                     f'{after["g_total_mps2"][i]:9.5f} {before["b_total_nT"][i]:11.1f} '
-                     f'{after["b_total_nT"][i]:9.1f} {before["dip_deg"][i]:10.4f} '
-                     f'{after["dip_deg"][i]:8.4f}' + ('' if fit.used[i] else '  outlier'))
-    for what, key in (('|g| [m/s^2]', 'g_total_mps2'), ('|B| [nT]', 'b_total_nT'),
-                      ('dip [deg]', 'dip_deg')):
-        lines.append(f'spread (std) of {what} over the shots used: before '
-                     f'{np.std(before[key][fit.used]):.5g}, '
-                     f'after {np.std(after[key][fit.used]):.5g}')
-    for k, ((az0, inc0), (az1, inc1)) in enumerate(zip(group_spreads(labels, before, fit.used),
-                                                       group_spreads(labels, after, fit.used))):
-        lines.append(f'roll group {k + 1}: azimuth spread {az0:.4f} -> {az1:.4f} deg RMS, '
-                     f'inclination spread {inc0:.4f} -> {inc1:.4f} deg'
-                     + (f', turned over {fit.roll_deg[k]:.0f} deg' if k in fit.groups
-                        else ' (free shots)'))
-    return lines
-
-
-def plot_report(path, labels, before, after, field_nT, g):
-    """Plot |g|, |B|, dip per shot and the azimuth of the roll-group shots, before and after."""
-    pyplot, fig, axes = new_figure(4, 'inclino fit-magnetometer: shots before and after')
-    shot = np.arange(1, len(after['b_total_nT']) + 1)
-    for ax, key, unit, centre in ((axes[0], 'g_total_mps2', 'm/s^2', g),
-                                  (axes[1], 'b_total_nT', 'nT', field_nT),
-                                  (axes[2], 'dip_deg', 'deg', None)):
-        for survey, colour, name in ((before, 'tab:red', 'before'), (after, 'tab:green', 'after')):
-            values = survey[key] - (np.mean(survey[key]) if centre is None else centre)
-            ax.plot(shot, values, 'o', color=colour, markersize=4, label=name)
-        ax.set_ylabel(f'{key} - {"mean" if centre is None else "nominal"} [{unit}]')
-    if labels is not None:
-        for survey, colour, name in ((before, 'tab:red', 'before'), (after, 'tab:green', 'after')):
-            values = np.full(shot.size, np.nan)
-            for k in range(int(labels.max()) + 1):
-                members = labels == k
-                azimuth = survey['azimuth_deg'][members]
-                mean = math.degrees(math.atan2(np.mean(np.sin(np.radians(azimuth))),
-                                               np.mean(np.cos(np.radians(azimuth)))))
-                values[members] = (azimuth - mean + 180.0) % 360.0 - 180.0
-            axes[3].plot(shot, values, 'o', color=colour, markersize=4, label=name)
-    axes[3].set_ylabel('roll-group azimuth - group mean [deg]')
-    axes[3].set_xlabel('shot')
-    for ax in axes:
-        ax.axhline(0.0, color='black', linewidth=0.8)
-    finish_figure(pyplot, fig, axes, path)
+    return Fitted(model, tuple(rows))

@@ -1,84 +1,39 @@
 """
 ``inclino fit-stand``: seed 001's multi-position stand calibration into the calibration file.
 
-Input: a CSV with the columns ``inclination_deg, toolface_deg, ax, ay, az``
-(one row per sample or per averaged position; m/s^2, REP 145 z-up specific
-force; an optional ``temperature_c``), and for the magnetometer
-``azimuth_deg`` (the magnetic azimuth of the hole direction) and ``bx, by,
-bz`` [nT, tool frame]; or a bag with the raw sensor on ``/imu/data_raw``,
-the stand attitude on ``/stand/attitude`` (Vector3Stamped: x
-inclination_deg, y seed-000 toolface_deg, z azimuth_deg; each Imu sample
-takes the latest attitude at or before its stamp), optionally
-``/imu/temperature`` and ``--mag-topic``.  Consecutive samples of one
-attitude are averaged into one position; a later visit of an attitude (its
-rows after another attitude's, or less than 1 deg from it) is a repeat:
-weighed in the fit like any position, and the scatter of the visits is
-reported as the stand's repeatability (deg, per attitude and overall).
-
-A CSV with ``time_s`` and no attitude columns is a continuous log
-(optionally with the gyro, ``wx, wy, wz`` rad/s): its still segments
-(``continuous_log.log_segments``) are the readings of a sphere fit, one a
-segment, the samples between them left out.  Every still sample of such a
-log, in turn and without times, is grouped by pose
-(``continuous_log.sphere_readings``).
-
-With a reference field (``--reference-total-nT`` and
-``--reference-dip-deg``, or ``--site``) and magnetometer readings, the
-magnetometer's K_m and bias are fitted too (seed 001 Eq. 12: the same fit
-against the field expected at each position), into the stages
-``magnetometer`` and ``magnetometer_alignment``; refused beyond
-``--max-field-rms-deg``.  Positions that differ only in azimuth are one
-attitude for the accelerometer (repeats).
-
-``--method stand`` fits ``A = K G + b`` to the positions (``stand.fit_stand``);
-``--method sphere`` needs no attitude and fits every sample to ``|G| = g``
-(``stand.fit_sphere``: K only up to a rotation, returned upper triangular).
-A temperature stage already in the file is applied to the readings first
-(at their temperature, else at its reference), as the model applies it
-before the stand stage.  The new stand stage replaces the old one, keeps the
-other stages and drops the installation and tool-axis stages: a stand K
-contains the mounting misalignment, and after a sphere fit the level bench
-must be measured again on the stand-corrected readings.
-
-Refused (exit 1, the calibration file untouched): readings that are not
-those of a still tool in m/s^2 (``plausibility.check_accelerometer_readings``:
-g or mg named), a fit ``stand`` refuses (fewer than six distinct
-attitudes, an ill-posed set), a position where the tool moved (its mean
-drifts faster than ``--max-drift-deg-per-s`` against its own noise, or is
-not steady) or whose mean misses ``--max-sem-deg`` (``still_capture``:
-positions of fewer than 6 samples, e.g. averaged CSV rows, are not tested;
-CSV times from an optional ``time_s`` column), positions whose temperatures
-lie more than ``--max-temperature-difference-c`` apart without a
-temperature stage, an RMS inclination residual above ``--max-rms-deg`` (for
-a sphere fit: the RMS of ``|G| - g`` over g, as an angle).  The stage
-records the temperature its readings stood for (the temperature stage's
-reference, else their mean temperature).
+This module parses the options (their help is the user's documentation) and
+prints; the rules live where the node finds them too: the input (a CSV of
+positions or a continuous log, a bag with ``/stand/attitude``):
+``calibration.inputs.stand_input``; a log's still segments:
+``calibration.continuous_log``; positions, repeats, the temperature span, the
+stand and sphere fits, K(T) of a multi-temperature stand and what a new stand
+drops: ``calibration.stand_fit`` (as ``~/solve_stand_calibration``); the
+magnetometer's K_m and bias against a reference field (seed 001 Eq. 12):
+``calibration.magnetometer.fit_field_stand``; plausible readings:
+``calibration.plausibility``; the report: ``report.stand``; the atomic write
+with its history: ``fitting.run_fit``.  Exit 0 written, 1 refused (the
+calibration file untouched), 2 unusable input.
 """
 
-from functools import partial
-
-from inclino_ros.calibration.continuous_log import (
-    GYRO_COLUMNS, log_segments, segment_limits, sphere_readings, TIME_COLUMN)
-from inclino_ros.calibration.magnetometer import fit_field_stand, mean_temperature_c
-from inclino_ros.calibration.model import CalibrationModel, readings_temperature_c
+from inclino_ros.calibration.continuous_log import log_segments, segment_limits, sphere_readings
+from inclino_ros.calibration.inputs import stand_input
+from inclino_ros.calibration.magnetometer import fit_field_stand
 from inclino_ros.calibration.plausibility import check_accelerometer_readings
 from inclino_ros.calibration.stand_fit import (
-    check_temperature_span, group_positions, position_noise_deg, repeatability_note,
-    solve_sphere, solve_stand, stood_for_c, with_stand)
+    check_temperature_span, group_positions, position_noise_deg, position_stood_c,
+    repeatability_note, solve_sphere, solve_stand, stand_readings, stood_for_c, with_stand)
 from inclino_ros.calibration.still_capture import CaptureRefused
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
-    add_common_arguments, add_still_options, axes_maps, AXIS_COLUMNS, finish_figure, has_topic,
-    is_bag, load_existing, MAG_PAIRING_TOLERANCE_NT, matrix_lines, new_figure, NODE_DEFAULTS,
-    node_option, read_csv, read_topic, Refused, report_paths, report_residuals, run_fit,
-    sample_temperatures, save, tool_axes, write_text)
+    add_common_arguments, add_still_options, axes_maps, load_existing, MAG_PAIRING_TOLERANCE_NT,
+    NODE_DEFAULTS, node_option, Refused, report_paths, run_fit, save, source_of, tool_axes,
+    write_text)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.options import between, node_parameter
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
-from inclino_ros.core.attitude import inclination
 from inclino_ros.core.stand import StandFitRefused
-from inclino_ros.io.report import Residual
-from inclino_ros.io.timing import pair_nearest
+from inclino_ros.report.common import Fitted
+from inclino_ros.report.stand import field_lines, position_report, sphere_report
 import numpy as np
 
 ATTITUDE_TOPIC = '/stand/attitude'
@@ -152,32 +107,28 @@ def run(args):
 def fit(args, lines, outputs):
     """Fit the stand stage of ``args.input`` into ``args.calibration``; see ``run_fit``."""
     existing = load_existing(args.calibration, args.sensor_id, maps=axes_maps(args))
-    readings, attitude_deg, temperature_c, times_s, fields, gyro = load_input(args)
+    readings, attitude_deg, temperature_c, times_s, fields, gyro = stand_input(
+        source_of(args), args.method == 'stand', MAG_PAIRING_TOLERANCE_NT)
     readings, fields = tool_axes(args, readings), tool_axes(args, fields, 'magnetometer')
     segment = None
     if attitude_deg is None and gyro is not False:   # a continuous log: its still samples
         segment, readings, temperature_c, times_s = still_samples(
             args, readings, gyro, temperature_c, times_s, lines)
     check_accelerometer_readings(readings, args.gravity_mps2)
-    # What each reading stood for: the temperature stage's reference, else its own.
-    stood_c = (None if existing.temperature is None and temperature_c is None else
-               np.broadcast_to(readings_temperature_c(existing.temperature, temperature_c),
-                               readings.shape[:1]).astype(float))
+    readings, stood_c = stand_readings(existing, readings, temperature_c)
     if existing.temperature is not None:
-        readings = CalibrationModel(3, temperature=existing.temperature).apply(
-            readings, temperature_c)
         lines.append('temperature stage of the file applied to the readings first ('
                      + ('at their temperatures)' if temperature_c is not None else
                         'no temperatures in the input: at its reference temperature)'))
     field = None
     if args.method == 'stand':
-        stage, refusal, draw = fit_positions(args, readings, attitude_deg, times_s, stood_c,
-                                             lines)
+        stage, refusal, draw, rows = fit_positions(args, readings, attitude_deg, times_s,
+                                                   stood_c, lines)
         if not refusal:
             field = fit_magnetometer(args, existing, fields, attitude_deg, times_s,
                                      temperature_c, stage, lines)
     else:
-        stage, refusal, draw = fit_readings(args, readings, stood_c, lines, segment)
+        stage, refusal, draw, rows = fit_readings(args, readings, stood_c, lines, segment)
     stood_for_c = stage.temperature_c
     lines.append('the readings stood for ' + ('an unknown temperature' if stood_for_c is None
                                               else f'{stood_for_c:.2f} C'))
@@ -189,7 +140,7 @@ def fit(args, lines, outputs):
     if refusal:
         raise Refused(refusal)
     dropped = existing.installation is not None
-    save(args, with_stand(existing, stage, field), outputs)
+    model = save(args, with_stand(existing, stage, field), outputs)
     lines.append(f'wrote {args.calibration}: stand stage ({args.method}, {stage.positions} '
                  f'{"positions" if args.method == "stand" else "readings"})'
                  + (', temperature stage kept' if existing.temperature else ''))
@@ -201,69 +152,7 @@ def fit(args, lines, outputs):
     elif args.method == 'sphere':
         lines.append('a sphere fit cannot see the mounting rotation: calibrate the level bench '
                      '(inclino calibrate) next')
-
-
-def load_input(args):
-    """
-    Return (readings (N, 3), attitude_deg, temperature_c, times_s, fields, gyro).
-
-    The attitude (N, 3: inclination, toolface, azimuth: 0 without the
-    column) is read for ``--method stand``, None for a sphere fit or a CSV
-    without attitude columns; ``temperature_c`` (N,) or None; ``times_s``
-    (N,) or None (a CSV without ``time_s``); ``fields`` (N, 3) [nT] the
-    paired magnetometer readings when the input has them, else None;
-    ``gyro``: a continuous log (a CSV with ``time_s`` and no attitude
-    columns) gives its ``wx, wy, wz`` [rad/s] (N, 3) or None without them;
-    False: not a continuous log.
-    """
-    need_attitude = args.method == 'stand'
-    if not is_bag(args.input):
-        table = read_csv(args.input, AXIS_COLUMNS,
-                         optional=ATTITUDE_COLUMNS + ('temperature_c', TIME_COLUMN,
-                                                      AZIMUTH_COLUMN) + FIELD_COLUMNS
-                         + GYRO_COLUMNS)
-        readings = np.column_stack([table[name] for name in AXIS_COLUMNS])
-        has_attitude = all(name in table for name in ATTITUDE_COLUMNS)
-        if need_attitude and not has_attitude and TIME_COLUMN not in table:
-            missing = [name for name in ATTITUDE_COLUMNS if name not in table]
-            raise CommandError(f'{args.input} lacks the column(s) {", ".join(missing)} (the '
-                               f'stand attitudes), and has no {TIME_COLUMN} column (a '
-                               'continuous log, whose still segments a sphere fit takes)')
-        attitude_deg = (np.column_stack(
-            [table[name] for name in ATTITUDE_COLUMNS]
-            + [table.get(AZIMUTH_COLUMN, np.zeros(len(readings)))])
-            if need_attitude and has_attitude else None)
-        fields = (np.column_stack([table[name] for name in FIELD_COLUMNS])
-                  if all(name in table for name in FIELD_COLUMNS) else None)
-        gyro = False
-        if not has_attitude and TIME_COLUMN in table:
-            gyro = (np.column_stack([table[name] for name in GYRO_COLUMNS])
-                    if all(name in table for name in GYRO_COLUMNS) else None)
-        return (readings, attitude_deg, table.get('temperature_c'), table.get(TIME_COLUMN),
-                fields, gyro)
-    imu = read_topic(args.input, args.raw_topic)
-    temperature_c = (sample_temperatures(imu, args.input, args.temperature_topic)[0]
-                     if has_topic(args.input, args.temperature_topic) else None)
-    times_s = imu.stamps_ns * 1e-9
-    if not need_attitude:
-        return imu.linear_acceleration_mps2, None, temperature_c, times_s, None, False
-    fields = None
-    if has_topic(args.input, args.mag_topic):
-        mag = read_topic(args.input, args.mag_topic)
-        fields = pair_nearest(imu.stamps_ns, mag.stamps_ns, mag.field_nT, round(0.05 * 1e9),
-                              MAG_PAIRING_TOLERANCE_NT)[0]
-    attitude = read_topic(args.input, args.attitude_topic)
-    order = np.argsort(attitude.stamps_ns, kind='stable')
-    latest = np.searchsorted(attitude.stamps_ns[order], imu.stamps_ns, side='right') - 1
-    held = latest >= 0
-    if not held.any():
-        raise CommandError(f'no sample of {args.raw_topic} comes at or after the first '
-                           f'{args.attitude_topic} message')
-    attitude_deg = attitude.vector[order[latest[held]]]
-    attitude_deg[~np.isfinite(attitude_deg[:, 2]), 2] = 0.0   # z NaN: no azimuth known
-    return (imu.linear_acceleration_mps2[held], attitude_deg,
-            None if temperature_c is None else temperature_c[held], times_s[held],
-            None if fields is None else fields[held], False)
+    return Fitted(model, tuple(rows))
 
 
 def still_samples(args, readings, gyro, temperature_c, times_s, lines):
@@ -297,7 +186,7 @@ def still_limits(args):
 
 def fit_positions(args, readings, attitude_deg, times_s, stood_c, lines):
     """
-    Return (Stand stage, refusal reason or None, draw) of a known-attitude stand fit.
+    Return (Stand stage, refusal or None, draw, residual rows) of a known-attitude stand fit.
 
     ``stand_fit.solve_stand``, as ``~/solve_stand_calibration`` fits the
     node's positions; ``stood_c``: the temperature each reading stood for
@@ -314,44 +203,10 @@ def fit_positions(args, readings, attitude_deg, times_s, stood_c, lines):
                                ('--max-rms-deg', '--max-temperature-difference-c'))
     except (CaptureRefused, StandFitRefused) as err:
         raise Refused(str(err)) from None
-    result, means = solution.fit, solution.readings
-    raw_deg = np.degrees(inclination(means)) - attitudes[:, 0]
-    after_deg = result.inclination_residual_deg
-    lines += geometry_lines(result)
-    lines.append(f'{"pos":>3} {"att":>3} {"incl_deg":>9} {"tf_deg":>8} {"az_deg":>7} '
-                 f'{"samples":>7} {"noise_deg":>10} {"raw_err_deg":>11} {"residual_deg":>12}')
-    lines += [f'{k + 1:>3} {a + 1:>3} {incl:9.3f} {tf:8.3f} {az:7.2f} {n:>7} {s:10.4f} '
-              f'{before:11.4f} {after:12.6f}'
-              for k, ((incl, tf, az), a, n, s, before, after) in enumerate(
-                  zip(attitudes, result.attitude, counts, spread_deg, raw_deg, after_deg))]
-    lines.append(repeatability_note(result))
-    if solution.plateaus is not None:
-        lines += plateau_lines(solution.plateaus)
-    lines.append(f'RMS inclination residual: {result.rms_inclination_deg:.6f} deg (raw '
-                 f'{np.sqrt(np.mean(raw_deg ** 2)):.4f} deg); RMS residual '
-                 f'{result.rms_residual_mps2:.3g} m/s^2')
-    report_residuals(args, lines, [
-        Residual(f'position {k + 1} (I {attitude[0]:.1f}, TF {attitude[1]:.1f} deg, {n} '
-                 'samples)', float(after), float(spread / np.sqrt(n)), 'deg')
-        for k, (attitude, n, spread, after) in enumerate(
-            zip(attitudes, counts, spread_deg, after_deg))],
-        "inclination residual of each position against its mean's noise (spread / sqrt(n))")
-    return (solution.stage, solution.refusal,
-            partial(plot_positions, raw_deg=raw_deg, after_deg=after_deg,
-                    rms_deg=result.rms_inclination_deg))
-
-
-def plateau_lines(plateaus):
-    """Return a multi-temperature stand's plateaus, order, residual and 1 sigma as text lines."""
-    return [f'positions at {len(plateaus.fits)} temperature plateaus: K(T) and b(T), every '
-            f'element a polynomial of T of order {plateaus.order} (chi-square per order tried: '
-            + ', '.join(f'{order}: {chi:.3g} for {dof} dof' for order, chi, dof
-                        in plateaus.chi_square)
-            + f'), valid over {plateaus.range_c[0]:.1f} .. {plateaus.range_c[1]:.1f} C'] + [
-        f'  plateau {t:6.2f} C: {fit.attitude.size} positions, RMS inclination residual '
-        f'{fit.rms_inclination_deg:.5f} deg, 1 sigma of K elements <= {sigma[:9].max():.2g}, '
-        f'of b <= {sigma[9:].max():.2g} m/s^2'
-        for t, fit, sigma in zip(plateaus.plateaus_c, plateaus.fits, plateaus.element_sigma)]
+    report, rows, draw = position_report(solution, attitudes, counts, spread_deg,
+                                         repeatability_note(solution.fit))
+    lines += report
+    return solution.stage, solution.refusal, draw, rows
 
 
 def fit_magnetometer(args, existing, fields, attitude_deg, times_s, temperature_c, stand,
@@ -373,33 +228,25 @@ def fit_magnetometer(args, existing, fields, attitude_deg, times_s, temperature_
             'no reference field (--reference-total-nT and --reference-dip-deg, or --site)'))
         return None
     paired = np.isfinite(fields).all(axis=1)
-    fields = existing.apply_magnetic(
-        fields[paired], None if temperature_c is None else temperature_c[paired],
-        before='magnetometer')
-    positions, means, _, position = group_positions(fields, attitude_deg[paired])
+    temperature_c = None if temperature_c is None else temperature_c[paired]
+    fields = existing.apply_magnetic(fields[paired], temperature_c, before='magnetometer')
+    positions, means, counts, position = group_positions(fields, attitude_deg[paired])
+    stood_c = position_stood_c(existing.magnetometer_temperature, temperature_c, position,
+                               counts)
     try:
         position_noise_deg(fields, None if times_s is None else times_s[paired], position,
                            len(means), still_limits(args), ' (magnetometer)')
         fit = fit_field_stand(means, positions, total_nT, dip_deg, stand,
-                              args.max_field_rms_deg, readings_temperature_c(
-                                  existing.magnetometer_temperature, mean_temperature_c(
-                                      None if temperature_c is None
-                                      else temperature_c[paired])))
+                              args.max_field_rms_deg, stood_c)
     except (CaptureRefused, StandFitRefused) as err:
         raise Refused(str(err)) from None
-    lines.append(f'magnetometer (seed 001 Eq. 12) against {total_nT:.1f} nT, dip '
-                 f'{dip_deg:.3f} deg ({source}): {len(means)} positions, field residual '
-                 f'{fit.rms_residual_deg:.4f} deg RMS (worst {fit.residual_deg.max():.4f})')
-    lines += matrix_lines('K_m (m = K_m B + b_m, symmetric part)',
-                          fit.magnetometer.scale_matrix, '10.6f')
-    lines.append('bias_nT: ' + ' '.join(f'{v:.1f}' for v in fit.magnetometer.bias_nT)
-                 + f"; axes turned {fit.alignment.angle_deg:.4f} deg into the accelerometer's")
+    lines += field_lines(fit, total_nT, dip_deg, source, len(means))
     return fit
 
 
 def fit_readings(args, readings, stood_c, lines, segment=None):
     """
-    Return (Stand stage, refusal reason or None, draw) of a sphere fit of every reading.
+    Return (Stand stage, refusal or None, draw, residual rows (none)) of a sphere fit.
 
     ``segment`` (N,): each reading's still segment of a continuous log, or
     None; one reading a pose (``continuous_log.sphere_readings``).
@@ -414,51 +261,6 @@ def fit_readings(args, readings, stood_c, lines, segment=None):
                                 stood_for_c(stood_c))
     except StandFitRefused as err:
         raise Refused(err.reason) from None
-    result = solution.fit
-    rms_deg = np.degrees(result.rms_residual_mps2 / args.gravity_mps2)
-    lines += geometry_lines(result)
-    lines.append(f'RMS |G| - g: {result.rms_residual_mps2:.3g} m/s^2 ({rms_deg:.6f} deg as an '
-                 f'angle) over {readings.shape[0]} readings')
-    return (solution.stage, solution.refusal,
-            partial(plot_readings, raw_mps2=np.linalg.norm(readings, axis=1) - args.gravity_mps2,
-                    after_mps2=result.residual_mps2))
-
-
-def geometry_lines(result):
-    """Return K, b and the sensing-axis geometry of a fit as text lines."""
-    return matrix_lines('K (A = K G + b)', result.scale_matrix, '10.6f') + [
-        'bias_mps2: ' + ' '.join(f'{v:.6f}' for v in result.bias_mps2),
-        'axis scales: ' + ' '.join(f'{v:.6f}' for v in result.axis_scales),
-        'non-orthogonality_deg (xy xz yz): '
-        + ' '.join(f'{v:.4f}' for v in result.non_orthogonality_deg),
-        f'condition number: {result.condition_number:.3f}']
-
-
-def plot_positions(path, raw_deg, after_deg, rms_deg):
-    """Plot the inclination error per position before and after the fit."""
-    pyplot, fig, axes = new_figure(2, 'inclino fit-stand: inclination error per stand position')
-    position = np.arange(1, raw_deg.size + 1)
-    axes[0].bar(position, raw_deg, color='tab:red', label='raw readings')
-    axes[0].set_ylabel('raw inclination error [deg]')
-    axes[1].bar(position, after_deg, color='tab:green',
-                label=f'after K^-1 (A - b), RMS {rms_deg:.2g} deg')
-    axes[1].set_ylabel('residual [deg]')
-    for ax in axes:
-        ax.set_xlabel('stand position [number]')
-        ax.set_xticks(position)
-        ax.axhline(0.0, color='black', linewidth=0.8)
-    finish_figure(pyplot, fig, axes, path)
-
-
-def plot_readings(path, raw_mps2, after_mps2):
-    """Plot |G| - g per reading before and after a sphere fit."""
-    pyplot, fig, axes = new_figure(2, 'inclino fit-stand --method sphere: |G| - g per reading')
-    index = np.arange(raw_mps2.size)
-    axes[0].plot(index, raw_mps2, '.', color='tab:red', markersize=4, label='raw readings')
-    axes[1].plot(index, after_mps2, '.', color='tab:green', markersize=4,
-                 label='after K^-1 (A - b)')
-    for ax in axes:
-        ax.set_ylabel('|G| - g [m/s^2]')
-    for ax in axes:
-        ax.set_xlabel('reading [number]')
-    finish_figure(pyplot, fig, axes, path)
+    report, draw = sphere_report(solution, readings, args.gravity_mps2)
+    lines += report
+    return solution.stage, solution.refusal, draw, []

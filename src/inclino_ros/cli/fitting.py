@@ -13,25 +13,24 @@ Exit codes: 0 written, 1 refused (the reason printed, the file untouched),
 2 an input that cannot be used (``CommandError``).
 """
 
-from dataclasses import replace
 import os
 import sys
 
 from inclino_ros.calibration.history import file_digest
+from inclino_ros.calibration.inputs import Source
 from inclino_ros.calibration.model import (
-    CalibrationChanged, CalibrationFileError, CalibrationModel, check_axes_maps, check_sensor,
-    load_model, save_model)
+    CalibrationChanged, CalibrationFileError, check_sensor, load_model, save_model)
 from inclino_ros.calibration.plausibility import Implausible
 from inclino_ros.calibration.provenance import utc_now_iso
+from inclino_ros.calibration.store import model_to_update
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.mounting import add_axes_map_arguments, axes_matrix
 from inclino_ros.cli.options import node_parameter
 from inclino_ros.core.mounting import to_tool_axes
 from inclino_ros.core.refusal import Refused
 from inclino_ros.io import tables
-from inclino_ros.io.bag import BagError, concatenate, read, topic_info
 from inclino_ros.io.files import Outputs, write_text as write_file
-from inclino_ros.io.report import certificate_html, residual_lines
+from inclino_ros.io.report import certificate_html
 from inclino_ros.io.timing import pairing_tolerance
 from inclino_ros.node.parameters import PARAMETERS
 import numpy as np
@@ -76,6 +75,13 @@ def tool_axes(args, readings, sensor='accelerometer'):
     return None if readings is None else to_tool_axes(readings, axes_matrix(args, sensor))
 
 
+def source_of(args):
+    """Return the ``inputs.Source`` of the command line: the input, its topics and window."""
+    return Source(args.input, **{name: getattr(args, name) for name in (
+        'raw_topic', 'temperature_topic', 'mag_topic', 'attitude_topic', 'start_s', 'end_s')
+        if getattr(args, name, None) is not None})
+
+
 def is_bag(path):
     """Return whether ``path`` names a bag (a directory) rather than a CSV file."""
     return os.path.isdir(path)
@@ -87,39 +93,6 @@ def read_csv(path, required, optional=(), text=(), max_rows=tables.MAX_ROWS):
         return tables.read_csv(path, required, optional, text, max_rows=max_rows)
     except tables.TableError as err:
         raise CommandError(str(err)) from None
-
-
-def read_topic(path, topic):
-    """Return the whole series of ``topic`` in the bag ``path``; CommandError if unreadable."""
-    try:
-        chunks = list(read(path, topic))
-    except BagError as err:
-        raise CommandError(str(err)) from None
-    if not chunks:
-        raise CommandError(f'{topic} in {path} has no messages')
-    return concatenate(chunks)
-
-
-def has_topic(path, topic):
-    """Return whether the bag ``path`` holds ``topic`` (of any type)."""
-    try:
-        topic_info(path, topic)
-    except BagError:
-        return False
-    return True
-
-
-def sample_temperatures(imu, path, topic):
-    """
-    Return the temperature at each Imu sample and which samples lie in its time span.
-
-    The Temperature messages of ``topic`` are interpolated linearly to the
-    Imu stamps (``TemperatureSeries.at``); samples before the first or after
-    the last temperature message are outside.
-    """
-    series = read_topic(path, topic)
-    inside = (imu.stamps_ns >= series.stamps_ns.min()) & (imu.stamps_ns <= series.stamps_ns.max())
-    return series.at(imu.stamps_ns), inside
 
 
 def node_option(parser, flag, parameter, help_text, **kwargs):
@@ -171,33 +144,12 @@ def load_calibration(path, sensor_id=None, required=True, any_sensor=False):
 
 
 def load_existing(path, sensor_id=None, axes=3, maps=None):
-    """
-    Return the model in ``path``, a new ``axes``-axis one if there is none.
-
-    CommandError for a file that cannot be used, or that is for another
-    number of accelerometer axes (``axes`` None: any).  A file of another
-    sensor than ``sensor_id`` is a CommandError (``model.check_sensor``); the
-    model returned names ``sensor_id`` (if given).  ``maps``: the axes maps
-    the readings are turned by (``axes_maps``; None: a command whose input is
-    in tool axes already): a file fitted in others is a CommandError, the
-    model returned records them.
-    """
-    model = load_calibration(path, sensor_id, required=False)
-    if model is None:
-        return CalibrationModel(accelerometer_axes=axes or 3, sensor_id=sensor_id or None,
-                                axes_maps=maps)
-    if maps is not None:
-        try:
-            check_axes_maps(model, maps, path)
-        except CalibrationFileError as err:
-            raise CommandError(str(err)) from None
-    model = replace(model, sensor_id=sensor_id or model.sensor_id,
-                    axes_maps=maps or model.axes_maps)
-    if axes is not None and model.accelerometer_axes != axes:
-        raise CommandError(f'{path} is for a {model.accelerometer_axes}-axis accelerometer, '
-                           f'not {axes} axes' + ('; stand and temperature stages need three'
-                                                 if axes == 3 else ''))
-    return model
+    """Return the model a fit updates (``store.model_to_update``); CommandError if unusable."""
+    try:
+        return model_to_update(load_calibration(path, sensor_id, required=False), path,
+                               sensor_id, axes, maps)
+    except (CalibrationFileError, ValueError) as err:
+        raise CommandError(str(err)) from None
 
 
 def begin_update(args, command):
@@ -216,19 +168,19 @@ def begin_update(args, command):
 
 def save(args, model, outputs):
     """
-    Write ``model`` to ``args.calibration`` as one of ``outputs`` (``model.save_model``).
+    Write ``model`` to ``args.calibration`` among ``outputs`` (``model.save_model``); return it.
 
     Refused when the fitted model is one load_model would refuse (an
     implausible result) or the file changed since ``begin_update``,
     CommandError when the file cannot be written.
     """
-    args.saved_model = model
     try:
         save_model(args.calibration, model, args.writer, outputs, args.calibration_sha256)
     except ValueError as err:
         raise Refused(f'the result is not a plausible calibration: {err}') from None
     except OSError as err:
         raise CommandError(f'cannot write {args.calibration}: {err}') from None
+    return model
 
 
 def report_paths(args, name):
@@ -239,30 +191,19 @@ def report_paths(args, name):
     return os.path.join(folder, f'{name}.png'), os.path.join(folder, f'{name}.txt')
 
 
-def report_residuals(args, lines, rows, title='residuals'):
-    """
-    Add the fit's residual rows (``io.report.Residual``) to its text report and certificate.
-
-    ``lines`` gets one line per row and those down-weighted or refused
-    (``io.report.residual_lines``); the certificate ``run_fit`` writes the
-    same rows.
-    """
-    args.residual_rows = list(getattr(args, 'residual_rows', [])) + list(rows)
-    lines += residual_lines(rows, title)
-
-
-def write_certificate(command, args, lines, outputs, path=None):
+def write_certificate(command, args, lines, outputs, fitted, path=None):
     """
     Write the fit's calibration certificate as one of ``outputs``; nothing if none was saved.
 
-    ``path``: ``fit_NAME_certificate.html`` beside the other reports
-    (``report_paths``) unless given; the text report, written already, does
-    not name it (what a fit prints is its text report).  It holds the calibration file as saved
-    (``save``), the residual rows (``report_residuals``), the PNG figures
-    among ``outputs`` and the text report (``io.report.certificate_html``).
+    ``fitted``: the ``report.common.Fitted`` the fit returned (the model it
+    saved and its residual rows; None: nothing saved).  ``path``:
+    ``fit_NAME_certificate.html`` beside the other reports (``report_paths``)
+    unless given; the text report, written already, does not name it (what a
+    fit prints is its text report).  It holds the calibration file as saved,
+    the residual rows, the PNG figures among ``outputs`` and the text report
+    (``io.report.certificate_html``).
     """
-    model = getattr(args, 'saved_model', None)
-    if model is None:
+    if fitted is None:
         return
     if path is None:
         name = command.replace('-', '_')
@@ -270,38 +211,18 @@ def write_certificate(command, args, lines, outputs, path=None):
                             f'{name}_certificate.html')
     figures = [(os.path.basename(final), temporary)
                for final, temporary in outputs.pending('.png')]
-    page = certificate_html(command, os.path.abspath(args.calibration), model.to_dict(),
-                            getattr(args, 'residual_rows', []), figures, lines, utc_now_iso())
+    page = certificate_html(command, os.path.abspath(args.calibration), fitted.model.to_dict(),
+                            list(fitted.residuals), figures, lines, utc_now_iso())
     write_file(path, page, outputs=outputs)
-
-
-def new_figure(rows, title):
-    """Return (pyplot, figure, axes) of ``rows`` stacked panels (matplotlib, Agg)."""
-    import matplotlib
-    matplotlib.use('Agg')
-    from matplotlib import pyplot
-
-    fig, axes = pyplot.subplots(rows, 1, figsize=(9, 4 * rows))
-    fig.suptitle(title)
-    return pyplot, fig, axes
-
-
-def finish_figure(pyplot, fig, axes, path):
-    """Grid and legend on every panel, then write the figure to ``path``."""
-    for ax in axes:
-        ax.grid(True, alpha=0.3)
-        ax.legend(fontsize='small')
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    pyplot.close(fig)
 
 
 def run_fit(command, args, fit):
     """
     Run ``fit(args, lines, outputs)`` and report; return the exit code.
 
-    ``fit`` appends the summary lines to ``lines`` (printed as they are, and
-    written to the text report by the fit) and writes its report files to
+    ``fit`` returns what it saved (``report.common.Fitted``), appends the
+    summary lines to ``lines`` (printed as they are, and written to the text
+    report by the fit) and writes its report files to
     ``outputs.path(final)`` (``io.files.Outputs``), the calibration file too
     (``save``): they replace the report of the previous fit whole, never the
     input, and land together with the calibration file or not at all; the
@@ -315,8 +236,7 @@ def run_fit(command, args, fit):
     try:
         with Outputs(inputs=[args.input, args.calibration], force=True) as outputs:
             try:
-                fit(args, lines, outputs)
-                write_certificate(command, args, lines, outputs)
+                write_certificate(command, args, lines, outputs, fit(args, lines, outputs))
             except (Refused, Implausible) as err:
                 refusal = err
     except CalibrationChanged as err:  # at the commit: nothing of this command was written
@@ -337,18 +257,14 @@ def write_text(path, lines):
         stream.write('\n'.join(lines) + '\n')
 
 
-def matrix_lines(name, matrix, fmt):
-    """Return a 3x3 matrix as indented text lines under ``name``."""
-    return [f'{name}:'] + ['  ' + ' '.join(format(v, fmt) for v in row) for row in matrix]
-
-
 def warn_outside_range(model, temperature_c, command):
     """Say on stderr how many temperatures lie outside a multi-temperature stand's range."""
-    if model.stand is None or temperature_c is None:
+    if temperature_c is None:
         return
-    outside = int(np.count_nonzero(model.stand.outside_range(temperature_c)))
-    if outside:
-        print(f'{command}: warning: {outside} of {np.size(temperature_c)} temperature readings '
-              f"lie outside the stand stage's fitted range {model.stand.t_min_c:g} .. "
-              f'{model.stand.t_max_c:g} C: K and b held at the nearer end there',
-              file=sys.stderr)
+    for name, stage in model.polynomial_stages:
+        outside = int(np.count_nonzero(stage.outside_range(temperature_c)))
+        if outside:
+            print(f'{command}: warning: {outside} of {np.size(temperature_c)} temperature '
+                  f"readings lie outside the {name} stage's fitted range {stage.t_min_c:g} .. "
+                  f'{stage.t_max_c:g} C: K and b held at the nearer end there',
+                  file=sys.stderr)

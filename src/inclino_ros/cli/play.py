@@ -11,18 +11,16 @@ bar shows what went out; Ctrl-C or SIGTERM stops it cleanly ("published N of
 M messages"), exit 0.
 """
 
-from dataclasses import dataclass
 import sys
 import time
 
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.live import LiveSession
 from inclino_ros.cli.options import between, MAX_WAIT_S, non_negative, positive, wait_s
-from inclino_ros.io.bag import (
-    BagError, concatenate, IMU, list_topics, MAGNETIC_FIELD, read, TEMPERATURE)
-import numpy as np
+from inclino_ros.io.bag import BagError
+from inclino_ros.io.timing import load_timeline
+from inclino_ros.node.playback import message_class, publish_timed
 
-SENSOR_TYPES = (IMU, MAGNETIC_FIELD, TEMPERATURE)
 #: Seconds, after the first topic is matched, to wait for the others' subscribers.
 MATCH_GRACE_S = 1.0
 
@@ -60,143 +58,6 @@ def register(subparsers):
                         help='seconds to wait for a subscriber before playing, at most '
                              f'{MAX_WAIT_S:g} (default: %(default)s)')
     parser.set_defaults(func=run)
-
-
-@dataclass(frozen=True)
-class Timeline:
-    """Messages of several topics in stamp order: which topic, which row of its series."""
-
-    topics: tuple           # ((topic, msgtype, series), ...)
-    stamps_ns: np.ndarray   # (M,) sorted
-    topic_index: np.ndarray  # (M,) into topics
-    row: np.ndarray         # (M,) into that topic's series
-
-    @classmethod
-    def of(cls, topics):
-        """Return the Timeline of ``(topic, msgtype, series)`` triples (stable stamp order)."""
-        stamps = np.concatenate([series.stamps_ns for _, _, series in topics])
-        index = np.concatenate([np.full(series.stamps_ns.size, k)
-                                for k, (_, _, series) in enumerate(topics)])
-        row = np.concatenate([np.arange(series.stamps_ns.size) for _, _, series in topics])
-        order = np.argsort(stamps, kind='stable')
-        return cls(tuple(topics), stamps[order], index[order], row[order])
-
-    def __len__(self):
-        """Return the number of messages."""
-        return self.stamps_ns.size
-
-    def window(self, start_s=0.0, end_s=None):
-        """Return the messages from ``start_s`` up to (not at) ``end_s`` s after the first."""
-        keep = in_window(self.stamps_ns, start_s, end_s)
-        return Timeline(self.topics, self.stamps_ns[keep], self.topic_index[keep],
-                        self.row[keep])
-
-    def message(self, k):
-        """Return the ROS message of the k-th message."""
-        _, msgtype, series = self.topics[self.topic_index[k]]
-        return MESSAGES[msgtype](series, int(self.row[k]))
-
-
-def in_window(stamps_ns, start_s=0.0, end_s=None):
-    """
-    Return which stamps lie from ``start_s`` up to, not at, ``end_s`` s after the first.
-
-    Half open, so that windows that meet (``--end-s 3``, ``--start-s 3``) share no
-    sample: a simulated segment starts exactly on its second.
-    """
-    offset_ns = np.asarray(stamps_ns, dtype=np.int64) - np.min(stamps_ns)
-    keep = offset_ns >= round(start_s * 1e9)
-    if end_s is not None:
-        keep &= offset_ns < round(end_s * 1e9)
-    return keep
-
-
-def load_timeline(path, topics=None):
-    """Return the Timeline of the sensor topics of the bag ``path`` (or of ``topics``)."""
-    available = list_topics(path)
-    if topics is None:
-        topics = sorted(t for t, (msgtype, count) in available.items()
-                        if msgtype in SENSOR_TYPES and count)
-        if not topics:
-            raise BagError(f'{path} has no Imu, MagneticField or Temperature topic; it has: '
-                           + ', '.join(f'{t} ({m})' for t, (m, _) in sorted(available.items())))
-    for topic in topics:
-        msgtype = available.get(topic, (None,))[0]
-        if msgtype not in SENSOR_TYPES:
-            raise BagError(f'{topic} in {path} is {msgtype or "not there"}; inclino play '
-                           f'publishes {", ".join(SENSOR_TYPES)}')
-    return Timeline.of([(topic, available[topic][0], concatenate(read(path, topic)))
-                        for topic in topics if available[topic][1]])
-
-
-def _header(msg, series, i):
-    msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(int(series.stamps_ns[i]),
-                                                            1_000_000_000)
-    msg.header.frame_id = str(series.frame_ids[i])
-    return msg
-
-
-def _vector(target, values):
-    target.x, target.y, target.z = (float(v) for v in values)
-
-
-def message_class(msgtype):
-    """Return the rclpy message class of a supported ``msgtype``."""
-    from sensor_msgs.msg import Imu, MagneticField, Temperature
-    return {IMU: Imu, MAGNETIC_FIELD: MagneticField, TEMPERATURE: Temperature}[msgtype]
-
-
-def imu_message(series, i):
-    """Return row ``i`` of an ImuSeries as a sensor_msgs/Imu."""
-    msg = _header(message_class(IMU)(), series, i)
-    o = series.orientation_xyzw[i]
-    msg.orientation.x, msg.orientation.y, msg.orientation.z, msg.orientation.w = map(float, o)
-    _vector(msg.angular_velocity, series.angular_velocity_radps[i])
-    _vector(msg.linear_acceleration, series.linear_acceleration_mps2[i])
-    msg.orientation_covariance = series.orientation_covariance[i]
-    msg.angular_velocity_covariance = series.angular_velocity_covariance[i]
-    msg.linear_acceleration_covariance = series.linear_acceleration_covariance[i]
-    return msg
-
-
-def magnetic_field_message(series, i):
-    """Return row ``i`` of a MagneticFieldSeries as a sensor_msgs/MagneticField (tesla)."""
-    msg = _header(message_class(MAGNETIC_FIELD)(), series, i)
-    _vector(msg.magnetic_field, series.magnetic_field_T[i])
-    msg.magnetic_field_covariance = series.covariance_T2[i]
-    return msg
-
-
-def temperature_message(series, i):
-    """Return row ``i`` of a TemperatureSeries as a sensor_msgs/Temperature."""
-    msg = _header(message_class(TEMPERATURE)(), series, i)
-    msg.temperature, msg.variance = float(series.temperature_c[i]), float(series.variance[i])
-    return msg
-
-
-MESSAGES = {IMU: imu_message, MAGNETIC_FIELD: magnetic_field_message,
-            TEMPERATURE: temperature_message}
-
-
-def publish_timed(timeline, publishers, rate, idle, published=None):
-    """
-    Publish the messages of ``timeline`` paced by their stamps; return how many.
-
-    ``publishers`` maps each topic to its publisher; ``idle(seconds)`` is called
-    while waiting for the next message's time (e.g. an executor's
-    ``spin_once``); ``published(count)`` after each message.
-    """
-    start = time.monotonic()
-    count = 0
-    for k in range(len(timeline)):
-        due = start + (timeline.stamps_ns[k] - timeline.stamps_ns[0]) * 1e-9 / rate
-        while (wait := due - time.monotonic()) > 0:
-            idle(wait)
-        publishers[timeline.topics[timeline.topic_index[k]][0]].publish(timeline.message(k))
-        count += 1
-        if published is not None:
-            published(count)
-    return count
 
 
 def wait_for_subscribers(session, publishers, wait_s):

@@ -64,29 +64,26 @@ from functools import partial
 import os
 import sys
 
-from inclino_ros.calibration.continuous_log import GYRO_COLUMNS, TIME_COLUMN
+from inclino_ros.calibration.inputs import known_temperatures, log_series
 from inclino_ros.calibration.model import (
     CalibrationFileError, check_axes_maps, missing_temperature, MissingTemperature)
-from inclino_ros.calibration.plausibility import (
-    check_for_sensor, Implausible, temperature_ok)
+from inclino_ros.calibration.plausibility import check_for_sensor, Implausible
+from inclino_ros.calibration.store import axes_refusal
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
-    add_sensor_argument, AXIS_COLUMNS, load_calibration, NODE_DEFAULTS, node_option,
-    warn_outside_range)
+    add_sensor_argument, load_calibration, NODE_DEFAULTS, node_option, warn_outside_range)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.mounting import add_axes_map_arguments, settings_maps
 from inclino_ros.cli.options import (
     add_force_argument, add_reference_temperature_argument, between, node_parameter)
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core.averaging import Averager
-from inclino_ros.io import tables
 from inclino_ros.io.bag import (
     BagWriter, CHUNK_SIZE, concatenate, IMU, ImuSeries, MAGNETIC_FIELD, read, STORAGES,
-    TEMPERATURE, TemperatureSeries, topic_info, VECTOR3_STAMPED)
+    TEMPERATURE, topic_info, VECTOR3_STAMPED)
 from inclino_ros.io.files import Outputs
 from inclino_ros.pipeline import MagneticSettings, Settings
 from inclino_ros.stream import Magnetometer, replay, Summary
-import numpy as np
 from tqdm import tqdm
 
 SURVEY_TOPIC = '/survey'
@@ -232,44 +229,18 @@ class _NothingAccepted(Exception):
     """No sample was accepted: the output is discarded (``Outputs`` removes it)."""
 
 
-def is_csv(path):
-    """Return whether IN names a CSV log (a file ending in .csv) rather than a bag."""
-    return os.path.isfile(path) and path.lower().endswith('.csv')
-
-
 def read_log(args):
-    """
-    Return (ImuSeries, TemperatureSeries or None) of a CSV log; CommandError if unusable.
-
-    Each row is one sample stamped ``time_s`` (ns, frame ``csv``); the gyro
-    columns go to the angular velocity (zero without them), the temperature
-    column to a series of one value per row.
-    """
-    try:
-        table = tables.read_csv(args.input, (TIME_COLUMN,) + AXIS_COLUMNS,
-                                optional=GYRO_COLUMNS + ('temperature_c',))
-    except tables.TableError as err:
-        raise CommandError(str(err)) from None
+    """Return (ImuSeries, TemperatureSeries or None) of IN, a CSV log (``inputs.log_series``)."""
+    log = log_series(args.input)
     if args.mag_topic is not None:
         raise CommandError(f'{args.input} is a CSV log: it has no --mag-topic (for the '
                            'azimuth of a CSV use inclino survey)')
-    times_s = table[TIME_COLUMN]
-    if not (np.all(np.isfinite(times_s)) and np.all(np.diff(times_s) > 0.0)
-            and np.all(np.abs(times_s) < 9.2e9)):
-        raise CommandError(f'{args.input}: {TIME_COLUMN} must hold finite, increasing times '
-                           '[s] (a continuous log in the order it was recorded)')
-    stamps_ns = np.round(times_s * 1e9).astype(np.int64)
-    count = stamps_ns.size
-    frames = np.full(count, 'csv', dtype=object)
-    gyro = (np.column_stack([table[name] for name in GYRO_COLUMNS])
-            if all(name in table for name in GYRO_COLUMNS) else np.zeros((count, 3)))
-    imu = ImuSeries(stamps_ns, frames, np.tile([0.0, 0.0, 0.0, 1.0], (count, 1)),
-                    np.zeros((count, 9)), gyro, np.zeros((count, 9)),
-                    np.column_stack([table[name] for name in AXIS_COLUMNS]),
-                    np.zeros((count, 9)))
-    temperature = (None if 'temperature_c' not in table else TemperatureSeries(
-        stamps_ns, frames, table['temperature_c'], np.zeros(count)))
-    return imu, temperature
+    return log
+
+
+def is_csv(path):
+    """Return whether IN names a CSV log (a file ending in .csv) rather than a bag."""
+    return os.path.isfile(path) and path.lower().endswith('.csv')
 
 
 def _prepare(args, log=None):
@@ -289,9 +260,9 @@ def _prepare(args, log=None):
     for note in model.uncertainty_notes:
         print(f'inclino process: warning: {args.calibration}: {note}', file=sys.stderr)
     axes = args.axes or model.accelerometer_axes
-    if axes != model.accelerometer_axes:
-        raise CommandError(f'{args.calibration} is for a {model.accelerometer_axes}-axis '
-                           f'accelerometer, not {axes} axes')
+    reason = axes_refusal(model, axes, args.calibration)
+    if reason is not None:
+        raise CommandError(reason)
     try:
         check_for_sensor(model, args.range_mps2)
     except Implausible as err:
@@ -314,7 +285,7 @@ def _prepare(args, log=None):
         if series is None:
             refuse_missing_temperature(args, model, f'{args.input} has no temperature_c column')
         return model, settings, imu.stamps_ns.size, None if series is None else \
-            _known_temperatures(series, args)
+            known_temperatures(series, args.temperature_topic or 'temperature_c', args.input)
     msgtype, count = topic_info(args.input, args.topic)
     if msgtype != IMU:
         raise CommandError(f'{args.topic} in {args.input} holds {msgtype}, not {IMU}')
@@ -325,8 +296,9 @@ def _prepare(args, log=None):
     if msgtype != TEMPERATURE or temperatures == 0:
         raise CommandError(f'{args.temperature_topic} in {args.input} holds {temperatures} '
                            f'{msgtype} messages, not {TEMPERATURE} ones')
-    return model, settings, count, _known_temperatures(
-        concatenate(read(args.input, args.temperature_topic)), args)
+    return model, settings, count, known_temperatures(
+        concatenate(read(args.input, args.temperature_topic)), args.temperature_topic,
+        args.input)
 
 
 def refuse_missing_temperature(args, model, missing):
@@ -344,16 +316,6 @@ def refuse_missing_temperature(args, model, missing):
         raise CommandError(str(err)) from None
     if warning is not None:
         print(f'inclino {args.command}: {warning}', file=sys.stderr)
-
-
-def _known_temperatures(series, args):
-    """Return the TemperatureSeries of the readings a sensor gives; CommandError if none."""
-    kept = temperature_ok(series.temperature_c)
-    if not kept.any():
-        raise CommandError(f'{args.temperature_topic or "temperature_c"} in {args.input} holds '
-                           'no temperature a sensor reads')
-    return TemperatureSeries(series.stamps_ns[kept], series.frame_ids[kept],
-                             series.temperature_c[kept], series.variance[kept])
 
 
 def _magnetometer(args, model):

@@ -60,33 +60,25 @@ from inclino_ros.cli.mounting import add_axes_map_arguments, settings_maps
 from inclino_ros.cli.options import add_force_argument, between, finite, reference_total_nT
 from inclino_ros.core.mounting import to_sensor_axes
 from inclino_ros.core.msa import MAX_INTERFERENCE_NT
-from inclino_ros.io import tables
-from inclino_ros.io.bag import (
-    BagWriter, IMU, MAGNETIC_FIELD, MagneticFieldSeries, magnetometer, raw_imu, TEMPERATURE,
-    TemperatureSeries, VECTOR3_STAMPED, Vector3Series)
+from inclino_ros.io.bag import magnetometer
 from inclino_ros.io.files import Outputs
 from inclino_ros.pipeline import Settings
 from inclino_ros.sim import sensor_model
 from inclino_ros.sim.bench import (
-    DEMO_BETA_DEG, DEMO_GAMMA_DEG, DEMO_MAG_NOISE_NT, DEMO_NOISE_MPS2, HEATING_ATTITUDE_DEG,
-    make_tool, PRESETS, Scenario, simulate, simulate_heating, simulate_stand,
-    STAND_POSITIONS_DEG, StandRun, tool_from_iscwsa)
+    command_tool, DEMO_BETA_DEG, DEMO_GAMMA_DEG, DEMO_MAG_NOISE_NT, DEMO_NOISE_MPS2,
+    HEATING_ATTITUDE_DEG, PRESETS, Scenario, simulate, simulate_heating, simulate_stand, StandRun,
+    tool_from_iscwsa)
+from inclino_ros.sim.recording import (  # noqa: F401 (write_bag, write_csv: public here too)
+    check_run, describe, FRAME_ID, MAG_TOPIC, MAX_SAMPLES, RAW_TOPIC, STAND_TOPIC,
+    TEMPERATURE_TOPIC, TRUTH_TOPIC, write_bag, write_csv)
 from inclino_ros.sim.well import WellScenario
 import numpy as np
 
-RAW_TOPIC = '/imu/data_raw'
-TRUTH_TOPIC = '/truth/survey'
-STAND_TOPIC = '/stand/attitude'
-TEMPERATURE_TOPIC = '/imu/temperature'
-MAG_TOPIC = '/imu/mag'
 #: Default samples: per stand position (--stand; the node's stand.samples, which a MEMS
 #: at its own 2 mg needs), over the ramp at each attitude (--heating).
 DEFAULT_SAMPLES = {'stand': 500, 'heating': 1601}
 #: Default preset per scenario (None: the bench).
 DEFAULT_SENSOR = {None: 'ideal', 'stand': 'mems', 'heating': 'mems'}
-FRAME_ID = 'inclinometer'
-#: Most samples of one run (1 000 000: 83 min of a 200 Hz bench).
-MAX_SAMPLES = 1_000_000
 #: Seconds a segment may last (a day).
 MAX_SEGMENT_S = 86_400.0
 
@@ -232,30 +224,11 @@ interference_nT = between(-MAX_INTERFERENCE_NT, MAX_INTERFERENCE_NT, why=' nT (a
 
 
 def tool_of(args, sensor):
-    """
-    Return the ``sensor_model.Tool`` of the command line for the preset ``sensor``.
-
-    With ``ideal`` the noise defaults to the demo's (0.002 m/s^2, 5 nT); a
-    real preset keeps its own unless ``--noise-mps2``/``--mag-noise-nT`` say.
-    """
-    noise = args.noise_std_mps2
-    mag_noise = getattr(args, 'mag_noise_nT', None)
-    if sensor == 'ideal':
-        noise = DEMO_NOISE_MPS2 if noise is None else noise
-        mag_noise = DEMO_MAG_NOISE_NT if mag_noise is None else mag_noise
-    if (noise is not None and noise < 0.0) or (mag_noise is not None and mag_noise < 0.0):
-        raise ValueError('--noise-mps2 and --mag-noise-nT must not be negative')
-    return make_tool(sensor, args.gamma_deg, args.beta_deg, args.roll_deg,
-                     tuple(args.magnetometer_deg), noise, mag_noise, args.axes)
-
-
-def describe(sensor, tool):
-    """Return one line naming the preset, the mount and the noise of ``tool``."""
-    mount = tool.mount
-    noise = np.max(tool.accelerometer.noise_std)
-    return (f'{sensor} sensor ({tool.accelerometer_axes}-axis accelerometer), mount '
-            f'gamma {mount.gamma_deg:g} beta {mount.beta_deg:g} roll {mount.roll_deg:g} deg, '
-            f'noise {noise:g} m/s^2')
+    """Return the ``sensor_model.Tool`` of the command line (``bench.command_tool``)."""
+    return command_tool(sensor, (args.gamma_deg, args.beta_deg, args.roll_deg,
+                                 args.magnetometer_deg), args.noise_std_mps2,
+                        getattr(args, 'mag_noise_nT', None), (DEMO_NOISE_MPS2, DEMO_MAG_NOISE_NT),
+                        ('--noise-mps2', '--mag-noise-nT'), args.axes)
 
 
 def bench_scenario(args, tool):
@@ -323,30 +296,15 @@ def simulated(args):
     """
     Return (preset, tool, the simulated run, what it is); CommandError if impossible.
 
-    A run of more than MAX_SAMPLES samples is refused before it is simulated.
+    The run's options are checked first (``recording.check_run``).
     """
     sensor = args.sensor or DEFAULT_SENSOR[args.mode]
-    if args.mode is not None and args.magnetic:
-        raise CommandError('--magnetic goes with the bench scenario, not --stand or --heating')
-    if args.mode is not None and args.axes != 3:
-        raise CommandError('--stand and --heating simulate a three-axis sensor')
-    if args.heating_attitudes is not None and args.mode != 'heating':
-        raise CommandError('--heating-attitudes goes with --heating')
-    heating_attitudes = tuple(args.heating_attitudes or HEATING_ATTITUDE_DEG)
-    if len(heating_attitudes) % 2:
-        raise CommandError('--heating-attitudes takes INCLINATION TOOLFACE pairs, '
-                           f'not {len(heating_attitudes)} numbers')
-    pairs = tuple(zip(heating_attitudes[::2], heating_attitudes[1::2]))
     samples = DEFAULT_SAMPLES.get(args.mode) if args.samples is None else args.samples
-    if args.mode is None:
-        total = args.rate_hz * (args.level_s + args.station_s * len(Scenario().stations_deg)
-                                + (args.rotation_s if args.magnetic else 0.0))
-    else:
-        total = samples * (len(STAND_POSITIONS_DEG) if args.mode == 'stand' else len(pairs))
-    if total > MAX_SAMPLES:
-        raise CommandError(f'{total:.0f} samples asked for, at most {MAX_SAMPLES} are '
-                           'simulated: shorten the segments or lower --rate-hz / --samples')
     try:
+        pairs = check_run(args.mode, args.magnetic, args.axes,
+                          tuple(args.heating_attitudes or HEATING_ATTITUDE_DEG),
+                          args.heating_attitudes is not None, samples, args.rate_hz,
+                          (args.level_s, args.station_s, args.rotation_s))
         tool = tool_of(args, sensor)
         if args.mode is None:
             sim = simulate(bench_scenario(args, tool))
@@ -364,50 +322,3 @@ def simulated(args):
             f'{segment["inclination_deg"]:g}/{segment["toolface_deg"]:g}'
             for segment in sim.truth['segments']) + ' deg'
     return sensor, tool, sim, what
-
-
-def write_bag(path, storage, sim, noise_std_mps2, mode, magnetic=None):
-    """
-    Write the samples of ``sim`` to a new bag; return ``{role: topic}``.
-
-    ``magnetic``: None, or the MagneticFieldSeries at the same stamps (the
-    true azimuth then goes to the truth's z); ``mode`` 'stand' or 'heating'
-    adds the temperature topic, 'stand' the stand attitude.
-    """
-    n = sim.stamps_ns.size
-    frame_ids = np.full(n, FRAME_ID)
-    azimuth_deg = np.full(n, np.nan) if magnetic is None else sim.azimuth_deg
-    series = {
-        RAW_TOPIC: raw_imu(sim.stamps_ns, FRAME_ID, sim.raw_mps2, noise_std_mps2),
-        TRUTH_TOPIC: Vector3Series(sim.stamps_ns, frame_ids, np.stack(
-            [sim.inclination_deg, sim.toolface_deg, azimuth_deg], axis=1))}
-    topics = {'raw': RAW_TOPIC, 'truth': TRUTH_TOPIC}
-    if magnetic is not None:
-        series[MAG_TOPIC] = magnetic
-        topics['magnetometer'] = MAG_TOPIC
-    if mode == 'stand':
-        series[STAND_TOPIC] = series[TRUTH_TOPIC]
-        topics['stand_attitude'] = STAND_TOPIC
-    if mode is not None:
-        series[TEMPERATURE_TOPIC] = TemperatureSeries(sim.stamps_ns, frame_ids,
-                                                      sim.temperature_c, np.zeros(n))
-        topics['temperature'] = TEMPERATURE_TOPIC
-    msgtypes = {Vector3Series: VECTOR3_STAMPED, TemperatureSeries: TEMPERATURE,
-                MagneticFieldSeries: MAGNETIC_FIELD}
-    with BagWriter(path, storage) as bag:
-        for topic, values in series.items():
-            bag.add_topic(topic, msgtypes.get(type(values), IMU))
-        bag.write_series(series)
-    return topics
-
-
-def write_csv(path, sim, temperature, attitude=False):
-    """Write one row per sample: stamp, true attitude, [temperature, attitude,] raw reading."""
-    columns = {'stamp_ns': sim.stamps_ns, 'inclination_deg': sim.inclination_deg,
-               'toolface_deg': sim.toolface_deg}
-    if temperature:
-        columns['temperature_c'] = sim.temperature_c
-    if attitude:
-        columns['attitude'] = sim.segment
-    columns.update(zip(('ax', 'ay', 'az'), sim.raw_mps2.T))
-    tables.write_csv(path, columns)

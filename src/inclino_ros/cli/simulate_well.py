@@ -19,7 +19,6 @@ temporary names and renamed when complete, and refused when they exist
 unless ``--force``.
 """
 
-from dataclasses import replace
 import json
 
 from inclino_ros.cli.errors import CommandError
@@ -27,8 +26,9 @@ from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.options import (
     add_force_argument, between, dip_deg, finite, reference_total_nT)
 from inclino_ros.cli.simulate import add_sensor_arguments, interference_nT
+from inclino_ros.core.constants import STANDARD_GRAVITY_MPS2
 from inclino_ros.io.files import Outputs
-from inclino_ros.sim.bench import make_tool, tool_from_iscwsa
+from inclino_ros.sim.bench import command_tool, tool_from_iscwsa
 from inclino_ros.sim.well import (
     simulate_well, WELL_FIELD_NOISE_NT, WELL_GRAVITY_NOISE_G, well_truth, WellScenario,
     write_stations_csv)
@@ -93,21 +93,13 @@ def register(subparsers):
 
 
 def tool_of(args):
-    """Return the ``sensor_model.Tool`` of the command line (see ``--sensor``)."""
+    """Return (preset, ``sensor_model.Tool``) of the command line (``bench.command_tool``)."""
     sensor = args.sensor or 'ideal'
-    gravity_noise, field_noise = args.gravity_noise, args.field_noise_nT
-    if sensor == 'ideal':
-        gravity_noise = WELL_GRAVITY_NOISE_G if gravity_noise is None else gravity_noise
-        field_noise = WELL_FIELD_NOISE_NT if field_noise is None else field_noise
-    if (gravity_noise is not None and gravity_noise < 0.0) or \
-            (field_noise is not None and field_noise < 0.0):
-        raise ValueError('--gravity-noise-g and --field-noise-nT must not be negative')
-    tool = make_tool(sensor, args.gamma_deg, args.beta_deg, args.roll_deg,
-                     tuple(args.magnetometer_deg), mag_noise_nT=field_noise)
-    if gravity_noise is not None:
-        tool = replace(tool, accelerometer=replace(
-            tool.accelerometer, noise_std=gravity_noise * tool.gravity_mps2))
-    return sensor, tool
+    g = STANDARD_GRAVITY_MPS2
+    return sensor, command_tool(
+        sensor, (args.gamma_deg, args.beta_deg, args.roll_deg, args.magnetometer_deg),
+        None if args.gravity_noise is None else args.gravity_noise * g, args.field_noise_nT,
+        (WELL_GRAVITY_NOISE_G * g, WELL_FIELD_NOISE_NT), ('--gravity-noise-g', '--field-noise-nT'))
 
 
 def run(args):

@@ -51,25 +51,18 @@ from inclino_ros.cli.options import (
     add_force_argument, add_reference_temperature_argument, node_parameter)
 from inclino_ros.cli.process import add_limit_arguments, refuse_missing_temperature
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
-from inclino_ros.core.magnetics import QcLimits, true_azimuth_deg
-from inclino_ros.core.screening import ACCEPTED, REASONS
-from inclino_ros.core.temperature import in_range
+from inclino_ros.core.magnetics import QcLimits
 from inclino_ros.io import tables
 from inclino_ros.io.files import Outputs
+from inclino_ros.io.tables import count_column, number_column
 from inclino_ros.pipeline import MagneticSettings, run as run_pipeline, Settings
+from inclino_ros.stream import OUTSIDE_FIT, outside_fit, row_status, survey_columns
 import numpy as np
 
 ACCEL_COLUMNS = ('ax', 'ay', 'az')
 FIELD_COLUMNS = ('bx', 'by', 'bz')
-ANGLE_COLUMNS = ('inclination_deg', 'toolface_deg', 'azimuth_deg', 'g_total_mps2',
-                 'b_total_nT', 'dip_deg', 'inclination_std_deg', 'toolface_std_deg',
-                 'azimuth_std_deg', 'g_total_std_mps2', 'b_total_std_nT', 'dip_std_deg')
 #: The column of a row's count of averaged readings.
 SAMPLES_COLUMN = 'samples'
-#: Status of a row whose temperature lies outside the fitted range of a temperature stage.
-OUTSIDE_FIT = 'temperature_outside_fit'
-QC_COLUMNS = ('b_total_delta_nT', 'dip_delta_deg', 'g_total_delta_mps2', 'qc_b_total',
-              'qc_dip', 'qc_g_total', 'qc_ok')
 
 
 def register(subparsers):
@@ -112,32 +105,6 @@ def run(args):
     return 0
 
 
-def _numbers(rows, header, name):
-    """Return column ``name`` as floats, NaN where a cell is not a number."""
-    index = header.index(name)
-
-    def number(text):
-        try:
-            return float(text)
-        except ValueError:
-            return math.nan
-    return np.array([number(row[index]) if index < len(row) else math.nan for row in rows])
-
-
-def _samples(path, rows, header):
-    """Return the per-row count of averaged readings (1 without the column); CommandError."""
-    if SAMPLES_COLUMN not in header:
-        return 1
-    counts = _numbers(rows, header, SAMPLES_COLUMN)
-    bad = np.flatnonzero(~((counts >= 1) & (np.mod(counts, 1.0) == 0.0)))
-    if bad.size:
-        row, index = rows[bad[0]], header.index(SAMPLES_COLUMN)
-        cell = row[index] if index < len(row) else ''
-        raise CommandError(f'{path}: column {SAMPLES_COLUMN} must be a whole count >= 1 '
-                           f'(row {bad[0] + 1} has {cell!r})')
-    return counts
-
-
 def _temperatures(args, header, rows, model):
     """
     Return the temperature_c column [deg C] (None without one); CommandError if unusable.
@@ -150,7 +117,7 @@ def _temperatures(args, header, rows, model):
     if 'temperature_c' not in header:
         refuse_missing_temperature(args, model, f'{args.input} has no temperature_c column')
         return None
-    temperature_c = _numbers(rows, header, 'temperature_c')
+    temperature_c = number_column(rows, header, 'temperature_c')
     unread = np.flatnonzero(~np.isfinite(temperature_c))
     if unread.size:
         raise CommandError(f'{args.input} data row {unread[0] + 1}: temperature_c '
@@ -161,17 +128,6 @@ def _temperatures(args, header, rows, model):
     except Implausible as err:
         raise CommandError(err.reason) from None
     return temperature_c
-
-
-def _outside_fit(model, temperature_c):
-    """Return which rows lie outside the fitted range of a temperature stage (None: none)."""
-    if temperature_c is None:
-        return None
-    outside = np.zeros(temperature_c.shape, dtype=bool)
-    for stage in (model.temperature, model.magnetometer_temperature):
-        if stage is not None:
-            outside |= ~in_range(temperature_c, stage)
-    return outside
 
 
 def _model(path):
@@ -201,10 +157,10 @@ def survey(args, outputs):
     if missing:
         raise CommandError(f'{args.input} lacks the column(s) {", ".join(missing)}; it has '
                            f'{", ".join(header)}')
-    raw = np.column_stack([_numbers(rows, header, n) for n in ACCEL_COLUMNS])
-    field = (np.column_stack([_numbers(rows, header, n) for n in FIELD_COLUMNS])
+    raw = np.column_stack([number_column(rows, header, n) for n in ACCEL_COLUMNS])
+    field = (np.column_stack([number_column(rows, header, n) for n in FIELD_COLUMNS])
              if any(has_field) else None)
-    averaged = _samples(args.input, rows, header)
+    averaged = count_column(args.input, rows, header, SAMPLES_COLUMN)
     if field is None:
         print(f'inclino survey: no bx, by, bz in {args.input}: inclination and toolface '
               'only (an accelerometer-only tool: no azimuth columns)', file=sys.stderr)
@@ -238,43 +194,13 @@ def survey(args, outputs):
                                 noise_std_nT=args.mag_noise_nT,
                                 azimuth_max_std_deg=args.azimuth_max_std_deg)
     result = run_pipeline(raw, model, settings, temperature_c, field, magnetic, averaged)
-    columns = output_columns(result, declination_deg, total_nT is not None,
+    columns = survey_columns(result, declination_deg, total_nT is not None,
                              model.toolface_zero)
-    outside = _outside_fit(model, temperature_c)
+    outside = outside_fit(model, temperature_c)
     write(outputs.path(args.output), header, rows, result.codes, columns, outside)
     if field is None:
         return len(rows), None
     return len(rows), int(np.isfinite(columns['azimuth_deg'][1]).sum())
-
-
-def output_columns(result, declination_deg, with_qc, toolface_zero):
-    """Return ``{name: (accepted mask, values of the accepted rows)}`` of the output."""
-    accepted = result.accepted
-    azimuth = result.magnetic
-    if azimuth is None:    # no magnetometer: no azimuth, no field QC
-        values = {'inclination_deg': result.inclination_deg,
-                  'toolface_deg': result.toolface_deg, 'g_total_mps2': result.g_total_mps2,
-                  'inclination_std_deg': result.inclination_std_deg,
-                  'toolface_std_deg': result.toolface_std_deg}
-        return {name: (accepted, value) for name, value in values.items()}
-    values = {'inclination_deg': result.inclination_deg, 'toolface_deg': result.toolface_deg,
-              'azimuth_deg': azimuth.defined_azimuth_deg, 'g_total_mps2': result.g_total_mps2,
-              'b_total_nT': azimuth.b_total_nT, 'dip_deg': azimuth.dip_deg,
-              'inclination_std_deg': result.inclination_std_deg,
-              'toolface_std_deg': result.toolface_std_deg,
-              'azimuth_std_deg': azimuth.azimuth_std_deg,
-              'g_total_std_mps2': azimuth.g_total_std_mps2,
-              'b_total_std_nT': azimuth.b_total_std_nT, 'dip_std_deg': azimuth.dip_std_deg}
-    values['toolface_zero'] = [toolface_zero] * int(np.count_nonzero(accepted))
-    if declination_deg is not None:
-        values['true_azimuth_deg'] = true_azimuth_deg(azimuth.defined_azimuth_deg,
-                                                      declination_deg)
-    if with_qc:
-        qc = azimuth.qc
-        values.update(b_total_delta_nT=qc.b_total_delta_nT, dip_delta_deg=qc.dip_delta_deg,
-                      g_total_delta_mps2=qc.g_total_delta, qc_b_total=qc.b_total_ok,
-                      qc_dip=qc.dip_ok, qc_g_total=qc.g_total_ok, qc_ok=qc.ok)
-    return {name: (accepted, value) for name, value in values.items()}
 
 
 def write(path, header, rows, codes, columns, outside=None):
@@ -291,10 +217,8 @@ def write(path, header, rows, codes, columns, outside=None):
         print('inclino survey: input column(s) '
               + ', '.join(n for n, r in zip(header, renamed) if n != r)
               + ' kept as input_<name>', file=sys.stderr)
-    status = ['ok' if code == ACCEPTED else REASONS[code] for code in codes]
+    status = row_status(codes, outside)
     if outside is not None and outside.any():
-        status = [OUTSIDE_FIT if far and text == 'ok' else text
-                  for text, far in zip(status, outside)]
         print(f'inclino survey: {int(outside.sum())} row(s) with a temperature outside the '
               f"calibration's fitted range: status {OUTSIDE_FIT}", file=sys.stderr)
     full = {}

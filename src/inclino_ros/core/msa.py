@@ -78,7 +78,7 @@ from inclino_ros.core import magnetics
 from inclino_ros.core.attitude import as_vectors
 from inclino_ros.core.constants import STANDARD_GRAVITY_MPS2
 from inclino_ros.core.refusal import Refused
-from inclino_ros.core.uncertainty import azimuth_gradients
+from inclino_ros.core.uncertainty import azimuth_gradients, toolface_std_rad
 import numpy as np
 
 #: Largest interference accepted [nT]: a drill string's magnetisation stays well below
@@ -706,3 +706,17 @@ def _refuse_non_finite(G, B):
     finite = _finite(G, B)
     if not finite.all():
         raise MsaRefused(f'non-finite readings at station(s) {_numbers(~finite)}')
+
+
+def station_toolface_deg(G, max_std_deg):
+    """
+    Return the stations' gravity toolface [deg], NaN where its 1 sigma exceeds ``max_std_deg``.
+
+    The 1 sigma is ``sigma_G / (|G| sin I)`` (``toolface_std_rad``)
+    with sigma_G the scatter of the stations' |G|; a vertical station has none.
+    """
+    noise = np.std(magnetics.g_total(G), ddof=1) if G.shape[0] > 1 else 0.0
+    f = magnetics.specific_force_from_gravity(G)
+    std_deg = np.degrees(toolface_std_rad(f, noise ** 2 * np.broadcast_to(np.eye(3), (len(f), 3,
+                                                                                      3))))
+    return np.where(std_deg <= max_std_deg, magnetics.gravity_toolface_deg(G), np.nan)

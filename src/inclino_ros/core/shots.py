@@ -637,3 +637,30 @@ def _result(fitted, accel_all, field_all, labels, robust, limits, evaluations):
                              'iron nearby, the tool moved during shots, or a triad is not '
                              'linear)', fit=fit, reasons=problems)
     return fit
+
+
+def circular_mean_deg(angles_deg):
+    """Return the circular mean [deg] of angles: the direction of their mean unit vector."""
+    return math.degrees(math.atan2(np.mean(np.sin(np.radians(angles_deg))),
+                                   np.mean(np.cos(np.radians(angles_deg)))))
+
+
+def circular_spread_deg(angles_deg):
+    """Return the RMS deviation [deg] of angles from their circular mean."""
+    mean = circular_mean_deg(angles_deg)
+    return float(np.sqrt(np.mean(((np.asarray(angles_deg) - mean + 180.0) % 360.0 - 180.0) ** 2)))
+
+
+def group_spreads(labels, survey, used):
+    """
+    Return [(azimuth spread, inclination spread)] [deg] per roll group, ``used`` shots only.
+
+    ``labels`` (N,) each shot's roll group (-1 none; None: no groups),
+    ``survey`` the shots' ``magnetics.survey_of``: the azimuth's circular
+    spread (``circular_spread_deg``) and the inclination's standard deviation.
+    """
+    if labels is None:
+        return []
+    return [(circular_spread_deg(survey['azimuth_deg'][(labels == k) & used]),
+             float(np.std(survey['inclination_deg'][(labels == k) & used])))
+            for k in range(int(labels.max()) + 1)]

@@ -146,11 +146,8 @@ def fit_stand(readings, truth, min_separation_deg=MIN_SEPARATION_DEG):
     if readings.shape != truth.shape:
         raise ValueError(f'readings {readings.shape} and truth {truth.shape} differ in shape')
     count = readings.shape[0]
-    if count < MIN_POSITIONS:
-        raise StandFitRefused(
-            f'only {count} stand position(s), need at least {MIN_POSITIONS} '
-            '(K and b have 12 unknowns; e.g. each axis up and down)')
-    _refuse_non_finite(readings, 'readings')
+    _refuse_unusable(readings, MIN_POSITIONS, 'stand position(s)',
+                     '(K and b have 12 unknowns; e.g. each axis up and down)')
     _refuse_non_finite(truth, 'truth')
     g_scale = float(np.median(_norms(truth)))
     if not 0.0 < g_scale < math.inf or np.any(_norms(truth) > MAX_READING_RATIO * g_scale):
@@ -261,7 +258,9 @@ def fit_sphere(readings, g):
 
     Linear algebraic fit: ``u^T M u + l . u = 1`` with ``u = A / g`` gives
     the centre ``c = -M^-1 l / 2``, ``M / (1 + c^T M c) = R^T R`` (Cholesky,
-    R upper triangular) and ``K = R^-1``, ``b = g c``.  Its bias from noise
+    R upper triangular) and ``K = R^-1``, ``b = g c``; ``u`` is taken about
+    the readings' mean (added back to c), which keeps the design well
+    conditioned when the centre lies far from zero.  Its bias from noise
     is of order (noise / g)^2, negligible for a still, averaged capture.
 
     Raises StandFitRefused for fewer than MIN_SPHERE_READINGS readings,
@@ -271,12 +270,8 @@ def fit_sphere(readings, g):
     failure of the solve.
     """
     readings = as_vectors(readings, 'readings')
-    count = readings.shape[0]
-    if count < MIN_SPHERE_READINGS:
-        raise StandFitRefused(
-            f'only {count} reading(s), need at least {MIN_SPHERE_READINGS} for a sphere fit '
-            '(9 unknowns: upper-triangular K and b)')
-    _refuse_non_finite(readings, 'readings')
+    _refuse_unusable(readings, MIN_SPHERE_READINGS, 'reading(s)',
+                     'for a sphere fit (9 unknowns: upper-triangular K and b)')
     if not 0.0 < g < math.inf:
         raise ValueError(f'g must be a positive finite number, not {g!r}')
     _refuse_beyond(readings, g)
@@ -289,7 +284,12 @@ def fit_sphere(readings, g):
 def _fit_sphere(readings, g):
     """Return the SphereFit of checked, finite readings (see ``fit_sphere``)."""
     count = readings.shape[0]
-    u = readings / g
+    # Centred on the readings' mean: the algebraic design of readings whose centre lies far
+    # from zero (a magnetometer's hard iron as large as the field, on real instruments) is
+    # ill-conditioned however well they spread; the ellipsoid is found about the mean and
+    # moved back.
+    offset = np.mean(readings, axis=0) / g
+    u = readings / g - offset
     x, y, z = u.T
     design = np.column_stack([x * x, y * y, z * z, 2 * x * y, 2 * x * z, 2 * y * z, x, y, z])
     condition = _condition_number(design)
@@ -308,7 +308,7 @@ def _fit_sphere(readings, g):
                               'positive definite): not a still accelerometer?') from None
     scale_matrix = np.linalg.inv(upper)
     _refuse_singular(scale_matrix)
-    bias = g * centre
+    bias = g * (centre + offset)
     residual = np.linalg.norm(correct_stand(readings, scale_matrix, bias), axis=1) - g
     return SphereFit(scale_matrix=scale_matrix, bias_mps2=bias, condition_number=condition,
                      residual_mps2=residual, rms_residual_mps2=_rms(residual))
@@ -357,6 +357,13 @@ def rotation_part(matrix):
     if not np.linalg.det(matrix) > 0.0:
         raise ValueError('the matrix mirrors (determinant not positive): no rotation part')
     return polar(matrix)[0]
+
+
+def _refuse_unusable(readings, minimum, what, why):
+    """Refuse (StandFitRefused) fewer than ``minimum`` readings, or any not finite."""
+    if readings.shape[0] < minimum:
+        raise StandFitRefused(f'only {readings.shape[0]} {what}, need at least {minimum} {why}')
+    _refuse_non_finite(readings, 'readings')
 
 
 def _refuse_non_finite(values, name):

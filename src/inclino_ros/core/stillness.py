@@ -264,19 +264,26 @@ def judge(stillness, limits):
 @dataclass(frozen=True)
 class SegmentLimits:
     """
-    How still segments are found in a continuous log (``find_still_segments``).
+    How still segments are found in a stream (``find_still_segments``): the one rule.
 
-    ``window_s``: the log is judged in windows of this length; a window is
-    still when its accelerometer direction does not move (``motion`` with
-    ``still``, the same test every capture passes) and, with a gyro, its RMS
-    turn rate about the log's median rate (the gyro's bias: a still log is
-    mostly still) stays below ``max_rate_deg_per_s``: a turn about the
-    vertical, which gravity does not show, is seen there.  Consecutive still
-    windows join; the first and last window of a run are left out (the tool
-    settling after the hand lets go, the hand taking it); what is left, at
-    least ``min_s`` long and still as a whole (``motion``: a slow settling
-    that no window shows shows there; not tested with ``whole`` False, for
-    a heating run whose readings drift with the temperature), is a segment.
+    Used alike for a continuous log (``calibration.continuous_log``: the
+    fits' CSV logs) and a bag's shots (``inclino fit-magnetometer``).
+    ``window_s``: the stream is judged in windows of this length; a window is
+    still when the direction of its accelerometer readings does not move
+    (``motion`` with ``still``, the same test every capture passes), nor
+    that of its magnetometer readings when they are given, and, with a gyro,
+    its RMS turn rate about the stream's median rate (the gyro's bias: a
+    still log is mostly still) stays below ``max_rate_deg_per_s``: a turn
+    about the vertical, which gravity does not show, is seen there.
+    Consecutive still windows join into a run, except where two neighbours
+    together move (``motion`` of both windows' readings: the tool turned
+    between two still windows is two attitudes, not one mean of both); the
+    first and last window of a run are left out (the tool settling after the
+    hand lets go, the hand taking it); what is left, at least ``min_s`` long
+    and still as a whole (``motion``: a slow settling that no window shows
+    shows there), is a segment.  With ``whole`` False (a heating run, whose
+    readings drift with the temperature) neither the neighbours nor the whole
+    are tested, only each window.
     """
 
     window_s: float = 0.5
@@ -286,18 +293,28 @@ class SegmentLimits:
     whole: bool = True
 
 
-def find_still_segments(times_s, vectors, gyro_radps=None, limits=SegmentLimits()):
+def _still_span(streams, times_s, start, end, limits):
+    """Return whether every stream's direction over samples start..end is still (``motion``)."""
+    return all(motion(assess(tangent_angles(vectors[start:end]), times_s[start:end]),
+                      limits.still) is None for vectors in streams)
+
+
+def find_still_segments(times_s, vectors, gyro_radps=None, limits=SegmentLimits(),
+                        fields=None):
     """
-    Return [(start, end)] sample ranges of the still segments of a continuous log.
+    Return [(start, end)] sample ranges of the still segments of a stream (``SegmentLimits``).
 
     ``times_s`` (N,) increasing sample times, ``vectors`` (N, 3) the
-    accelerometer readings, ``gyro_radps`` (N, 3) or None.  Each window of
+    accelerometer readings, ``gyro_radps`` (N, 3) or None, ``fields`` (N, 3)
+    the magnetometer readings at the same samples or None.  Each window of
     ``limits.window_s`` (at least MIN_SAMPLES samples, else not still) is
     judged by ``assess`` and ``motion`` on the directions of its readings
-    (``tangent_angles``), and by the gyro's RMS rate (``SegmentLimits``).
+    (``tangent_angles``), and by the gyro's RMS rate.
     """
     times_s = np.asarray(times_s, dtype=float).reshape(-1)
-    vectors = np.asarray(vectors, dtype=float).reshape(-1, 3)
+    streams = [np.asarray(vectors, dtype=float).reshape(-1, 3)]
+    if fields is not None:
+        streams.append(np.asarray(fields, dtype=float).reshape(-1, 3))
     if times_s.size < MIN_SAMPLES:
         return []
     if gyro_radps is not None:
@@ -308,27 +325,32 @@ def find_still_segments(times_s, vectors, gyro_radps=None, limits=SegmentLimits(
     starts, ends = np.append(0, edges), np.append(edges, times_s.size)
     still = np.zeros(starts.size, dtype=bool)
     for k, (start, end) in enumerate(zip(starts, ends)):
-        if end - start < MIN_SAMPLES or not np.all(np.isfinite(vectors[start:end])):
+        if end - start < MIN_SAMPLES or not all(np.all(np.isfinite(v[start:end]))
+                                                for v in streams):
             continue
         if gyro_radps is not None:
             rate = np.degrees(np.sqrt(np.mean(np.sum(gyro_radps[start:end] ** 2, axis=1))))
             if not rate < limits.max_rate_deg_per_s:
                 continue
-        still[k] = motion(assess(tangent_angles(vectors[start:end]), times_s[start:end]),
-                          limits.still) is None
+        still[k] = _still_span(streams, times_s, start, end, limits)
+    # A run breaks where two still neighbours together move: another attitude.
+    joined = still[1:] & still[:-1]
+    if limits.whole:
+        joined &= [_still_span(streams, times_s, starts[k], ends[k + 1], limits)
+                   for k in range(starts.size - 1)]
     segments = []
-    change = np.flatnonzero(np.diff(np.concatenate([[0], still.astype(int), [0]])))
-    for first, after in zip(change[::2], change[1::2]):
-        # The tool settles after the hand lets go, the hand takes it before it turns: a
-        # run's first and last window are left out.
-        first, after = first + 1, after - 1
-        if after <= first:
-            continue
-        start, end = starts[first], ends[after - 1]
-        if times_s[end - 1] - times_s[start] >= limits.min_s and (not limits.whole or motion(
-                assess(tangent_angles(vectors[start:end]), times_s[start:end]),
-                limits.still) is None):
-            segments.append((int(start), int(end)))
+    first = None
+    for k in range(starts.size + 1):
+        if first is not None and (k == starts.size or not joined[k - 1]):
+            # The tool settles after the hand lets go, the hand takes it before it turns: a
+            # run's first and last window are left out.
+            start, end = (starts[first + 1], ends[k - 2]) if k - first > 2 else (None, None)
+            if start is not None and times_s[end - 1] - times_s[start] >= limits.min_s and (
+                    not limits.whole or _still_span(streams, times_s, start, end, limits)):
+                segments.append((int(start), int(end)))
+            first = None
+        if first is None and k < starts.size and still[k]:
+            first = k
     return segments
 
 
@@ -348,47 +370,6 @@ def label_attitudes(readings, separation_deg):
         labels[(labels < 0) & near] = label
         label += 1
     return labels
-
-
-def still_segments(stamps_ns, accel, field, window_s, max_deg, min_s):
-    """
-    Return [(start, end)] index ranges of the still segments of a stream.
-
-    Windows of ``window_s`` whose accelerometer and magnetometer directions
-    both spread less than ``max_deg`` (RMS angle about their mean) are still;
-    consecutive still windows join when their mean directions also agree within
-    ``max_deg`` (a tool turned between two windows is two shots, not one mean
-    of two attitudes), and a joined run of at least ``min_s`` is a segment.
-    """
-    seconds = (stamps_ns - stamps_ns[0]) / 1e9
-    window = np.floor(seconds / window_s).astype(int)
-    edges = np.flatnonzero(np.diff(window)) + 1
-    starts, ends = np.append(0, edges), np.append(edges, len(window))
-    still, means = [], []
-    for start, end in zip(starts, ends):
-        means.append([v[start:end].mean(axis=0) for v in (accel, field)])
-        spreads = [np.degrees(np.sqrt(np.mean(angle_between(v[start:end], mean) ** 2)))
-                   for v, mean in zip((accel, field), means[-1])]
-        still.append(end - start >= 2 and max(spreads) < max_deg)
-    segments, run_start = [], None
-
-    def close(k):
-        first, last = starts[run_start], ends[k - 1]
-        if seconds[last - 1] - seconds[first] >= min_s - window_s:
-            segments.append((first, last))
-
-    for k, is_still in enumerate(still + [False]):
-        if is_still and run_start is not None and max(
-                np.degrees(angle_between(a, b)) for a, b in zip(means[k], means[k - 1])) \
-                >= max_deg:
-            close(k)   # still on both sides, but another attitude: another shot
-            run_start = k
-        elif is_still and run_start is None:
-            run_start = k
-        elif not is_still and run_start is not None:
-            close(k)
-            run_start = None
-    return segments
 
 
 def own_noise(vectors, times_s=None):

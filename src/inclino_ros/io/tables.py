@@ -9,6 +9,7 @@ garbage included, is a TableError with the reason and the line.
 """
 
 import csv
+import math
 
 from inclino_ros.io.files import open_regular
 
@@ -120,6 +121,32 @@ def read_rows(path, max_rows=MAX_ROWS):
             raise TableError(f'{path} has no data rows')
         return header, rows
     return _open_reader(path, read)
+
+
+def number_column(rows, header, name):
+    """Return column ``name`` as floats, NaN where a cell is not a number."""
+    index = header.index(name)
+
+    def number(text):
+        try:
+            return float(text)
+        except ValueError:
+            return math.nan
+    return np.array([number(row[index]) if index < len(row) else math.nan for row in rows])
+
+
+def count_column(path, rows, header, name):
+    """Return column ``name`` as whole counts >= 1 (1 without the column); TableError if not."""
+    if name not in header:
+        return 1
+    counts = number_column(rows, header, name)
+    bad = np.flatnonzero(~((counts >= 1) & (np.mod(counts, 1.0) == 0.0)))
+    if bad.size:
+        row, index = rows[bad[0]], header.index(name)
+        cell = row[index] if index < len(row) else ''
+        raise TableError(f'{path}: column {name} must be a whole count >= 1 '
+                         f'(row {bad[0] + 1} has {cell!r})')
+    return counts
 
 
 def _read_table(reader, path, required, optional, text, max_rows):

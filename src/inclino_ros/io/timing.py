@@ -6,6 +6,10 @@ magnetometer reading of the same moment and attitude; the node, ``inclino
 process`` and the fits pair them with the same function (``pair_nearest``).
 """
 
+from dataclasses import dataclass
+
+from inclino_ros.io.bag import (
+    BagError, concatenate, IMU, list_topics, MAGNETIC_FIELD, read, TEMPERATURE)
 import numpy as np
 
 
@@ -71,3 +75,74 @@ def pair_nearest(stamps_ns, reading_stamps_ns, readings, max_gap_ns, tolerance):
     paired = (np.abs(reading_stamps[nearest] - stamps) <= max_gap_ns) & (
         exact | ~(has_before & has_after) | agree)
     return np.where(paired[:, None], readings[nearest], unpaired), paired
+
+
+def in_window(stamps_ns, start_s=0.0, end_s=None):
+    """
+    Return which stamps lie from ``start_s`` up to, not at, ``end_s`` s after the first.
+
+    Half open, so that windows that meet (``--end-s 3``, ``--start-s 3``) share no
+    sample: a simulated segment starts exactly on its second.
+    """
+    offset_ns = np.asarray(stamps_ns, dtype=np.int64) - np.min(stamps_ns)
+    keep = offset_ns >= round(start_s * 1e9)
+    if end_s is not None:
+        keep &= offset_ns < round(end_s * 1e9)
+    return keep
+
+
+#: What a sensor bag replays (``Timeline``): Imu, MagneticField and Temperature topics.
+SENSOR_TYPES = (IMU, MAGNETIC_FIELD, TEMPERATURE)
+
+
+@dataclass(frozen=True)
+class Timeline:
+    """Messages of several topics in stamp order: which topic, which row of its series."""
+
+    topics: tuple           # ((topic, msgtype, series), ...)
+    stamps_ns: np.ndarray   # (M,) sorted
+    topic_index: np.ndarray  # (M,) into topics
+    row: np.ndarray         # (M,) into that topic's series
+
+    @classmethod
+    def of(cls, topics):
+        """Return the Timeline of ``(topic, msgtype, series)`` triples (stable stamp order)."""
+        stamps = np.concatenate([series.stamps_ns for _, _, series in topics])
+        index = np.concatenate([np.full(series.stamps_ns.size, k)
+                                for k, (_, _, series) in enumerate(topics)])
+        row = np.concatenate([np.arange(series.stamps_ns.size) for _, _, series in topics])
+        order = np.argsort(stamps, kind='stable')
+        return cls(tuple(topics), stamps[order], index[order], row[order])
+
+    def __len__(self):
+        """Return the number of messages."""
+        return self.stamps_ns.size
+
+    def window(self, start_s=0.0, end_s=None):
+        """Return the messages from ``start_s`` up to (not at) ``end_s`` s after the first."""
+        keep = in_window(self.stamps_ns, start_s, end_s)
+        return Timeline(self.topics, self.stamps_ns[keep], self.topic_index[keep],
+                        self.row[keep])
+
+    def entry(self, k):
+        """Return (topic, msgtype, series, row) of the k-th message."""
+        topic, msgtype, series = self.topics[self.topic_index[k]]
+        return topic, msgtype, series, int(self.row[k])
+
+
+def load_timeline(path, topics=None):
+    """Return the Timeline of the sensor topics of the bag ``path`` (or of ``topics``)."""
+    available = list_topics(path)
+    if topics is None:
+        topics = sorted(t for t, (msgtype, count) in available.items()
+                        if msgtype in SENSOR_TYPES and count)
+        if not topics:
+            raise BagError(f'{path} has no Imu, MagneticField or Temperature topic; it has: '
+                           + ', '.join(f'{t} ({m})' for t, (m, _) in sorted(available.items())))
+    for topic in topics:
+        msgtype = available.get(topic, (None,))[0]
+        if msgtype not in SENSOR_TYPES:
+            raise BagError(f'{topic} in {path} is {msgtype or "not there"}; inclino play '
+                           f'publishes {", ".join(SENSOR_TYPES)}')
+    return Timeline.of([(topic, available[topic][0], concatenate(read(path, topic)))
+                        for topic in topics if available[topic][1]])

@@ -421,12 +421,11 @@ def temperature_stage(model):
     """
     Return the stage whose fitted temperature range the temperature diagnostics watch, or None.
 
-    The temperature stage, else the magnetometer's, else a multi-temperature stand (K(T), b(T),
-    clamped beyond its range: issue 18).
+    The temperature stage, else the magnetometer's, else a multi-temperature stand of either
+    triad (K(T), b(T), clamped beyond its range: issue 18).
     """
-    stand = model.stand if model.stand is not None and model.stand.temperature_dependent \
-        else None
-    return model.temperature or model.magnetometer_temperature or stand
+    polynomial = next((stage for _, stage in model.polynomial_stages), None)
+    return model.temperature or model.magnetometer_temperature or polynomial
 
 
 def main(args=None):

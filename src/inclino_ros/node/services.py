@@ -157,7 +157,10 @@ class CalibrationServices:
         magnetometer = note if field is None else (
             f'magnetometer K_m, b_m fitted (seed 001 Eq. 12): field residual '
             f'{field.rms_residual_deg:.4f} deg RMS, bias '
-            f'({", ".join(f"{v:.1f}" for v in field.magnetometer.bias_nT)}) nT')
+            f'({", ".join(f"{v:.1f}" for v in field.magnetometer.bias_nT)}) nT'
+            + ('' if field.plateaus is None else
+               f', K_m(T) and b_m(T) of order {field.plateaus.order} over '
+               f'{field.magnetometer.t_min_c:g} .. {field.magnetometer.t_max_c:g} C'))
         return self.collector.answer(response, (
             f'stand calibration from {len(self.positions)} positions: K diagonal '
             f'({", ".join(f"{v:.5f}" for v in np.diag(k))}), bias '

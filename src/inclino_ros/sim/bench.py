@@ -121,6 +121,27 @@ def make_tool(sensor='ideal', gamma_deg=0.0, beta_deg=0.0, roll_deg=0.0,
                    accelerometer_axes=axes, gravity_mps2=gravity_mps2)
 
 
+def command_tool(sensor, mount_deg, noise_mps2, mag_noise_nT, ideal_noise, names, axes=3):
+    """
+    Return the tool of a simulating command (``make_tool``): the preset, mount and noise asked.
+
+    ``mount_deg`` (gamma, beta, roll, magnetometer (3,)); ``noise_mps2``,
+    ``mag_noise_nT`` None keep the preset's own noise, except for the ``ideal``
+    preset (no noise of its own), which takes ``ideal_noise`` (m/s^2, nT);
+    ValueError for a negative noise, ``names`` the two options as the message
+    names them.
+    """
+    if sensor == 'ideal':
+        noise_mps2 = ideal_noise[0] if noise_mps2 is None else noise_mps2
+        mag_noise_nT = ideal_noise[1] if mag_noise_nT is None else mag_noise_nT
+    if (noise_mps2 is not None and noise_mps2 < 0.0) or (
+            mag_noise_nT is not None and mag_noise_nT < 0.0):
+        raise ValueError(f'{names[0]} and {names[1]} must not be negative')
+    gamma_deg, beta_deg, roll_deg, magnetometer_deg = mount_deg
+    return make_tool(sensor, gamma_deg, beta_deg, roll_deg, tuple(magnetometer_deg), noise_mps2,
+                     mag_noise_nT, axes)
+
+
 #: The bench's default tool (module docstring).
 DEMO_TOOL = make_tool('ideal', DEMO_GAMMA_DEG, DEMO_BETA_DEG, noise_mps2=DEMO_NOISE_MPS2,
                       mag_noise_nT=DEMO_MAG_NOISE_NT)
@@ -465,3 +486,70 @@ def plateau_stand(tool, plateaus_c, samples=100):
             attitudes.append((run.inclination_deg[mine][0], run.toolface_deg[mine][0]))
             temperatures.append(float(temperature))
     return np.array(means), np.array(attitudes), np.array(temperatures)
+
+
+#: Twelve stand positions (inclination, toolface, magnetic azimuth) [deg] that turn both
+#: gravity and the Earth's field through every direction of the tool (seed 001 Eq. 12 needs
+#: the field, not gravity, spread).
+FIELD_STAND_POSITIONS_DEG = (
+    (0, 0, 0), (180, 0, 90), (90, 0, 0), (90, 90, 90), (90, 180, 180), (90, 270, 270),
+    (45, 45, 45), (135, 225, 315), (60, 300, 135), (120, 135, 225), (30, 200, 300),
+    (150, 20, 60))
+
+
+def drifting_magnetometer_tool(noise_mps2=2e-4 * sm.STANDARD_GRAVITY_MPS2, mag_noise_nT=20.0):
+    """
+    Return ``drifting_mount_tool`` whose magnetometer also turns and drifts on its own.
+
+    The board tilts 0.3 deg over 28..60 deg C (both triads); the magnetometer's bracket turns
+    a further 0.2 deg about its y axis and 0.1 deg about z over the same span (a turn the
+    accelerometer does not see), and its z bias drifts 400 nT over it (on top of the
+    preset's own drifts).  ``mag_noise_nT`` per sample.
+    """
+    base = drifting_mount_tool(noise_mps2)
+    drift = [list(row) for row in base.magnetometer.bias_drift]
+    drift[2][0] += 400.0 / 32.0
+    return replace(base, mount=replace(base.mount, magnetometer_drift_deg_per_c=(
+                       0.0, 0.2 / 32.0, 0.1 / 32.0)),
+                   magnetometer=replace(base.magnetometer, noise_std=mag_noise_nT,
+                                        bias_drift=tuple(map(tuple, drift))))
+
+
+def field_plateau_stand(tool, plateaus_c, positions_deg=FIELD_STAND_POSITIONS_DEG, samples=100):
+    """
+    Return the stand run at each temperature of ``plateaus_c`` in turn: ``{column: (N,)}``.
+
+    ``positions_deg`` (inclination, toolface, azimuth), ``samples`` each, seed k for the k-th
+    plateau (``StandRun.sample``); the columns of ``inclino fit-stand``'s CSV:
+    inclination_deg, toolface_deg, azimuth_deg, temperature_c, ax, ay, az, bx, by, bz.
+    """
+    runs = [StandRun(tool, seed=seed).sample(positions_deg, [samples] * len(positions_deg),
+                                             temperature, 'position')
+            for seed, temperature in enumerate(plateaus_c)]
+    columns = {name: np.concatenate([getattr(run, name) for run in runs])
+               for name in ('inclination_deg', 'toolface_deg', 'azimuth_deg', 'temperature_c')}
+    for name, (source, axis) in {'ax': ('raw_mps2', 0), 'ay': ('raw_mps2', 1),
+                                 'az': ('raw_mps2', 2), 'bx': ('mag_nT', 0),
+                                 'by': ('mag_nT', 1), 'bz': ('mag_nT', 2)}.items():
+        columns[name] = np.concatenate([getattr(run, source)[:, axis] for run in runs])
+    return columns
+
+
+def held_out_field_errors_deg(tool, correct, temperature_c, count=400, seed=9):
+    """
+    Return the angle [deg] between the corrected and the true field at ``count`` attitudes.
+
+    As ``held_out_errors_deg`` for the magnetometer: ``tool`` read noise-free in the Earth's
+    field (``sm.Field``) at attitudes uniform over the sphere and azimuths uniform, at
+    ``temperature_c``; ``correct(fields (N, 3), temperatures (N,))`` gives tool-frame fields.
+    """
+    rng = np.random.default_rng(seed)
+    incl = np.degrees(np.arccos(rng.uniform(-1.0, 1.0, count)))
+    tf, az = rng.uniform(0.0, 360.0, count), rng.uniform(0.0, 360.0, count)
+    quiet = replace(tool, magnetometer=replace(tool.magnetometer, noise_std=0.0))
+    readings = sm.read(quiet, incl, tf, az, temperature_c=temperature_c)
+    corrected = correct(readings.mag_nT, np.full(count, float(temperature_c)))
+    truth = readings.earth_field_tool_nT
+    cosine = np.sum(corrected * truth, axis=1) / (np.linalg.norm(corrected, axis=1)
+                                                  * np.linalg.norm(truth, axis=1))
+    return np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))

@@ -331,7 +331,10 @@ class Mount:
     board's x, then the new y, then the new z.  ``drift_deg_per_c``: how
     gamma, beta and roll change with the temperature (a board whose mounting
     creeps as it warms: a few tenths of a degree over 30 deg C on a real
-    borehole tool), linear from ``reference_temperature_c`` (``at``).
+    borehole tool), linear from ``reference_temperature_c`` (``at``);
+    ``magnetometer_drift_deg_per_c``: how the magnetometer triad's own turns
+    (``magnetometer_deg``) change with it (its own bracket creeping: a turn
+    the accelerometer does not see).
     """
 
     gamma_deg: float = 0.0
@@ -340,28 +343,30 @@ class Mount:
     magnetometer_deg: tuple = (0.0, 0.0, 0.0)
     drift_deg_per_c: tuple = (0.0, 0.0, 0.0)
     reference_temperature_c: float = 25.0
+    magnetometer_drift_deg_per_c: tuple = (0.0, 0.0, 0.0)
 
     def __post_init__(self):
-        """Store the magnetometer angles and the drift as tuples of three floats."""
-        object.__setattr__(self, 'magnetometer_deg',
-                           _vector(self.magnetometer_deg, 'magnetometer_deg'))
-        object.__setattr__(self, 'drift_deg_per_c',
-                           _vector(self.drift_deg_per_c, 'drift_deg_per_c'))
+        """Store the magnetometer angles and the drifts as tuples of three floats."""
+        for name in ('magnetometer_deg', 'drift_deg_per_c', 'magnetometer_drift_deg_per_c'):
+            object.__setattr__(self, name, _vector(getattr(self, name), name))
 
     @property
     def drifts(self):
-        """Return whether the mount turns with the temperature."""
-        return any(v != 0.0 for v in self.drift_deg_per_c)
+        """Return whether the mount (or the magnetometer on it) turns with the temperature."""
+        return any(v != 0.0 for v in self.drift_deg_per_c + self.magnetometer_drift_deg_per_c)
 
     def at(self, temperature_c):
         """Return the mount at ``temperature_c`` [deg C] (no drift: itself)."""
         if not self.drifts:
             return self
-        change = [v * (float(temperature_c) - self.reference_temperature_c)
-                  for v in self.drift_deg_per_c]
+        dt = float(temperature_c) - self.reference_temperature_c
+        change = [v * dt for v in self.drift_deg_per_c]
         return replace(self, gamma_deg=self.gamma_deg + change[0],
                        beta_deg=self.beta_deg + change[1], roll_deg=self.roll_deg + change[2],
-                       drift_deg_per_c=(0.0, 0.0, 0.0))
+                       magnetometer_deg=tuple(a + v * dt for a, v in zip(
+                           self.magnetometer_deg, self.magnetometer_drift_deg_per_c)),
+                       drift_deg_per_c=(0.0, 0.0, 0.0),
+                       magnetometer_drift_deg_per_c=(0.0, 0.0, 0.0))
 
     def maps(self, temperature_c):
         """
@@ -646,6 +651,7 @@ def truth_dict(tool):
             'gamma_deg': mount.gamma_deg, 'beta_deg': mount.beta_deg,
             'roll_deg': mount.roll_deg, 'magnetometer_deg': list(mount.magnetometer_deg),
             'drift_deg_per_c': list(mount.drift_deg_per_c),
+            'magnetometer_drift_deg_per_c': list(mount.magnetometer_drift_deg_per_c),
             'reference_temperature_c': mount.reference_temperature_c,
             'accelerometer_from_tool': mount.accelerometer_from_tool().tolist(),
             'magnetometer_from_tool': mount.magnetometer_from_tool().tolist(),
