@@ -712,4 +712,3 @@ def test_seed001_fits_of_a_mounted_board(runs, tmp_path):
         np.testing.assert_allclose(mounted.temperature.apply(readings, temperature_c),
                                    runs['model'].temperature.apply(readings, temperature_c),
                                    atol=1e-9)
-
