@@ -22,18 +22,30 @@ every cell; over D draws the binomial 1 sigma of a coverage is sqrt(p (1 - p) / 
 but for ~2 % of the cells at 2 sigma (the band's 2 sigma edges are 1.6 and 3.4 binomial
 sigma away).
 
+Calibration cells (issue 19 item 2, ``test/coverage_sim``): each draw calibrates a fresh
+simulated tool (fit-magnetometer's 24 one-reading shots; a 12-position stand; a
+36-reading rotation), then surveys one 100-sample station at a random attitude; the
+coverage of the azimuth and inclination sigma with the fits' parameter covariance, and
+without (``former``: files before schema 7).  ``--calibration-draws`` of them per cell
+(binomial 1 sigma 0.027 / 0.012 at 300); ``--calibration-only`` runs just these.
+
 Usage: .venv/bin/python bench/bench_coverage.py [--draws 200] [--samples 1000] [--seed 1]
-       [--output bench/results/coverage.md]
+       [--calibration-draws 300] [--calibration-only] [--output bench/results/coverage.md]
 """
 
 import argparse
 import math
+import pathlib
+import sys
 import time
 
 from inclino_ros.calibration.model import CalibrationModel
 from inclino_ros.pipeline import capture_mean, correct, MagneticSettings, Settings
 from inclino_ros.sim import sensor_model as sm
 import numpy as np
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent.parent / 'test'))
+import coverage_sim  # noqa: E402, I100  (the tests' calibrate-then-survey scenarios)
 
 G = sm.STANDARD_GRAVITY_MPS2
 RATE_HZ = 100.0
@@ -97,14 +109,45 @@ def inside(one, two):
     return not (one < 0.60 or one > 0.76 or two < 0.93 or two > 0.98)
 
 
+def calibration_table(draws, seed):
+    """Return the markdown lines of the calibration cells (module docstring)."""
+    rng = np.random.default_rng(seed)
+    lines = [f'Calibration cells: {draws} calibrations per cell, seed {seed}, each then one '
+             f'{coverage_sim.STATION_SAMPLES}-sample station (inclination 10-80 deg, azimuth '
+             "N/E/W); former: without the fits' parameter covariance (schema < 7).", '',
+             '| calibration | tool | azimuth 1s/2s | inclination 1s/2s | in band | '
+             'former azimuth 1s/2s | former inclination 1s/2s |', '|---|---|---|---|---|---|---|']
+    for kind in coverage_sim.CALIBRATIONS:
+        for name, preset, shot_samples in coverage_sim.TOOLS:
+            ratios = coverage_sim.ratios(kind, preset, shot_samples, draws, rng)
+            new = [coverage_sim.coverage(ratios[:, angle, 0]) for angle in (0, 1)]
+            old = [coverage_sim.coverage(ratios[:, angle, 1]) for angle in (0, 1)]
+            band = all(inside(*figures) for figures in new)
+            lines.append(f'| {kind} | {name} | ' + ' | '.join(
+                f'{one:.2f}/{two:.2f}' for one, two in new) + f' | {"yes" if band else "no"} | '
+                + ' | '.join(f'{one:.2f}/{two:.2f}' for one, two in old) + ' |')
+    return lines
+
+
 def main():
     """Run every cell; print and write the tables (markdown)."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[1])
     parser.add_argument('--draws', type=int, default=200)
     parser.add_argument('--samples', type=int, default=1000)
     parser.add_argument('--seed', type=int, default=1)
+    parser.add_argument('--calibration-draws', type=int, default=300)
+    parser.add_argument('--calibration-only', action='store_true')
     parser.add_argument('--output', default=None, help='markdown file to write the tables to')
     args = parser.parse_args()
+    calibration = calibration_table(args.calibration_draws, args.seed)
+    if args.calibration_only:
+        text = '\n'.join(calibration) + '\n'
+        print(text)
+        if args.output:
+            with open(args.output, 'w') as stream:
+                stream.write("# Coverage of the calibration fits' 1 sigma "
+                             '(bench/bench_coverage.py --calibration-only)\n\n' + text)
+        return
     rng = np.random.default_rng(args.seed)
     started = time.process_time()
     lines = [f'{args.draws} still captures of {args.samples} samples (100 Hz) per cell, '
@@ -155,7 +198,7 @@ def main():
     cpu = time.process_time() - started
     text = '\n'.join(['Summary (cells: inclination, toolface, azimuth of every inclination '
                       'and azimuth; band 0.60-0.76 / 0.93-0.98):', ''] + table
-                     + ['', f'CPU {cpu:.0f} s.', ''] + lines) + '\n'
+                     + ['', f'CPU {cpu:.0f} s.', ''] + lines + [''] + calibration) + '\n'
     print(text)
     if args.output:
         with open(args.output, 'w') as stream:

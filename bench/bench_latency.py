@@ -458,6 +458,9 @@ def run_on_domain(args, index, domain, mode):
                     + ['--ros-args', '-p', f'calibration_file:={calibration}',
                        '-p', f'diagnostics_period_s:={DIAGNOSTICS_PERIOD_S}'] + MODES[mode])
         procs.start('relay', [PYTHON, os.path.join(HERE, 'relay.py')])
+        nice = {name: os.getpriority(os.PRIO_PROCESS, procs.children[name][0].pid)
+                for name in ('node', 'relay')}
+        load_start = os.getloadavg()[0]
         receiver = procs.start('receiver', me + [
             '--role', 'receiver', '--out', received_file,
             '--receiver-depth', str(args.receiver_depth)], stdin=subprocess.PIPE)
@@ -478,6 +481,7 @@ def run_on_domain(args, index, domain, mode):
         if publisher.returncode != 0:
             raise RuntimeError(f'publisher failed:\n{procs.log("publisher")}')
         procs.check_alive('node', 'relay')
+        load_end = os.getloadavg()[0]
         receiver.stdin.write('stop\n')
         receiver.stdin.close()
         receiver.wait(timeout=60)
@@ -504,6 +508,8 @@ def run_on_domain(args, index, domain, mode):
     stats = analyse(sent, records, token)
     stats['busy_before'] = idle_before
     stats['mode'] = mode
+    stats['load'] = (load_start, load_end)
+    stats['nice'] = nice
     return stats
 
 
@@ -707,11 +713,14 @@ def report(runs, args, command, started, host, failures=()):
         f'loss <= relay loss + {MAX_LOSS_PCT:g} %; every-sample at {LOSS_TARGET_RATE} Hz, '
         f'node input loss <= relay loss; average-500hz at {AVERAGED_TARGET_RATE} Hz, node '
         f'input loss <= {MAX_LOSS_PCT:g} %', '']
-    lines += summary(runs, args.modes)
+    lines += summary(runs, args.modes) + per_run(runs)
     for i, stats in enumerate(runs):
         lines += [f'## Run {stats["index"] + 1}, {stats["mode"]}', '',
                   f'Machine busy before the run: {stats["busy_before"]:.2f} cores '
-                  '(other processes; see the CPU table for during).', '', table(stats), '',
+                  '(other processes; see the CPU table for during); 1-minute load average '
+                  f'{stats["load"][0]:.2f} at the start, {stats["load"][1]:.2f} at the end; '
+                  f'nice: node {stats["nice"]["node"]}, relay {stats["nice"]["relay"]}.', '',
+                  table(stats), '',
                   f'Warm-up messages received: {stats["warmup_received"]}.', '',
                   '<details><summary>other views</summary>', '',
                   'publish = source timestamp of the output (when node/relay published) '
@@ -766,6 +775,47 @@ def summary(runs, modes):
         lines.append(f'- highest rate sent with node input loss <= {MAX_LOSS_PCT:g} % in '
                      f'every run, {mode}: {"none" if best is None else f"{best} Hz"}')
     return lines + ['']
+
+
+def per_run(runs):
+    """Return the Markdown lines of the targets' figures run by run, with the machine's load."""
+    by_index = {}
+    for stats in runs:
+        by_index.setdefault(stats['index'], {})[stats['mode']] = stats
+    lines = ['## The targets run by run', '',
+             '| run | load avg start - end | nice node / relay '
+             + ''.join(f'| {r} Hz CPU node/relay | {r} Hz p99 node/relay '
+                       for r in CPU_TARGET_RATES)
+             + f'| {LOSS_TARGET_RATE} Hz loss node / relay % '
+             f'| {AVERAGED_TARGET_RATE} Hz averaged loss % |',
+             '|' + '---|' * (5 + 2 * len(CPU_TARGET_RATES))]
+
+    def cell(stats, rate, figure):
+        row = stats['rates'].get(rate) if stats else None
+        return 'n/a' if row is None else figure(row)
+
+    def cpu(row):
+        return f'{ratio(row["cpu"]["node"], row["cpu"]["relay"]):.2f}'
+
+    def p99(row):
+        return f'{ratio(row["node"]["dds_p99"], row["relay"]["dds_p99"]):.2f}'
+
+    def losses(row):
+        return f'{row["node_in"]["loss_pct"]:.2f} / {row["relay"]["loss_pct"]:.2f}'
+
+    for index, modes in sorted(by_index.items()):
+        every, averaged = modes.get('every-sample'), modes.get('average-500hz')
+        first = every or averaged
+        cells = [f'{index + 1}', f'{first["load"][0]:.1f} - {first["load"][1]:.1f}',
+                 f'{first["nice"]["node"]} / {first["nice"]["relay"]}']
+        for rate in CPU_TARGET_RATES:
+            cells += [cell(every, rate, cpu), cell(every, rate, p99)]
+        cells += [cell(every, LOSS_TARGET_RATE, losses),
+                  cell(averaged, AVERAGED_TARGET_RATE,
+                       lambda row: f'{row["node_in"]["loss_pct"]:.2f}')]
+        lines.append('| ' + ' | '.join(cells) + ' |')
+    return lines + ['', 'Load average: of the whole shared machine (2 cores), at the start and '
+                    'end of the every-sample run.', '']
 
 
 def parse_args(argv=None):

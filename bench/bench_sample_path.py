@@ -4,7 +4,9 @@ Where the node's time goes per batch: each stage of its sample path, in one proc
 The stages of ``InclinometerNode._on_batch`` timed one by one on batches of
 1, 5, 25 and 100 samples (a calibrated three-axis model, one frame_id):
 taking the serialized samples, decoding them (``io.bag.decode``), the
-correction (``pipeline.run``), building the outputs (``stream.outputs``),
+correction (``stream.correct_batch``'s choice: ``scalar_chain.run`` for at
+most ``scalar_chain.MAX_SAMPLES`` samples, else ``pipeline.run``; both
+beside it), building the outputs (``stream.outputs``),
 encoding them (``io.bag.encode``, ``encode_float64``) and publishing the
 five topics' bytes; beside them, what a relay pays per message for the
 same conversion in rclpy (taking a deserialized Imu, publishing an Imu
@@ -26,7 +28,7 @@ import time
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-BATCHES = (1, 5, 25, 100)
+BATCHES = (1, 5, 6, 8, 25, 100)
 
 
 def timed(function, rounds):
@@ -42,6 +44,7 @@ def timed(function, rounds):
 def stages(node, batch, rounds):
     """Return {stage: us per batch} for one batch size."""
     from geometry_msgs.msg import Vector3Stamped
+    from inclino_ros import scalar_chain
     from inclino_ros.calibration.model import CalibrationModel, Installation
     from inclino_ros.io import bag
     from inclino_ros.stream import outputs
@@ -59,8 +62,16 @@ def stages(node, batch, rounds):
                                                                                  (batch, 3))
     raw = bag.encode(bag.raw_imu(np.arange(batch) * 1_000_000 + 10**18, 'imu_link', acc, 0.01))
     series = bag.decode(raw, bag.IMU)
-    survey = run(series.linear_acceleration_mps2, model, settings, None, None,
-                 MagneticSettings())
+    acceleration = series.linear_acceleration_mps2
+
+    def vectorised():
+        return run(acceleration, model, settings, None, None, MagneticSettings())
+
+    def floats():
+        return scalar_chain.run(acceleration, model, settings, None)
+
+    chosen = floats if scalar_chain.applies(batch) else vectorised
+    survey = chosen()
     out = outputs(series.stamps_ns, series.frame_ids, survey)
     encoded = (bag.encode(out.survey) + bag.encode(out.imu)
                + bag.encode_float64(out.inclination_deg) * 3)
@@ -88,9 +99,7 @@ def stages(node, batch, rounds):
     result = {
         'take serialized': float(np.median([take(True) for _ in range(rounds)])) * 1e6,
         'decode (io.bag)': timed(lambda: bag.decode(raw, bag.IMU), rounds),
-        'correct (pipeline.run)': timed(lambda: run(
-            series.linear_acceleration_mps2, model, settings, None, None,
-            MagneticSettings()), rounds),
+        'correct (as stream.correct_batch)': timed(chosen, rounds),
         'outputs (stream.outputs)': timed(
             lambda: outputs(series.stamps_ns, series.frame_ids, survey), rounds),
         'encode 5 topics': timed(lambda: (
@@ -103,6 +112,10 @@ def stages(node, batch, rounds):
         'relay: publish Imu message': timed(lambda: [sinks[Imu].publish(imu_message)
                                                      for _ in range(batch)], rounds),
     }
+    beside = {'beside: correct (pipeline.run)': timed(vectorised, rounds)}
+    if batch <= bag.SMALL_BATCH:   # where the crossover lies
+        beside['beside: correct (scalar_chain.run)'] = timed(floats, rounds)
+    result.update(beside)
     node.destroy_publisher(source)
     node.destroy_subscription(subscription)
     for publisher in sinks.values():
@@ -112,8 +125,8 @@ def stages(node, batch, rounds):
 
 def report(results, rounds):
     """Return the Markdown report."""
-    names = list(next(iter(results.values())))
-    node_stages = [n for n in names if not n.startswith('relay')]
+    names = list(dict.fromkeys(n for stage in results.values() for n in stage))
+    node_stages = [n for n in names if not n.startswith(('relay', 'beside'))]
     lines = ["# The node's sample path, stage by stage", '',
              f'- date: {datetime.now(timezone.utc).isoformat(timespec="seconds")}',
              f'- machine: nproc {os.cpu_count()}, Python {platform.python_version()}',
@@ -127,15 +140,18 @@ def report(results, rounds):
                 value = sum(stage[n] for n in node_stages)
             elif name == 'relay total':
                 value = sum(stage[n] for n in names if n.startswith('relay'))
+            elif name not in stage:
+                cells.append('-')
+                continue
             else:
                 value = stage[name]
             cells.append(f'{value:.0f} ({value / batch:.1f})')
         lines.append(f'| {name} | ' + ' | '.join(cells) + ' |')
-    lines += ['', "The node pays a fixed cost per batch (the correction's ~0.1 ms of numpy "
-              'calls dominates; batches of at most 8 messages are coded with struct, without '
-              'a fixed cost) and a few us per sample; the relay pays its conversion per '
-              'message and an executor wake-up per message (~0.15 ms, not here), which the '
-              "node's sample thread does not pay.", '']
+    lines += ['', 'Batches of at most 6 samples are corrected in floats (scalar_chain), of at '
+              'most 8 coded with struct, without a fixed cost; larger ones pay the vectorised '
+              "correction's ~0.1 ms of numpy calls once and a few us per sample. The relay "
+              'pays its conversion per message and an executor wake-up per message (~0.15 ms, '
+              "not here), which the node's sample thread does not pay.", '']
     return '\n'.join(lines)
 
 

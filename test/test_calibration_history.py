@@ -201,3 +201,29 @@ def test_a_fifo_and_a_dangling_link_beside_the_output_change_nothing(tmp_path):
     assert f'{calibration}' in result.stdout
     assert load_model(str(calibration)).installation.gamma_deg == pytest.approx(
         GAMMA_DEG, abs=0.01)
+
+
+def test_a_250_byte_name_has_a_history(tmp_path):
+    """
+    The longest names a file system takes are calibrations like any other (issue 21).
+
+    ``NAME.history`` of a 250-byte NAME is 258 bytes, more than NAME_MAX (255):
+    before, every write of such a file failed.  Its history folder now has a
+    shortened name, the one ``calibration history`` and ``restore`` look in.
+    """
+    for name in ('c' * 245 + '.json', 'é' * 120 + 'abcdef.json'):   # 250 and 251 bytes
+        calibration = str(tmp_path / name)
+        assert len(os.fsencode(name)) >= 250
+        assert fit_level(level_csv(tmp_path / 'a.csv'), calibration)[0] == 0
+        assert fit_level(level_csv(tmp_path / 'b.csv', gamma_deg=-0.4), calibration)[0] == 0
+        folder = history_folder(calibration)
+        assert len(os.fsencode(os.path.basename(folder))) <= 255 and os.path.isdir(folder)
+        code, out, err = quiet(['calibration', 'history', calibration])
+        assert code == 0, err
+        assert len([line for line in out.splitlines() if re.match(r'\s+\d+ ', line)]) == 2
+        assert quiet(['calibration', 'restore', calibration, '1'])[0] == 0
+        assert load_model(calibration).installation.gamma_deg == pytest.approx(
+            GAMMA_DEG, abs=0.01)
+    # Two long names alike in their first 240 bytes keep two histories.
+    assert len({history_folder(str(tmp_path / ('c' * 245 + tail)))
+                for tail in ('.json', '.jsox')}) == 2

@@ -1,11 +1,12 @@
 """
 The layers of ``inclino_ros`` and the one direction its imports run.
 
-cli, node -> stream -> pipeline -> calibration -> core; io beside (it may use core; the
-calibration files are written and read through it); report (the text, residual rows and
-figures of the fits and comparisons) above pipeline, used by cli only; stream (a batch
-corrected into outputs, a recorded bag replayed) is shared by the node and ``inclino process``;
-sim (the virtual bench) is used by cli, tests and benchmarks only.  Every
+cli, node -> stream -> (scalar_chain ->) pipeline -> calibration -> core; io beside (it
+may use core; the calibration files are written and read through it); report (the text,
+residual rows and figures of the fits and comparisons) above pipeline, used by cli only;
+stream (a batch corrected into outputs, a recorded bag replayed) is shared by the node and
+``inclino process``; scalar_chain (pipeline's chain for a few samples in floats) is
+stream's; sim (the virtual bench) is used by cli, tests and benchmarks only.  Every
 module's ``inclino_ros`` imports, module-level or inside functions, are read
 with ``ast`` from the source tree.
 """
@@ -25,7 +26,8 @@ ALLOWED = {
     'sim': {'core', 'io'},
     'report': {'core', 'calibration', 'io', 'pipeline'},
     'pipeline': {'core', 'calibration'},
-    'stream': {'core', 'calibration', 'io', 'pipeline'},
+    'scalar_chain': {'core', 'calibration', 'pipeline'},
+    'stream': {'core', 'calibration', 'io', 'pipeline', 'scalar_chain'},
     'node': {'core', 'calibration', 'io', 'pipeline', 'stream'},
     'cli': {'core', 'calibration', 'io', 'pipeline', 'stream', 'node', 'sim', 'report'},
 }

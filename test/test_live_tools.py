@@ -10,6 +10,7 @@ import os
 import signal
 import subprocess
 import sys
+import time
 
 from inclino_ros.calibration.model import load_model
 from inclino_ros.io import bag
@@ -181,3 +182,65 @@ def test_call_shows_a_timed_capture_and_the_answer(start_node, bench):
     finish(player, signal.SIGINT)
     assert code == 1 and out.startswith('refused:'), out + err
     assert 'capture_rotation: collecting' in err and ' s left' in err
+
+
+#: Concurrent callers of the stress test: before the discovery handshake (LiveSession.
+#: wait_heard_by), 3 to 7 of 40 lost their request or answer on a loaded 2-core host, and a
+#: caller whose answer was lost waited for ever.
+CALLERS = 40
+#: --wait-s of each caller.
+STRESS_WAIT_S = 20.0
+#: Seconds 40 Python processes importing rclpy take to start on a loaded 2-core host (measured
+#: up to 60 s at load 40): the one part of a caller's time that is not its own bound.
+STARTUP_S = 90.0
+
+
+def test_concurrent_calls_each_end_with_the_answer_or_a_clear_error(start_node, probe, tmp_path):
+    """
+    40 ``inclino call`` at once against one node: each ends, answered, within its bound.
+
+    Half call clear_positions (resent while unanswered: doing it twice is doing
+    it once), half solve_msa, refused at once without a reference field and
+    sent exactly once (a service that may change the calibration is never
+    resent).  Each caller ends within its documented bound (3 x --wait-s plus
+    the teardown's TEARDOWN_S, after its start-up) with the node's answer or
+    the clear "no answer ... may or may not have been applied" (exit 3);
+    every clear_positions is answered, and the node took each solve_msa
+    request at most once.  (Measured at load 30-40: 40 of 40 answered in
+    most runs, at worst 2 solve_msa requests of 20 never reached the node and
+    said so; before the handshake 3-7 of 40 were lost and those callers
+    never ended.)
+    """
+    from inclino_ros.cli.live import TEARDOWN_S
+
+    node = start_node()
+    probe.wait_for_node()
+    services = ['clear_positions', 'solve_msa'] * (CALLERS // 2)
+    callers = [start('call', service, '--wait-s', STRESS_WAIT_S, cwd=tmp_path)
+               for service in services]
+    end = time.monotonic() + STARTUP_S + 3 * STRESS_WAIT_S + TEARDOWN_S
+    while any(caller.poll() is None for caller in callers) and time.monotonic() < end:
+        time.sleep(0.2)   # a check, not a timing: until every caller ended, or the bound
+    hung = sum(caller.poll() is None for caller in callers)
+    for caller in callers:
+        if caller.poll() is None:
+            caller.kill()
+    results = [(caller.returncode, *caller.communicate()) for caller in callers]
+    assert hung == 0, f'{hung} of {CALLERS} callers never ended'
+    no_answer = 'the request may or may not have been applied; check with'
+    for service, (code, out, err) in zip(services, results):
+        assert 'Traceback' not in err, err
+        if code == 3:
+            assert no_answer in err, err
+        elif service == 'clear_positions':
+            assert (code, out) == (0, 'cleared 0 stand positions\n'), (code, out, err)
+        else:
+            assert code == 1 and out.startswith('refused: MSA needs the reference field'), (
+                code, out, err)
+    # clear_positions is sent again until answered: none may be left without its answer.
+    assert all(code == 0 for service, (code, _, _) in zip(services, results)
+               if service == 'clear_positions')
+    # solve_msa is sent once: the node took each request at most once, every answered one.
+    refused = sum(code == 1 for code, _, _ in results)
+    probe.spin_until(lambda: node.log().count('MSA needs the reference field') >= refused)
+    assert refused <= node.log().count('MSA needs the reference field') <= CALLERS // 2

@@ -8,21 +8,30 @@ chain as large ones: bytes, arrays and numbers are compared between the two.
 compared where there is no padding and messages where there is.)
 """
 
+import dataclasses
+from dataclasses import replace
 import math
 
 from geometry_msgs.msg import Vector3Stamped
+from inclino_ros import scalar_chain
+from inclino_ros.calibration import stages
+from inclino_ros.calibration.model import CalibrationModel, Stand
+from inclino_ros.core.attitude import TOOLFACE_CONVENTIONS
 from inclino_ros.core.magnetics import QcLimits
+from inclino_ros.core.mounting import to_sensor_axes
+from inclino_ros.core.screening import ACCEPTED
 from inclino_ros.io import bag
 from inclino_ros.node.sample_path import decode_messages
 from inclino_ros.pipeline import imu_covariances, MagneticSettings, run, Settings
 from inclino_ros.sim import sensor_model as sm
-from inclino_ros.stream import outputs
+from inclino_ros.stream import correct_batch, outputs
 import numpy as np
 import pytest
 from rclpy.serialization import deserialize_message, serialize_message
 from rosbags.typesys import get_typestore, Stores
 from sensor_msgs.msg import Imu
 from std_msgs.msg import Float64
+from test_model_stages import BIAS_MPS2, K
 from test_plausibility import ALL_STAGES
 
 
@@ -124,11 +133,13 @@ def test_small_batches_are_coded_as_large_ones(kind, msgtype):
     """
     Batches of 1..SMALL_BATCH messages (``struct``) give the bytes and arrays of numpy's codec.
 
-    Numpy's path is a batch larger than SMALL_BATCH whose first messages are the same.
+    Numpy's path is a batch of at least SMALL_BATCH messages per frame_id whose first
+    messages are the same.  A batch of distinct frame_ids (``struct`` whatever its
+    size) decodes as numpy's path does.
     """
     rng = np.random.default_rng(3)
     for count in range(1, bag.SMALL_BATCH + 1):
-        large = series_of(kind, count + bag.SMALL_BATCH, rng)
+        large = series_of(kind, count + bag.SMALL_BATCH * len(FRAME_IDS), rng)
         small = bag.sliced(large, 0, count)
         encoded = bag.encode(large)
         assert bag.encode(small) == encoded[:count]
@@ -138,6 +149,16 @@ def test_small_batches_are_coded_as_large_ones(kind, msgtype):
         assert decoded.frame_ids.tolist() == expected.frame_ids.tolist()[:count]
         assert decoded.values().tobytes() == np.asarray(expected.values())[:count].tobytes()
         assert decoded.values().tobytes() == np.asarray(small.values()).tobytes()
+    distinct = series_of(kind, 40, rng)
+    names = np.array([f'frame/{i:04d}' for i in range(40)], dtype=object)
+    distinct = kind.from_values(distinct.stamps_ns, names, distinct.values())
+    many = kind.from_values(np.tile(distinct.stamps_ns, 8), np.tile(names, 8),
+                            np.tile(distinct.values(), (8, 1)))   # 8 of each: numpy's path
+    encoded = bag.encode(distinct)
+    assert encoded == bag.encode(many)[:40]
+    decoded, expected = bag.decode(encoded, msgtype), bag.decode(bag.encode(many), msgtype)
+    assert decoded.frame_ids.tolist() == expected.frame_ids.tolist()[:40] == names.tolist()
+    assert decoded.values().tobytes() == np.asarray(expected.values())[:40].tobytes()
     values = np.array([0.0, -1.5, math.nan, math.inf, 1e-300, 30.000123, -0.0, 7.0, 1.0])
     assert bag.encode_float64(values[:bag.SMALL_BATCH]) == bag.encode_float64(values)[:-1]
 
@@ -166,6 +187,8 @@ def numbers(survey):
         'inclination_std_deg')}
     out['acceleration_cov'], out['orientation_cov'] = imu_covariances(survey)
     magnetic = survey.magnetic
+    if magnetic is None:
+        return {name: np.asarray(value, dtype=float) for name, value in out.items()}
     out.update({f'magnetic.{name}': getattr(magnetic, name) for name in (
         'uncorrected_nT', 'azimuth_deg', 'true_azimuth_deg', 'b_total_nT', 'dip_deg',
         'trusted', 'azimuth_std_deg', 'precise', 'defined_azimuth_deg')})
@@ -222,3 +245,124 @@ def test_a_sample_alone_gives_the_numbers_it_gives_in_a_batch():
         alone = np.concatenate([bag.decode(bag.encode(getattr(o, topic)), msgtype).values()
                                 for o in one_by_one])
         np.testing.assert_allclose(alone, expected, rtol=1e-12, atol=1e-12, err_msg=topic)
+
+
+def stage_types():
+    """Return every stage type of ``calibration.stages`` (the frozen dataclasses it defines)."""
+    return {kind for kind in vars(stages).values() if isinstance(kind, type)
+            and dataclasses.is_dataclass(kind) and kind.__module__ == stages.__name__}
+
+
+#: Covariances of the drift fits (scale, bias per axis): the temperature stage's own 1 sigma.
+DRIFT_COVARIANCE = (((4e-10, 1e-11), (1e-11, 9e-8)),) * 3
+#: K(T), b(T) of a stand fitted at several temperatures (issue 18), about 40 deg C.
+STAND_KT = Stand(scale_matrix=K, bias_mps2=BIAS_MPS2, method='stand', condition_number=2.1,
+                 rms_inclination_deg=0.002, positions=18, fitted_at='2026-03-01T10:20:30+00:00',
+                 temperature_c=40.0, scale_coefficients=(K, ((1e-4, 2e-5, 0.0), (0.0, -2e-4, 0.0),
+                                                             (1e-5, 0.0, 3e-4))),
+                 bias_coefficients_mps2=(BIAS_MPS2, (1e-4, -2e-4, 5e-5)), t_min_c=20.0,
+                 t_max_c=80.0)
+THREE_AXES = Settings(noise_std_mps2=0.02)
+#: (model, settings) of the float chain's cases: every stage, both sensors, both toolfaces,
+#: a turned mounting; the temperature stage with and without its fit's covariance.
+CASES = {
+    'every stage': (ALL_STAGES, THREE_AXES),
+    'K(T) stand, drift covariance, mounting': (
+        replace(ALL_STAGES, stand=STAND_KT, temperature=replace(
+            ALL_STAGES.temperature, parameter_covariance=DRIFT_COVARIANCE)),
+        Settings(noise_std_mps2=0.02, accelerometer_axes_map='rpy:3,-2,91',
+                 toolface_convention='iscwsa_highside')),
+    'two axes': (CalibrationModel(accelerometer_axes=2, installation=ALL_STAGES.installation,
+                                  tool_axis=ALL_STAGES.tool_axis),
+                 Settings(accelerometer_axes=2, noise_std_mps2=0.1,
+                          accelerometer_axes_map='-Y+X+Z')),
+    'uncalibrated': (CalibrationModel(accelerometer_axes=3), THREE_AXES),
+}
+
+
+def simulated_samples(rng, count, settings):
+    """
+    Return raw samples (count, 3) of the physical simulator's MEMS tool at 60 deg C.
+
+    In the sensor axes of ``settings`` (its axes map turns them into the tool's).
+
+    Vertical and nearly vertical ones (toolface NaN: undefined, or by its 1 sigma), and
+    samples each screening rule drops: NaN, beyond the range, not gravity, zero (two
+    axes: over g, and too steep); exactly vertical and exactly along x (where the float
+    chain would divide by zero) and a toolface of 2 pi less 1e-18 rad for an uncalibrated
+    tool.
+    """
+    axes = settings.accelerometer_axes
+    incl = rng.uniform(0.0, 120.0 if axes == 3 else 75.0, count)
+    incl[:6] = [0.0, 0.0, 0.01, 0.05, 180.0, 90.0]
+    raw = sm.read(sm.MEMS, incl, rng.uniform(0.0, 360.0, count), rng.uniform(0.0, 360.0, count),
+                  temperature_c=60.0, rng=rng).accel_mps2
+    raw[6], raw[7], raw[8], raw[9] = (np.nan, 1.0, 2.0), (30.0, 0.0, 0.0), raw[8] * 1.5, 0.0
+    raw[10], raw[11] = (0.0, 0.0, 9.80665), (9.80665, 0.0, 0.0)
+    raw[16] = (5.0, -1e-17, 8.0)   # a toolface of -1e-18 rad: 2 pi, given as 0
+    if axes == 2:
+        raw[12] = (9.0, 5.0, 0.0)
+    return to_sensor_axes(raw, settings.accelerometer_matrix)
+
+
+@pytest.mark.parametrize('case', CASES)
+@pytest.mark.parametrize('temperature', ['none', 'one', 'per sample'])
+def test_the_float_chain_gives_the_vectorised_numbers(case, temperature):
+    """
+    ``scalar_chain.run`` = ``pipeline.run`` to 1e-12 for batches of 1..MAX_SAMPLES samples.
+
+    The physical simulator's samples (``simulated_samples``), 200 of them in batches of
+    every size the float chain takes; every screening code, angle, 1 sigma, covariance
+    and NaN the same (relative 1e-12, or absolute near zero).  Temperatures: none (the
+    references), 60 deg C, or one per sample across and beyond the fitted ranges (NaN
+    among them).  What the float chain leaves to numpy (a division by zero) is
+    ``stream.correct_batch``'s to give the same way.
+    """
+    model, settings = CASES[case]
+    rng = np.random.default_rng(23)
+    raw = simulated_samples(rng, 200, settings)
+    temperature_c = {'none': None, 'one': 60.0,
+                     'per sample': rng.uniform(0.0, 120.0, 200)}[temperature]
+    if temperature == 'per sample':
+        temperature_c[::17] = np.nan
+    floats, start, size = [], 0, 1
+    while start < raw.shape[0]:
+        rows = slice(start, start + size)
+        t = temperature_c[rows] if temperature == 'per sample' else temperature_c
+        expected = run(raw[rows], model, settings, t)
+        survey = scalar_chain.run(raw[rows], model, settings, t)
+        if survey is None:   # numpy's inf or NaN: the batch is stream's to run vectorised
+            survey = correct_batch(raw[rows], np.zeros(size), np.full(size, ''), model,
+                                   settings, t).survey
+        else:
+            floats.append(survey)
+        assert survey.codes.tolist() == expected.codes.tolist()
+        for name, values in numbers(expected).items():
+            np.testing.assert_allclose(numbers(survey)[name], values, rtol=1e-12, atol=1e-12,
+                                       err_msg=f'{name} of samples {start}..{start + size}')
+        start, size = start + size, size % scalar_chain.MAX_SAMPLES + 1
+    # Most batches were the float chain's, with toolfaces withheld and others published.
+    assert len(floats) > 40
+    toolfaces = np.concatenate([s.toolface_deg for s in floats])
+    assert 0 < np.count_nonzero(np.isnan(toolfaces)) < toolfaces.size // 2
+    dead = 2 if settings.accelerometer_axes == 3 else 3   # zero, or over g
+    assert {code for s in floats for code in s.codes} >= {ACCEPTED, 0, 1, dead}
+
+
+def test_every_stage_type_is_in_the_float_chains_cases():
+    """
+    Each stage type of ``calibration.stages`` is in a case of the float chain's test.
+
+    And each toolface convention is written in the float chain (both are in the cases).
+
+    The magnetometer's stages are in the cases' models too, but a batch with
+    magnetometer readings is the vectorised chain's (``scalar_chain.applies``); a new
+    stage type fails here until a case holds it.
+    """
+    present = {type(getattr(model, field.name)) for model, _ in CASES.values()
+               for field in dataclasses.fields(model)}
+    assert stage_types() - present == set()
+    assert set(scalar_chain.TOOLFACE_ARGUMENTS) == set(TOOLFACE_CONVENTIONS)
+    assert not scalar_chain.applies(1, field_nT=np.zeros((1, 3)))
+    assert scalar_chain.applies(scalar_chain.MAX_SAMPLES)
+    assert not scalar_chain.applies(scalar_chain.MAX_SAMPLES + 1)

@@ -13,9 +13,11 @@ Tolerances:
 import math
 
 from inclino_ros.calibration.model import CalibrationModel, Installation
+from inclino_ros.core.installation import inverse_installation_matrix
 from inclino_ros.core.magnetics import azimuth_deg, gravity_from_specific_force, iscwsa_from_tool
 from inclino_ros.core.uncertainty import (
-    azimuth_gradients, inclination_std_rad, roll_pitch_covariance, toolface_std_rad)
+    affine_jacobian, azimuth_gradients, inclination_std_rad, roll_pitch_covariance,
+    tilt_jacobian, toolface_std_rad)
 from inclino_ros.pipeline import imu_covariances, MagneticSettings, run, Settings
 from inclino_ros.sim import sensor_model
 import numpy as np
@@ -137,3 +139,26 @@ def test_default_limits_publish_only_what_is_meaningful():
         assert np.isfinite(result.toolface_deg).mean() == pytest.approx(toolface_kept, abs=0.01)
         assert np.isfinite(result.magnetic.azimuth_deg).mean() == pytest.approx(azimuth_kept,
                                                                                 abs=0.01)
+
+
+def test_parameter_jacobians_against_finite_differences():
+    """The fits' Jacobians (issue 19 item 2) against central differences of the stages."""
+    rng = np.random.default_rng(4)
+    vectors = rng.normal(size=(5, 3)) * 30000.0
+    matrix, offset = np.eye(3) + 0.01 * rng.normal(size=(3, 3)), rng.normal(size=3) * 300.0
+
+    def affine(p):
+        return (vectors - p[9:]) @ p[:9].reshape(3, 3).T
+
+    start = np.concatenate([matrix.ravel(), offset])
+    numeric = np.stack([(affine(start + h) - affine(start - h)) / 2e-3
+                        for h in np.eye(12) * 1e-3], axis=2)
+    assert np.allclose(affine_jacobian(vectors - offset, matrix), numeric, rtol=1e-9, atol=1e-6)
+    gamma, beta = 0.3, -0.7
+
+    def turned(angles):
+        return vectors @ inverse_installation_matrix(*angles).T
+
+    numeric = np.stack([(turned(np.add((gamma, beta), h)) - turned(np.subtract((gamma, beta), h)))
+                        / 2e-6 for h in np.eye(2) * 1e-6], axis=2)
+    assert np.allclose(tilt_jacobian(vectors, gamma, beta), numeric, rtol=1e-6, atol=1e-4)

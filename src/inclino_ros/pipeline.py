@@ -25,8 +25,8 @@ from inclino_ros.core.mounting import axes_map_matrix, IDENTITY, keeps_axial, to
 from inclino_ros.core.screening import ACCEPTED, screen, screen_corrected
 from inclino_ros.core.stillness import floored_count, own_noise
 from inclino_ros.core.uncertainty import (
-    azimuth_std_rad, dip_std_rad, inclination_std_rad, roll_pitch_covariance,
-    specific_force_covariance, toolface_std_rad)
+    azimuth_std_rad, dip_std_rad, inclination_std_rad, parameter_covariance,
+    roll_pitch_covariance, specific_force_covariance, toolface_std_rad)
 import numpy as np
 
 #: Smallest field [nT] taken for the Earth's (which is 22000-67000 nT at the surface): below,
@@ -156,6 +156,9 @@ class Survey:
     tilt_var_rad2: float         # variance of the tilt from the calibration itself
     toolface_std_deg: np.ndarray     # (M,) 1 sigma (inf for a vertical tool)
     magnetic: AzimuthSurvey = None  # when magnetometer readings were given
+    # (acceleration (M, 9), orientation (M, 9)) of ``imu_covariances`` when the float
+    # chain (``scalar_chain``) computed them with the rest; None: computed when asked.
+    imu_covariance_rows: tuple = None
 
     @property
     def inclination_std_deg(self):
@@ -179,7 +182,7 @@ def sensor_vectors(tool_mps2, settings):
 
 def resolve_azimuth(corrected_mps2, field_nT, model, settings, magnetic_settings,
                     covariance_mps2, tilt_var_rad2, temperature_c=None, averaged=1,
-                    field_averaged=None):
+                    field_averaged=None, parameter_blocks=()):
     """
     Return the AzimuthSurvey of corrected accelerometer and uncorrected magnetometer readings.
 
@@ -192,7 +195,9 @@ def resolve_azimuth(corrected_mps2, field_nT, model, settings, magnetic_settings
     accelerometer's covariance and calibration tilt, the magnetometer's noise
     (over ``field_averaged`` readings, default ``averaged``) and the MSA
     interference's own 1 sigma (which holds the reference field's uncertainty) and the
-    magnetometer temperature fit's own (``CalibrationModel.temperature_covariance``).
+    magnetometer temperature fit's own (``CalibrationModel.temperature_covariance``) and
+    every other fit's own (``parameter_blocks``, ``CalibrationModel.parameter_blocks`` in
+    the tool frame: the accelerometer's of them are not in ``covariance_mps2``).
     Defined (``defined_azimuth_deg``): a finite azimuth of a field above
     MIN_FIELD_NT whose sigma is within ``azimuth_max_std_deg`` (near vertical
     the azimuth is undefined).  Trusted:
@@ -210,12 +215,14 @@ def resolve_azimuth(corrected_mps2, field_nT, model, settings, magnetic_settings
     stage = model.magnetic
     if stage is not None and stage.interference_std_nT is not None:
         field_covariance = field_covariance + np.diag(np.square(stage.interference_std_nT))
+    to_iscwsa = np.diag([1.0, -1.0, -1.0])
     if model.magnetometer_temperature is not None:   # its fit's own error, tool -> ISCWSA axes
-        to_iscwsa = np.diag([1.0, -1.0, -1.0])
         field_covariance = field_covariance + to_iscwsa @ model.temperature_covariance(
             field_nT, temperature_c, 'magnetometer') @ to_iscwsa
+    blocks = [(c, None if j_f is None else flip @ j_f, None if j_b is None else to_iscwsa @ j_b)
+              for c, j_f, j_b in parameter_blocks]
     std_deg = np.degrees(azimuth_std_rad(gravity, field, flip @ covariance_mps2 @ flip,
-                                         field_covariance, tilt_var_rad2))
+                                         field_covariance, tilt_var_rad2, blocks))
     precise = std_deg <= magnetic_settings.azimuth_max_std_deg   # NaN: False
     # Below MIN_FIELD_NT there is no Earth field in the reading (a dead magnetometer).
     defined = np.isfinite(azimuth) & (field_total_nT >= MIN_FIELD_NT) & precise
@@ -320,6 +327,11 @@ def correct(tool_mps2, model, settings, temperature_c=None, field_nT=None,
                                            settings.accelerometer_axes, model.linear_map)
     if model.temperature is not None:
         covariance = covariance + model.temperature_covariance(sensor, temperature_c)
+    blocks = model.parameter_blocks(sensor, field_nT, temperature_c)
+    fits_covariance = parameter_covariance(blocks, 1)
+    noise_covariance = covariance
+    if fits_covariance is not None:   # the fits' own error of f (for the azimuth: blocks)
+        covariance = covariance + fits_covariance
     tilt_var = model.tilt_std_rad ** 2
     incl_deg = np.degrees(inclination(corrected))
     toolface_deg = np.degrees(TOOLFACE_CONVENTIONS[settings.toolface_convention](corrected))
@@ -333,7 +345,8 @@ def correct(tool_mps2, model, settings, temperature_c=None, field_nT=None,
                   toolface_std_deg=toolface_std_deg,
                   magnetic=None if field_nT is None else resolve_azimuth(
                       corrected, field_nT, model, settings, magnetic_settings,
-                      covariance, tilt_var, temperature_c, averaged, field_averaged))
+                      noise_covariance, tilt_var, temperature_c, averaged, field_averaged,
+                      blocks))
 
 
 def effective_count(vectors, times_s, noise_floor):
@@ -424,6 +437,8 @@ def imu_covariances(survey):
     the same through ``uncertainty.roll_pitch_covariance``, plus the
     calibration's own tilt variance; yaw is unobserved.
     """
+    if survey.imu_covariance_rows is not None:
+        return survey.imu_covariance_rows
     count = survey.corrected_mps2.shape[0]
     orientation = np.zeros((count, 3, 3))
     orientation[:, :2, :2] = roll_pitch_covariance(survey.corrected_mps2,

@@ -22,6 +22,7 @@ writes them to a bag).  No ROS here.
 from dataclasses import dataclass
 import math
 
+from inclino_ros import scalar_chain
 from inclino_ros.calibration.plausibility import field_reading_ok
 from inclino_ros.core.magnetics import true_azimuth_deg
 from inclino_ros.core.screening import ACCEPTED, count_reasons, REASONS
@@ -264,11 +265,16 @@ def correct_batch(raw_mps2, stamps_ns, frame_ids, model, settings, temperature_c
     Return the Batch of raw samples (N, 3) stamped ``stamps_ns`` with ``frame_ids`` (N,).
 
     ``pipeline.run`` over the batch (``field_nT``: the paired magnetometer
-    readings, NaN rows unpaired, or None); then the Outputs of the accepted
+    readings, NaN rows unpaired, or None), or for a few samples the same
+    numbers in floats (``scalar_chain.run``); then the Outputs of the accepted
     samples, or with an ``averager`` (``core.averaging.Averager``) those of
     the windows it closes (``averaged_outputs``).
     """
-    survey = run(raw_mps2, model, settings, temperature_c, field_nT, magnetic_settings)
+    survey = None
+    if scalar_chain.applies(np.shape(raw_mps2)[0], field_nT):   # the node's batches at low rates
+        survey = scalar_chain.run(raw_mps2, model, settings, temperature_c)
+    if survey is None:
+        survey = run(raw_mps2, model, settings, temperature_c, field_nT, magnetic_settings)
     accepted = survey.accepted
     stamps_ns, frame_ids = np.asarray(stamps_ns)[accepted], np.asarray(frame_ids)[accepted]
     if averager is None:

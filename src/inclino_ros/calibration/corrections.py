@@ -41,6 +41,7 @@ from inclino_ros.calibration.stages import (
     Temperature, ToolAxis)
 from inclino_ros.core.constants import STANDARD_GRAVITY_MPS2
 from inclino_ros.core.installation import to_tool_frame
+from inclino_ros.core.uncertainty import affine_jacobian, tilt_jacobian
 import numpy as np
 
 #: The accelerometer's stages, in the order they are applied.
@@ -206,11 +207,22 @@ class CalibrationModel:
     @property
     def uncertainty_notes(self):
         """Return what the 1 sigma of this model's angles leaves out or over-states (strings)."""
-        if self.temperature is None or self.temperature.parameter_covariance is not None:
-            return ()
-        return ('temperature: the file holds no parameter covariance of the fit (schema < 5): '
-                "the tilt 1 sigma takes the heating run's residual instead (over-stated many "
-                'times); fit the temperature stage again to record it',)
+        notes = []
+        if self.temperature is not None and self.temperature.parameter_covariance is None:
+            notes.append('temperature: the file holds no parameter covariance of the fit '
+                         "(schema < 5): the tilt 1 sigma takes the heating run's residual "
+                         'instead (over-stated many times); fit the temperature stage again '
+                         'to record it')
+        if self.magnetometer is not None and self.magnetometer.parameter_covariance is None:
+            notes.append('magnetometer: the file holds no parameter covariance of the fit '
+                         "(schema < 7): the azimuth 1 sigma leaves the fit's own error out "
+                         '(under-stated several times); run fit-magnetometer again to record it')
+        if (self.magnetic is not None and self.magnetic.rotation_fitted_at is not None
+                and self.magnetic.rotation_covariance is None):
+            notes.append('magnetic: the file holds no parameter covariance of the rotation fit '
+                         '(schema < 7): the azimuth 1 sigma leaves its own error out; fit the '
+                         'rotation again to record it')
+        return tuple(notes)
 
     @cached_property
     def magnetometer_linear_map(self):
@@ -233,6 +245,105 @@ class CalibrationModel:
             soft_iron[:2, :2] = self.magnetic.correction
             matrix = soft_iron @ matrix
         return matrix
+
+    @property
+    def covariance_stages(self):
+        """
+        Return the stages the magnetometer fit's parameter covariance still covers (names).
+
+        Those of ``Magnetometer.covariance_stages`` present and fitted with it
+        (the same ``fitted_at``): a stage fitted again since has its own error,
+        its rows are left out (the marginal of the rest is their sub-matrix).
+        """
+        stage = self.magnetometer
+        if stage is None or stage.parameter_covariance is None:
+            return ()
+        return tuple(name for name in stage.covariance_stages
+                     if getattr(self, name) is not None
+                     and getattr(self, name).fitted_at == stage.fitted_at)
+
+    @cached_property
+    def _fit_layout(self):
+        """
+        Return what ``parameter_blocks`` needs of the stages, built once.
+
+        (the covered stages, their covariance, K^-1 of the stand, the
+        magnetometer's map into the accelerometer frame, the mount's C^-1,
+        seed 002's W as 3x3, the tool axis's angles [rad], the rotation fit's
+        covariance).
+        """
+        soft_iron = np.eye(3)
+        if self.magnetic is not None:
+            soft_iron[:2, :2] = self.magnetic.correction
+        mount = np.eye(3)
+        for stage in (self.installation, self.tool_axis):
+            if stage is not None:
+                mount = stage.inverse_matrix @ mount
+        names, covariance = self.covariance_stages, None
+        if names:
+            sizes = {'stand': 12, 'magnetometer': 12, 'tool_axis': 2}
+            covered = self.magnetometer.covariance_stages
+            start = dict(zip(covered, np.cumsum([0] + [sizes[n] for n in covered])))
+            index = np.concatenate([np.arange(start[n], start[n] + sizes[n]) for n in names])
+            covariance = np.array(self.magnetometer.parameter_covariance)[np.ix_(index, index)]
+        return {
+            'names': names, 'covariance': covariance, 'soft_iron': soft_iron, 'mount': mount,
+            'stand': None if self.stand is None else np.linalg.inv(self.stand.arrays[0]),
+            'magnetometer': None if self.magnetometer is None else (
+                self.magnetometer_rotation @ np.linalg.inv(self.magnetometer.arrays[0])),
+            'angles': None if self.tool_axis is None else (
+                math.radians(self.tool_axis.gamma_deg), math.radians(self.tool_axis.beta_deg)),
+            'rotation': (None if self.magnetic is None or self.magnetic.rotation_covariance is None
+                         else np.array(self.magnetic.rotation_covariance))}
+
+    def parameter_blocks(self, sensor, field_nT=None, temperature_c=None):
+        """
+        Return (C_p, J_f, J_B) of each fit's own error: covariance and Jacobians (M, 3, p).
+
+        ``sensor`` (M, 3) the accelerometer's sensor vectors, ``field_nT`` (M,
+        3) raw magnetometer readings in the tool axes (None: no J_B); J_f, J_B
+        of the corrected specific force and field, tool frame
+        (``uncertainty.affine_jacobian``, ``uncertainty.tilt_jacobian``;
+        None: the block does not move that vector).  Blocks: the magnetometer
+        fit's (``covariance_stages``), the rotation fit's (seed 002 §2.1).
+        """
+        layout = self._fit_layout
+        blocks = []
+        count = np.shape(sensor)[0]
+        soft_iron, mount = layout['soft_iron'], layout['mount']
+        if layout['names']:
+            j_f, j_b = [], []
+            for name in layout['names']:
+                if name == 'stand':
+                    inputs = (self.apply(sensor, temperature_c, before='stand')
+                              - self.stand.arrays[1])
+                    j_f.append(mount @ affine_jacobian(inputs, layout['stand']))
+                    j_b.append(np.zeros((count, 3, 12)))
+                elif name == 'magnetometer':
+                    j_f.append(np.zeros((count, 3, 12)))
+                    if field_nT is not None:
+                        inputs = (self.apply_magnetic(field_nT, temperature_c,
+                                                      before='magnetometer')
+                                  - self.magnetometer.arrays[1])
+                        j_b.append(soft_iron @ mount @ affine_jacobian(
+                            inputs, layout['magnetometer']))
+                else:   # the tool axis turns both triads
+                    j_f.append(tilt_jacobian(self.apply(sensor, temperature_c,
+                                                        before='tool_axis'), *layout['angles']))
+                    if field_nT is not None:
+                        j_b.append(soft_iron @ tilt_jacobian(self.apply_magnetic(
+                            field_nT, temperature_c, before='tool_axis'), *layout['angles']))
+            blocks.append((layout['covariance'], np.concatenate(j_f, axis=2),
+                           np.concatenate(j_b, axis=2) if field_nT is not None else None))
+        if field_nT is not None and layout['rotation'] is not None:
+            stage = self.magnetic
+            inputs = (self.apply_magnetic(field_nT, temperature_c, before='magnetic')[:, :2]
+                      - stage.offset_nT)
+            jacobian = np.zeros((count, 3, 6))
+            jacobian[:, 0, 0:2] = jacobian[:, 1, 2:4] = inputs
+            jacobian[:, :2, 4:] = -stage.correction
+            blocks.append((layout['rotation'], None, jacobian))
+        return blocks
 
     def temperature_covariance(self, readings, temperature_c=None, triad='accelerometer'):
         """

@@ -1,7 +1,8 @@
 """
 Every version of a calibration file, kept beside it: no calibration is ever lost.
 
-The history of ``FILE`` is the folder ``FILE.history``: one JSON file per
+The history of ``FILE`` is the folder ``FILE.history`` (a long name's is
+shortened, ``history_folder``): one JSON file per
 version ever written by ``model.save_model`` (the one door of every write: the
 node's services, every ``inclino fit-*``, ``inclino msa``, ``inclino
 calibration restore``), ``v000001.json``, ``v000002.json``, ... Each holds the
@@ -25,12 +26,14 @@ import os
 import re
 
 from inclino_ros.io.files import (
-    loads_strict, MAX_JSON_BYTES, open_regular, read_json, write_json)
+    fitting_name, loads_strict, MAX_JSON_BYTES, open_regular, read_json, write_json)
 
 FORMAT = 'inclino_ros.calibration_version'
 SCHEMA_VERSION = 1
 #: Writer of a version found on disk that no write through ``save_model`` recorded.
 UNKNOWN_WRITER = 'unknown (found on disk, not written through inclino_ros)'
+#: What a calibration file's name gets for its history folder's.
+_SUFFIX = '.history'
 _ENTRY = re.compile(r'v(\d{6,})\.json\Z')
 
 
@@ -53,8 +56,16 @@ def digest(text):
 
 
 def history_folder(path):
-    """Return the history folder of the calibration file ``path``."""
-    return os.path.abspath(os.path.expanduser(path)) + '.history'
+    """
+    Return the history folder of the calibration file ``path``: ``path.history``.
+
+    For a name so long that ``NAME.history`` passes the file system's 255
+    bytes, ``NAME'~HASH.history``: its first bytes and a hash of the whole
+    name (``io.files.fitting_name``), derived from the name alone, so every
+    reader finds it again.
+    """
+    folder, name = os.path.split(os.path.abspath(os.path.expanduser(path)))
+    return os.path.join(folder, fitting_name(name, len(_SUFFIX)) + _SUFFIX)
 
 
 def current_bytes(path):

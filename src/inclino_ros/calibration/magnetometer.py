@@ -27,7 +27,7 @@ import numpy as np
 
 
 def _matrix(array):
-    """Return a 3x3 array as nested tuples (a stage field)."""
+    """Return a square array as nested tuples (a stage field)."""
     return tuple(map(tuple, np.asarray(array, dtype=float).tolist()))
 
 
@@ -113,6 +113,10 @@ def fit_field_stand(fields_nT, attitudes_deg, reference_total_nT, reference_dip_
     now = utc_now_iso()
     rms_nT = float(np.sqrt(np.mean(np.sum((corrected - truth) ** 2, axis=1))))
     polynomial, plateau_rms_deg = {}, None
+    # The fit's own error (one temperature: the stand fit's covariance; K_m(T): not yet).
+    covariance = ({} if plateaus is not None or fit.parameter_covariance is None else
+                  {'parameter_covariance': _matrix(fit.parameter_covariance),
+                   'covariance_stages': ('magnetometer',)})
     temperature_c = stood_for_c(temperatures_c)
     if plateaus is not None:
         turn = accelerometer_rotation(stand) @ rotation
@@ -131,7 +135,8 @@ def fit_field_stand(fields_nT, attitudes_deg, reference_total_nT, reference_dip_
             scale_matrix=_matrix(k_m), bias_nT=tuple(fit.bias_mps2.tolist()), method='stand',
             condition_number=float(fit.condition_number), rms_residual_nT=rms_nT,
             field_nT=float(reference_total_nT), positions=int(fields_nT.shape[0]),
-            fitted_at=now, temperature_c=temperature_c, **polynomial),
+            fitted_at=now, temperature_c=temperature_c,
+            **covariance, **polynomial),
         alignment=MagnetometerAlignment(
             rotation=_matrix(rotation), method='stand', dip_deg=None, dip_rms_deg=None,
             shots=int(fields_nT.shape[0]), fitted_at=now, temperature_c=temperature_c),
@@ -251,25 +256,25 @@ def calibrate_from_shots(existing, accel_mps2, field_nT, roll_group=None, temper
                          f'beta_deg={installation.beta_deg:.4f}')
     else:
         notes.append("accelerometer stand stage of the file kept (its frame is the tool's)")
-    k_m, rotation = split_correction(fit.alignment @ np.linalg.inv(fit.mag_matrix),
-                                     accelerometer_rotation(stand))
-    magnetometer = Magnetometer(
-        scale_matrix=_matrix(k_m), bias_nT=tuple(fit.mag_bias_nT.tolist()), method='ellipsoid',
-        condition_number=float(fit.condition_number),
-        rms_residual_nT=float(np.sqrt(np.mean((fit.b_total_nT[fit.used] - fit.field_nT) ** 2))),
-        field_nT=float(fit.field_nT), positions=int(fit.used.sum()), fitted_at=now,
-        temperature_c=field_c)
-    alignment = MagnetometerAlignment(
-        rotation=_matrix(rotation), method='dip', dip_deg=float(fit.dip_deg),
-        dip_rms_deg=float(fit.dip_rms_deg), shots=int(fit.used.sum()), fitted_at=now,
-        temperature_c=field_c)
     tool_axis = existing.tool_axis
+    covariance = np.array(fit.parameter_covariance)
     if fit.tool_axis is not None:
-        axis = fit.tool_axis if installation is None else to_tool_frame(
-            fit.tool_axis, installation.inverse_matrix)
-        gamma, beta = (math.degrees(float(v)) for v in tilt_angles(axis))
+        def after_installation(angles):
+            axis = installation_matrix(*angles)[:, 2]
+            if installation is not None:
+                axis = to_tool_frame(axis, installation.inverse_matrix)
+            return np.array(tilt_angles(axis), dtype=float)
+        fitted_angles = np.radians([fit.gamma_deg, fit.beta_deg])
+        gamma, beta = np.degrees(after_installation(fitted_angles))
+        # The covariance of the tool axis's angles as stored (after the installation).
+        turn = np.eye(covariance.shape[0])
+        turn[-2:, -2:] = np.column_stack([
+            (after_installation(fitted_angles + h) - after_installation(fitted_angles - h))
+            / 2e-6 for h in np.eye(2) * 1e-6])
+        covariance = turn @ covariance @ turn.T
         in_groups = np.isin(np.asarray(roll_group), fit.groups) & fit.used
-        tool_axis = ToolAxis(gamma_deg=gamma, beta_deg=beta, roll_groups=len(fit.groups),
+        tool_axis = ToolAxis(gamma_deg=float(gamma), beta_deg=float(beta),
+                             roll_groups=len(fit.groups),
                              shots=int(np.sum(in_groups)),
                              axial_rms_deg=float(np.sqrt(np.mean(
                                  fit.axial_rms_deg[list(fit.groups)] ** 2))),
@@ -278,6 +283,21 @@ def calibrate_from_shots(existing, accel_mps2, field_nT, roll_group=None, temper
         tool_axis = None
         notes.append("tool_axis stage dropped: it was measured in the accelerometer's "
                      'previous frame')
+    k_m, rotation = split_correction(fit.alignment @ np.linalg.inv(fit.mag_matrix),
+                                     accelerometer_rotation(stand))
+    covered = (('stand',) if fit_accel else ()) + ('magnetometer',) + (
+        ('tool_axis',) if fit.tool_axis is not None else ())
+    magnetometer = Magnetometer(
+        scale_matrix=_matrix(k_m), bias_nT=tuple(fit.mag_bias_nT.tolist()), method='ellipsoid',
+        condition_number=float(fit.condition_number),
+        rms_residual_nT=float(np.sqrt(np.mean((fit.b_total_nT[fit.used] - fit.field_nT) ** 2))),
+        field_nT=float(fit.field_nT), positions=int(fit.used.sum()), fitted_at=now,
+        temperature_c=field_c, parameter_covariance=_matrix(covariance),
+        covariance_stages=covered)
+    alignment = MagnetometerAlignment(
+        rotation=_matrix(rotation), method='dip', dip_deg=float(fit.dip_deg),
+        dip_rms_deg=float(fit.dip_rms_deg), shots=int(fit.used.sum()), fitted_at=now,
+        temperature_c=field_c)
     if installation is None and tool_axis is None:
         notes.append(MOUNT_WARNING)
     if existing.magnetic is not None:

@@ -62,12 +62,21 @@ from inclino_ros.core.refusal import Refused
 from inclino_ros.core.stand import MAX_CONDITION_NUMBER, rotation_part
 import numpy as np
 
-# The sensor limits below come from datasheets of the parts this package meets (MEMS
-# accelerometers: InvenSense PS-MPU-9150A-00 rev 4.3 Table 6.2, Analog Devices ADXL345
-# rev. E Table 1; magnetometer: AKM AK8975 of the MPU-9150), each with the margin named
-# beside it; a quartz-flex MWD accelerometer is far inside every one of them.  The real
-# MPU-9150 units of /work/shared/data/real (their authors' fit: scale 0.25-0.93 %,
-# misalignment <= 0.32 deg, bias <= 0.35 m/s^2) lie inside with room to spare
+# The sensor limits below come from datasheets of the parts this package meets, each with
+# the margin named beside it; a quartz-flex MWD accelerometer is far inside every one.
+# Figures checked against the datasheets' tables (issue 21): ADXL345 rev. E Table 1
+# (sensitivity 230 .. 256 .. 282 LSB/g at +-2 g 10-bit; 0 g output X, Y -150 .. +150 mg,
+# Z -250 .. +250 mg; sensitivity change +-0.01 %/C; -40 .. +85 C) and its siblings ADXL313
+# (cross-axis +-1 %) and ADXL350 (cross-axis +-3 %, inter-axis alignment +-0.1 deg); the
+# InvenSense accelerometer of the MPU-9150 as specified for the MPU-6050 (PS-MPU-6000A-00
+# rev 3.4 Table 6.2: initial tolerance +-3 %, +-0.02 %/C, cross-axis +-2 %, zero-G X, Y
+# +-50 mg, Z +-80 mg) and the MPU-9250 (PS-MPU-9250A-01 rev 1.0 Table 2: +-3 %,
+# +-0.026 %/C, cross-axis +-2 %, zero-G X, Y +-60 mg, Z +-80 mg, +-1.5 mg/C over
+# -40 .. +85 C); the MPU-9150's own table (PS-MPU-9150A-00 rev 4.3 Table 6.2) was not at
+# hand, its zero-G figures below (X, Y +-80 mg, Z +-150 mg) are the larger, kept.
+# Magnetometer: AKM AK8975 of the MPU-9150.  The real MPU-9150 units of
+# /work/shared/data/real (their authors' fit: scale 0.25-0.93 %, misalignment <= 0.32 deg,
+# bias <= 0.35 m/s^2) lie inside with room to spare
 # (test_plausibility.test_real_mpu9150_units_are_plausible).
 
 #: A still tool's |A| (and a level capture's G-total) lies within this fraction of g:
@@ -78,14 +87,16 @@ STILL_G_FRACTION = 0.5
 #: plus the worst bias (0.25 g) is 1.35 g; 2 g leaves a margin for noise spikes.
 MAX_STILL_G = 2.0
 #: Largest bias of an accelerometer axis [g]: ADXL345 0 g output Z -250 .. +250 mg
-#: (X, Y +-150 mg), MPU-9150 zero-G Z +-150 mg (X, Y +-80 mg); 0.3 g is the largest
-#: with a 20 % margin.
+#: (X, Y +-150 mg), MPU-9150 zero-G Z +-150 mg (X, Y +-80 mg), MPU-9250 Z 80 mg plus
+#: 1.5 mg/C over the 60 C from 25 C to 85 C, 170 mg; 0.3 g is the largest with a 20 %
+#: margin.
 MAX_BIAS_G = 0.3
 #: Largest |K_ii - 1| of a stand stage: ADXL345 sensitivity +-10 % (MPU-9150 initial
 #: tolerance +-3 %), margin x2.
 MAX_SCALE_ERROR = 0.2
 #: Largest |P_ij| (i != j) of the symmetric part of a stand K: cross-axis sensitivity
-#: (MPU-9150 +-2 %, ADXL345 +-1 %), margin x2.5.  The package's misalignment (about
+#: (MPU-6050/9250 +-2 %, ADXL313 +-1 %, ADXL350 +-3 %), margin x2.5 on the +-2 % of the
+#: parts met (x1.7 on the ADXL350's).  The package's misalignment (about
 #: 1 deg, 0.017) is a rotation: it is in K's rotation part, bounded by MAX_STAND_TILT_DEG.
 MAX_CROSS_COUPLING = 0.05
 #: Largest |gamma|, |beta| [deg] of an installation stage: a package sits within about
@@ -97,8 +108,9 @@ MAX_INSTALLATION_DEG = 45.0
 #: about the axis is the mount, any angle): as an installation's.
 MAX_STAND_TILT_DEG = MAX_INSTALLATION_DEG
 #: Largest |K_T - 1| of a temperature stage over its fitted range: MEMS scale drift is
-#: 100 .. 300 ppm/C (MPU-9150 sensitivity change vs temperature +-0.02 %/C), 6 % over
-#: the whole TEMPERATURE_C span at 300 ppm/C; 0.2 is that with a margin x3.
+#: 100 .. 260 ppm/C (ADXL345 +-0.01 %/C, MPU-6050 +-0.02 %/C, MPU-9250 +-0.026 %/C),
+#: 8.3 % over the whole TEMPERATURE_C span (320 C) at 260 ppm/C; 0.2 is that with a
+#: margin x2.4.
 MAX_TEMPERATURE_SCALE_ERROR = 0.2
 #: Temperatures [deg C] a sensor reads: MEMS parts are rated -40 .. 85 C (MPU-9150,
 #: ADXL345 operating range), downhole sensors to 175 .. 200 C (high-temperature MWD

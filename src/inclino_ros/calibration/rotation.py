@@ -44,7 +44,8 @@ def with_rotation(model, fit, temperature_c):
                     soft_iron=tuple(map(tuple, fit.correction.tolist())),
                     interference_nT=(0.0, 0.0, 0.0), interference_std_nT=None,
                     rotation_fitted_at=utc_now_iso(), msa_method=None, msa_stations=0,
-                    msa_fitted_at=None, rotation_temperature_c=temperature_c)
+                    msa_fitted_at=None, rotation_temperature_c=temperature_c,
+                    rotation_covariance=tuple(map(tuple, fit.parameter_covariance.tolist())))
     return replace(model, magnetic=stage)
 
 

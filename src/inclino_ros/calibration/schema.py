@@ -207,6 +207,47 @@ def _parameter_covariance(section, name, key):
     return tuple(tuple(map(tuple, axis)) for axis in value.tolist())
 
 
+def _covariance(section, name, key, size):
+    """Return ``section[key]`` as a symmetric positive semi-definite size x size matrix."""
+    value = _finite(section, name, key, (size, size))
+    scale = np.abs(value).max(initial=0.0)
+    if not (np.allclose(value, value.T, rtol=1e-9, atol=1e-12 * scale)
+            and np.linalg.eigvalsh(0.5 * (value + value.T)).min() >= -1e-9 * scale):
+        raise ValueError(f'{name}.{key} is not a symmetric positive semi-definite matrix')
+    return tuple(map(tuple, value.tolist()))
+
+
+#: The stages a magnetometer fit's covariance may cover, in its order, with their sizes.
+COVARIANCE_STAGE_SIZES = {'stand': 12, 'magnetometer': 12, 'tool_axis': 2}
+
+
+def _magnetometer_covariance(values, name):
+    """
+    Raise ValueError unless the covariance and the stages it covers are both given or none.
+
+    The stages: 'magnetometer' with 'stand' before and 'tool_axis' after it, each
+    once, in that order; the covariance square over their sizes (COVARIANCE_STAGE_SIZES).
+    """
+    stages, covariance = values['covariance_stages'], values['parameter_covariance']
+    if stages is None and covariance is None:
+        return
+    if (stages is None or covariance is None or not isinstance(stages, list | tuple)
+            or not all(isinstance(stage, str) for stage in stages)
+            or 'magnetometer' not in stages
+            or tuple(stages) != tuple(n for n in COVARIANCE_STAGE_SIZES if n in stages)):
+        raise ValueError(f'{name}: covariance_stages {stages!r} must name magnetometer (after '
+                         'stand, before tool_axis, each once) with parameter_covariance, or '
+                         'both be null')
+    values['covariance_stages'] = tuple(stages)
+    size = sum(COVARIANCE_STAGE_SIZES[stage] for stage in stages)
+    values['parameter_covariance'] = _covariance(values, name, 'parameter_covariance', size)
+
+
+def _rotation_covariance(section, name, key):
+    """Read the rotation fit's 6 x 6 covariance of (W row-major, c), or None."""
+    return None if section[key] is None else _covariance(section, name, key, 6)
+
+
 def _unit_of(name):
     """Return the unit suffix of the temperature stage ``name``'s fields."""
     return 'nT' if name == 'magnetometer_temperature' else 'mps2'
@@ -309,7 +350,8 @@ STAGE_FIELDS = {
         'method': _choice('stand', 'ellipsoid'), 'positions': _count, 'fitted_at': _time,
         'temperature_c': _temperature, 'scale_coefficients': _kept,
         'bias_coefficients_nT': _kept, 't_min_c': _optional(_number),
-        't_max_c': _optional(_number)}, (_stand_polynomial,),
+        't_max_c': _optional(_number), 'parameter_covariance': _kept,
+        'covariance_stages': _kept}, (_stand_polynomial, _magnetometer_covariance),
         plausibility.check_magnetometer),
     'magnetometer_alignment': (MagnetometerAlignment, {
         'rotation': _array(3, 3), 'method': _choice('dip', 'stand', 'given'),
@@ -326,6 +368,7 @@ STAGE_FIELDS = {
         'rotation_fitted_at': _optional(_time), 'msa_fitted_at': _optional(_time),
         'msa_method': _optional(_choice('improved', 'classic', 'axial')),
         'msa_stations': _kept, 'msa_reference_total_nT': _kept, 'msa_reference_dip_deg': _kept,
-        'interference_std_nT': _optional(_array(3)), 'rotation_temperature_c': _temperature},
+        'interference_std_nT': _optional(_array(3)), 'rotation_temperature_c': _temperature,
+        'rotation_covariance': _rotation_covariance},
         (_msa,), plausibility.check_magnetic),
 }

@@ -214,6 +214,13 @@ class Magnetometer(_PolynomialOfTemperature):
     bias_coefficients_nT: tuple = None  # b_m(T), likewise
     t_min_c: float = None              # the plateaus' range; None: constant K_m, b_m
     t_max_c: float = None
+    # The fit's parameter covariance (None: not recorded, schema < 7): square, over the
+    # stages of ``covariance_stages`` fitted with it, in this order: 'stand' (K^-1
+    # row-major, b [m/s^2]: 12), 'magnetometer' (the map taking readings less b_m into the
+    # accelerometer frame, Stand.rotation R K_m^-1 row-major, then b_m [nT]: 12),
+    # 'tool_axis' (gamma, beta [rad]: 2).
+    parameter_covariance: tuple = None
+    covariance_stages: tuple = None
 
     @property
     def bias_coefficients(self):
@@ -430,6 +437,9 @@ class Magnetic:
     msa_fitted_at: str
     interference_std_nT: tuple = None  # 1 sigma of the MSA interference (tool axes), None
     rotation_temperature_c: float = None  # what the rotation's readings stood for
+    # The rotation fit's parameter covariance over (W row-major, c [nT]): 6 x 6; None: not
+    # recorded (schema < 7, or no rotation fitted).
+    rotation_covariance: tuple = None
 
     @property
     def offset_nT(self):

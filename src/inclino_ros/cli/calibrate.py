@@ -7,7 +7,7 @@ does on a full ROS 2 install; the same as ``inclino call calibrate_level``.
 
 from inclino_ros.cli.call import call_service
 from inclino_ros.cli.helptext import add_command
-from inclino_ros.cli.live import add_node_arguments, node_name
+from inclino_ros.cli.live import add_node_arguments, live_command, node_name
 
 
 def register(subparsers):
@@ -25,6 +25,7 @@ def register(subparsers):
     parser.set_defaults(func=run)
 
 
+@live_command
 def run(args):
     """Call ``~/calibrate_level``; return the exit code."""
     return call_service(f'{node_name(args.node)}/calibrate_level', args.wait_s)

@@ -18,7 +18,7 @@ import time
 
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.live import (
-    add_node_arguments, domain_hint, LiveSession, namespace_of, node_name)
+    add_node_arguments, domain_hint, live_command, LiveSession, namespace_of, node_name)
 from inclino_ros.cli.options import between
 
 LEVELS = {0: 'OK', 1: 'WARN', 2: 'ERROR', 3: 'STALE'}
@@ -134,6 +134,7 @@ def progress_text(doc):
     return f'last answer of {doc["service"]}: {state}{message}'
 
 
+@live_command
 def run(args):
     """Show the view every period until Ctrl-C or ``--count`` views; return 0."""
     from diagnostic_msgs.msg import DiagnosticArray

@@ -10,14 +10,16 @@ and the node checks it against its declared range and choices.
 
 import re
 import sys
+import time
 
 from inclino_ros.cli.helptext import add_command
-from inclino_ros.cli.live import add_node_arguments, LiveSession, node_name
+from inclino_ros.cli.live import add_node_arguments, live_command, LiveSession, node_name
 
 #: A negative number in any of Python's float spellings (argparse's own misses -1e-3, -inf).
 NEGATIVE_NUMBER = re.compile(r'^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|infinity|nan)$',
                              re.IGNORECASE)
-#: Seconds to wait for an answer of the parameter services once they are up.
+#: Seconds to wait for an answer of the parameter services once they are up (a read-only
+#: request is sent again meanwhile, ``LiveSession.answer``; a set is sent once).
 ANSWER_TIMEOUT_S = 10.0
 
 
@@ -51,6 +53,7 @@ def register(subparsers):
         sub.set_defaults(func=run)
 
 
+@live_command
 def run(args):
     """Run ``param list|get|set``; return the exit code."""
     from rclpy.parameter_client import AsyncParameterClient
@@ -64,6 +67,7 @@ def run(args):
                       f'{args.wait_s:g} s: ' + session.not_found('the node does not answer'),
                       file=sys.stderr)
                 return 2
+            session.wait_heard_by(target, args.wait_s)
             return ACTIONS[args.action](session, client, args)
         except KeyboardInterrupt:
             print('inclino param: interrupted', file=sys.stderr)
@@ -73,10 +77,20 @@ def run(args):
             return 2
 
 
-def answer(session, future):
-    """Spin until ``future`` is done; return its result (TimeoutError if it never is)."""
-    if not session.spin_until(future.done, ANSWER_TIMEOUT_S):
-        raise TimeoutError(f'no answer from the parameter services within {ANSWER_TIMEOUT_S} s')
+def answer(session, send, read_only=True):
+    """
+    Send the request ``send`` makes; return the reply (TimeoutError if none comes in time).
+
+    A ``read_only`` one (list, get, describe) is sent again while no answer
+    comes; a set is sent once: no answer says it may or may not be set.
+    """
+    end = time.monotonic() + ANSWER_TIMEOUT_S
+    future, sent = session.answer(send, lambda: end, resend=read_only)
+    if future is None:
+        raise TimeoutError(
+            f'no answer from the parameter services within {ANSWER_TIMEOUT_S:g} s ('
+            + (f'{sent} read-only requests sent)' if read_only else
+               'the value may or may not have been set: check with inclino param get)'))
     return future.result()
 
 
@@ -85,16 +99,16 @@ def values(session, client, names):
     from rcl_interfaces.msg import ParameterType
     from rclpy.parameter import parameter_value_to_python
 
-    result = answer(session, client.get_parameters(names))
+    result = answer(session, lambda: client.get_parameters(names))
     return {name: parameter_value_to_python(value) for name, value in zip(names, result.values)
             if value.type != ParameterType.PARAMETER_NOT_SET}
 
 
 def list_parameters(session, client, args):
     """Print ``name: value`` of every parameter, read-only ones marked."""
-    names = sorted(answer(session, client.list_parameters()).result.names)
+    names = sorted(answer(session, client.list_parameters).result.names)
     current = values(session, client, names)
-    descriptors = answer(session, client.describe_parameters(names)).descriptors
+    descriptors = answer(session, lambda: client.describe_parameters(names)).descriptors
     for name, descriptor in zip(names, descriptors):
         if name in current:
             print(f'{name}: {format_value(current[name])}'
@@ -131,7 +145,8 @@ def set_parameter(session, client, args):
     except ValueError as err:
         print(f'inclino param: {args.name}: {err}', file=sys.stderr)
         return 2
-    (result,) = answer(session, client.set_parameters([Parameter(args.name, value=value)])).results
+    (result,) = answer(session, lambda: client.set_parameters(
+        [Parameter(args.name, value=value)]), read_only=False).results
     if not result.successful:
         print(f'inclino param: {args.name} not set: {result.reason}', file=sys.stderr)
         return 1

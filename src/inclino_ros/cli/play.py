@@ -15,7 +15,7 @@ import sys
 import time
 
 from inclino_ros.cli.helptext import add_command
-from inclino_ros.cli.live import LiveSession
+from inclino_ros.cli.live import live_command, LiveSession
 from inclino_ros.cli.options import between, MAX_WAIT_S, non_negative, positive, wait_s
 from inclino_ros.io.bag import BagError
 from inclino_ros.io.timing import load_timeline
@@ -76,6 +76,7 @@ def wait_for_subscribers(session, publishers, wait_s):
     return sorted(t for t, p in publishers.items() if not p.get_subscription_count())
 
 
+@live_command
 def run(args):
     """Replay the bag; exit 0 when played (or stopped by the user), 2 when it cannot be."""
     from rclpy.qos import QoSProfile, ReliabilityPolicy

@@ -75,6 +75,7 @@ class CrossAxialFit:
     coverage_deg: float
     axis_ratio: float
     sample_count: int
+    parameter_covariance: np.ndarray = None  # (6, 6) of (W row-major, c): ``rotation_covariance``
 
 
 def fit_ellipse(points):
@@ -193,7 +194,56 @@ def fit_cross_axial(samples_nT, limits=RotationLimits()):
             f'{limits.max_relative_rmse} of the radius {radius:.1f} nT')
     return CrossAxialFit(offset_nT=offset, correction=correction, radius_nT=radius,
                          rmse_nT=rmse, coverage_deg=coverage, axis_ratio=axis_ratio,
-                         sample_count=count)
+                         sample_count=count, parameter_covariance=rotation_covariance(
+                             samples, offset, correction, radius))
+
+
+def _correction_of(parameters):
+    """
+    Return (W, c, r) of p = (u, v, c_x, c_y, r): ``W = expm([[u, v], [v, -u]])``.
+
+    Every symmetric W of determinant 1 (the fit's: ``r_bar^2 = a b``) is such
+    an exponential: ``cosh(k) I + sinh(k) / k S``, k = hypot(u, v).
+    """
+    u, v, cx, cy, radius = parameters
+    k = math.hypot(u, v)
+    ratio = math.sinh(k) / k if k > 1e-12 else 1.0
+    return (math.cosh(k) * np.eye(2) + ratio * np.array([[u, v], [v, -u]]),
+            np.array([cx, cy]), radius)
+
+
+def rotation_covariance(samples, offset, correction, radius):
+    """
+    Return the (6, 6) covariance of (W row-major, c) of a fitted rotation (ML, first order).
+
+    The geometric residual ``|W (m - c)| - r`` of every sample against p =
+    (u, v, c, r) (``_correction_of``, W's logarithm from its eigenvectors): its
+    Jacobian J by central differences, ``s^2 (J^T J)^-1`` with s^2 the mean
+    square residual per degree of freedom, carried to (W, c) the same way.
+    """
+    values, vectors = np.linalg.eigh(correction)
+    logarithm = (vectors * np.log(values)) @ vectors.T
+    start = np.array([logarithm[0, 0], logarithm[0, 1], offset[0], offset[1], radius])
+    steps = np.array([1e-6, 1e-6, 1e-6 * radius, 1e-6 * radius, 1e-6 * radius])
+
+    def residuals(parameters):
+        w, c, r = _correction_of(parameters)
+        return np.linalg.norm((samples - c) @ w.T, axis=1) - r
+
+    def stored(parameters):
+        w, c, _ = _correction_of(parameters)
+        return np.concatenate([w.ravel(), c])
+
+    def jacobian(function):
+        return np.column_stack([(function(start + h) - function(start - h)) / (2.0 * h[i])
+                                for i, h in enumerate(np.diag(steps))])
+
+    jac = jacobian(residuals)
+    freedom = max(samples.shape[0] - 5, 1)
+    covariance = np.linalg.pinv(jac.T @ jac) * float(np.sum(residuals(start) ** 2)) / freedom
+    turn = jacobian(stored)
+    result = turn @ covariance @ turn.T
+    return 0.5 * (result + result.T)
 
 
 def apply_cross_axial(B, fit):

@@ -25,7 +25,10 @@ Initial values come in closed form: the algebraic ellipsoid fits of
 dip constraint is linear in X = R / scale), u from the smallest eigenvector
 of the within-group scatter.  The joint fit then refines them together, each
 residual divided by its noise (estimated from the data), so the roll groups
-and the dip also inform the ellipsoids, which 24 shots need.
+and the dip also inform the ellipsoids, which 24 shots need.  The residuals of one
+shot share its readings' noise (|g| and the axial component of gravity both hold
+the noise along gravity): each shot's are whitened by their covariance
+(``_Model.set_whitening``), which makes the fit maximum likelihood to first order.
 
 What the data can observe: F only up to a scale (normalised to the
 reference, or to the magnetometer's own mean scale, det K_m = 1); the frame
@@ -130,7 +133,10 @@ class ShotFit:
     pointing's wander), ``roll_deg`` (NaN for a group not fitted).
     ``groups``: the input groups fitted as roll groups; ``outliers``:
     (shot index, robust sigma) left out, in order; ``freed_groups``:
-    (group index, why) taken as free shots.
+    (group index, why) taken as free shots.  ``parameter_covariance``: of the
+    parameters a calibration file stores (``_stored_parameters``: K_a^-1 and b_a
+    when fitted, R K_m^-1 and b_m, the tool axis's gamma and beta), from the
+    fit's Jacobian and residuals (issue 19 item 2).
     """
 
     accel_matrix: np.ndarray
@@ -159,6 +165,7 @@ class ShotFit:
     used: np.ndarray
     outliers: tuple
     freed_groups: tuple
+    parameter_covariance: np.ndarray = None
 
 
 def _directions_problem(vectors, name, limits):
@@ -381,11 +388,53 @@ class _Model:
             families['axial_b'] = (field[grouped] @ axis - values['c_m'][label]) / self.field_nT
         return families
 
-    def weights(self, cos_dip):
-        label = self.labels[self.labels >= 0]
-        return {'g': self.sigma_a, 'b': self.sigma_m, 'axial_g': self.group_a[label],
-                'axial_b': self.group_m[label],
-                'dip': max(cos_dip, 0.05) * math.hypot(self.sigma_a, self.sigma_m)}
+    def set_whitening(self, x):
+        """
+        Set each shot's whitening of its residuals (``residuals``) at the fit ``x``.
+
+        A shot's residuals (|g|, |B|, dip, and in a roll group its axial
+        components) are functions of its two readings' noise, ``sigma_a`` and
+        ``sigma_m`` per axis relative to g and F: to first order ``r = J_a e_a +
+        J_m e_m`` with the rows ``(a^, 0, -P_a m^, u, 0)`` and ``(0, m^, -P_m a^,
+        0, u)`` (a^, m^ the unit corrected vectors, ``P_a m^ = m^ - (a^ . m^)
+        a^``, u the tool axis), so they are correlated (|g| and the axial
+        component of gravity share the noise along gravity).  Their covariance
+        ``sigma_a^2 J_a J_a^T + sigma_m^2 J_m J_m^T``, plus a roll group's wander
+        beyond the shot noise on its axial components (and a floor of 0.05 of
+        the dip's noise, a dip near 90 deg), is whitened by its Cholesky factor:
+        the weighted least squares is then the maximum likelihood of the shots
+        to first order (issue 19 item 10), not that of independent families.
+        """
+        values = self.unpack(x)
+        accel, field = self.vectors(values)
+        a_hat = accel / np.linalg.norm(accel, axis=1)[:, None]
+        m_hat = field / np.linalg.norm(field, axis=1)[:, None]
+        count = accel.shape[0]
+        axis = (installation_matrix(*values['tilt'])[:, 2] if self.groups
+                else np.zeros(3))
+        j_a, j_m = np.zeros((count, 5, 3)), np.zeros((count, 5, 3))
+        j_a[:, 0], j_m[:, 1] = a_hat, m_hat
+        cosine = np.einsum('ij,ij->i', a_hat, m_hat)[:, None]
+        j_a[:, 2], j_m[:, 2] = -(m_hat - cosine * a_hat), -(a_hat - cosine * m_hat)
+        j_a[:, 3], j_m[:, 4] = axis, axis
+        covariance = (self.sigma_a ** 2 * j_a @ j_a.transpose(0, 2, 1)
+                      + self.sigma_m ** 2 * j_m @ j_m.transpose(0, 2, 1))
+        floor = (0.05 * math.hypot(self.sigma_a, self.sigma_m)) ** 2
+        covariance[:, 2, 2] = np.maximum(covariance[:, 2, 2], floor)
+        grouped = self.labels >= 0
+        label = self.labels[grouped]
+        covariance[grouped, 3, 3] += self.group_a[label] ** 2 - self.sigma_a ** 2
+        covariance[grouped, 4, 4] += self.group_m[label] ** 2 - self.sigma_m ** 2
+        present = np.ones((count, 5), dtype=bool)
+        present[:, 0] = self.fit_accel
+        present[~grouped, 3:] = False
+        # An absent residual: unit variance, no correlation (it stays zero).
+        covariance[~present] = 0.0
+        covariance.transpose(0, 2, 1)[~present] = 0.0
+        index = np.nonzero(~present)
+        covariance[index[0], index[1], index[1]] = 1.0
+        self.whiten = np.linalg.inv(np.linalg.cholesky(covariance))
+        self.present = present
 
     def set_noise(self, families):
         """
@@ -395,20 +444,31 @@ class _Model:
         spread, never below the shot noise: a group whose pointing wandered
         counts for what it holds.
         """
-        self.sigma_a = max(_rms(families['g']) if self.fit_accel else
+        # The |g| and |B| residuals are left by an ellipsoid of 9 parameters each: their
+        # mean square over N - 9 degrees of freedom, not N, is the noise's.
+        count = families['b'].size
+        unbiased = math.sqrt(count / max(count - 9, 1))
+        self.sigma_a = max(_rms(families['g']) * unbiased if self.fit_accel else
                            _rms(families.get('axial_g', [])) or 1e-4, 1e-9)
-        self.sigma_m = max(_rms(families['b']), 1e-9)
+        self.sigma_m = max(_rms(families['b']) * unbiased, 1e-9)
         label = self.labels[self.labels >= 0]
         for k in range(self.groups):
             self.group_a[k] = max(self.sigma_a, _rms(families['axial_g'][label == k]))
             self.group_m[k] = max(self.sigma_m, _rms(families['axial_b'][label == k]))
 
-    def residuals(self, x, cos_dip):
-        weights = self.weights(cos_dip)
+    def residuals(self, x):
+        """Return every shot's residuals whitened (``set_whitening``), the absent ones left out."""
         families = self.errors(x)
-        if not self.fit_accel:
-            del families['g']  # the given accelerometer is not refitted
-        return np.concatenate([value / weights[name] for name, value in families.items()])
+        stacked = np.zeros(self.present.shape)
+        stacked[:, 0] = families['g']
+        stacked[:, 1] = families['b']
+        stacked[:, 2] = families['dip']
+        grouped = self.labels >= 0
+        if self.groups:
+            stacked[grouped, 3] = families['axial_g']
+            stacked[grouped, 4] = families['axial_b']
+        stacked[~self.present] = 0.0
+        return np.einsum('nij,nj->ni', self.whiten, stacked)[self.present]
 
 
 def fit_shots(accel_mps2, field_nT, roll_group=None, g=STANDARD_GRAVITY_MPS2,
@@ -491,7 +551,12 @@ def _renumber(labels, kept):
 
 
 def _joint_fit(accel, field, labels, g, reference_total_nT, fit_accel):
-    """Return (model, x, sphere_m, evaluations): closed-form start, then the joint fit."""
+    """
+    Return (model, x, sphere_m, covariance, evaluations): closed-form start, then the joint fit.
+
+    ``covariance``: of x, ``s^2 (J^T J)^-1`` from the last fit's Jacobian J of
+    the weighted residuals and their mean square s^2 per degree of freedom.
+    """
     group_count = int(labels.max()) + 1 if labels.size and labels.max() >= 0 else 0
     if fit_accel:
         sphere_a = _sphere(accel, g, 'accelerometer')
@@ -524,12 +589,46 @@ def _joint_fit(accel, field, labels, g, reference_total_nT, fit_accel):
     # Joint fit, three times: each with the noise (and group spread) the one before left.
     evaluations = 0
     for _ in range(3):
-        cos_dip = math.sqrt(max(1.0 - model.unpack(x)['sin_dip'] ** 2, 0.0))
-        result = least_squares(model.residuals, x, args=(cos_dip,), method='lm',
+        model.set_whitening(x)
+        result = least_squares(model.residuals, x, method='lm',
                                x_scale='jac')
         x, evaluations = result.x, evaluations + result.nfev
         model.set_noise(model.errors(x))
-    return model, x, sphere_m, evaluations
+    return model, x, sphere_m, _covariance(result), evaluations
+
+
+def _covariance(result):
+    """Return ``s^2 (J^T J)^-1`` of a ``least_squares`` result (pseudo-inverse: no refusal)."""
+    jacobian = result.jac
+    freedom = max(jacobian.shape[0] - jacobian.shape[1], 1)
+    return np.linalg.pinv(jacobian.T @ jacobian) * (2.0 * result.cost / freedom)
+
+
+def _stored_parameters(model, x):
+    """
+    Return the parameters a calibration file stores of the fit ``x`` (the covariance's order).
+
+    The accelerometer's ``K_a^-1`` (row-major) and ``b_a`` (``fit_accel``), the
+    map ``R K_m^-1`` taking magnetometer readings (bias removed) into the
+    accelerometer frame (row-major) and ``b_m``, then the tool axis's gamma,
+    beta [rad] (roll groups).
+    """
+    values = model.unpack(x)
+    parts = [values['t_a'].ravel(), values['b_a']] if model.fit_accel else []
+    parts += [(values['rotation'] @ values['t_m']).ravel(), values['o_m']]
+    if model.groups:
+        parts.append(values['tilt'])
+    return np.concatenate(parts)
+
+
+def stored_covariance(model, x, covariance):
+    """Return the covariance of ``_stored_parameters`` from that of x (central differences)."""
+    step = np.maximum(np.sqrt(np.clip(np.diag(covariance), 0.0, None)), 1e-9) * 1e-3
+    jacobian = np.column_stack([
+        (_stored_parameters(model, x + h) - _stored_parameters(model, x - h)) / (2.0 * h[i])
+        for i, h in enumerate(np.diag(step))])
+    stored = jacobian @ covariance @ jacobian.T
+    return 0.5 * (stored + stored.T)
 
 
 def _rms(values):
@@ -571,7 +670,7 @@ def _result(fitted, accel_all, field_all, labels, robust, limits, evaluations):
 
     ``robust``: (kept groups, used shots, outliers, freed groups) of ``fit_shots``.
     """
-    model, x, sphere_m, _ = fitted
+    model, x, sphere_m, covariance, _ = fitted
     kept, used, outliers, freed = robust
     values = model.unpack(x)
     families = model.errors(x)
@@ -631,7 +730,8 @@ def _result(fitted, accel_all, field_all, labels, robust, limits, evaluations):
         groups=tuple(kept), axial_rms_deg=axial_rms, roll_deg=roll,
         condition_number=sphere_m.condition_number, noise_mps2=model.sigma_a * model.g,
         noise_nT=model.sigma_m * model.field_nT, evaluations=evaluations,
-        used=used, outliers=tuple(outliers), freed_groups=tuple(freed))
+        used=used, outliers=tuple(outliers), freed_groups=tuple(freed),
+        parameter_covariance=stored_covariance(model, x, covariance))
     if problems:
         raise ShotFitRefused('; '.join(problems) + ' (the field changed between shots, e.g. '
                              'iron nearby, the tool moved during shots, or a triad is not '

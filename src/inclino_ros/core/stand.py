@@ -84,6 +84,8 @@ class StandFit(_LinearSensor):
     inclination_residual_deg: np.ndarray  # (N,) inclination of K^-1 (A - b) minus the true one
     rms_residual_mps2: float              # over all positions and axes
     rms_inclination_deg: float
+    # (12, 12) of (K^-1 row-major, b): from the design and the pooled residual (``_fit_stand``)
+    parameter_covariance: np.ndarray = None
     attitude: np.ndarray = None           # (N,) attitude number of each position (repeats share)
     repeatability_deg: np.ndarray = None  # (P,) per attitude (``repeatability``); NaN: one visit
     rms_repeatability_deg: float = math.nan  # over every repeated attitude; NaN: no repeat
@@ -234,12 +236,26 @@ def _fit_stand(readings, truth, g_scale):
     bias = coefficients[3]
 
     residual = readings - design @ coefficients
+    # Each row's coefficients (K_i * g_scale, b_i) have s^2 (X^T X)^-1, s^2 the residual's
+    # mean square per degree of freedom pooled over the axes; to (K^-1, b) through
+    # dK^-1 = -K^-1 dK K^-1 (row-major: -K^-1 kron K^-T).
+    pooled = float(np.sum(residual ** 2)) / max(3 * (count - 4), 1)
+    unscaled = np.linalg.pinv(design.T @ design)
+    rows = np.zeros((12, 12))
+    for axis in range(3):
+        index = [3 * axis, 3 * axis + 1, 3 * axis + 2, 9 + axis]
+        rows[np.ix_(index, index)] = pooled * unscaled * np.array([1.0 / g_scale] * 3 + [1.0])[
+            :, None] * np.array([1.0 / g_scale] * 3 + [1.0])[None, :]
+    inverse = np.linalg.inv(scale_matrix)
+    turn = np.eye(12)
+    turn[:9, :9] = -np.kron(inverse, inverse.T)
     inclination_residual_deg = np.degrees(
         inclination(correct_stand(readings, scale_matrix, bias)) - inclination(truth))
     return StandFit(
         scale_matrix=scale_matrix, bias_mps2=bias, condition_number=condition,
         residual_mps2=residual, inclination_residual_deg=inclination_residual_deg,
-        rms_residual_mps2=_rms(residual), rms_inclination_deg=_rms(inclination_residual_deg))
+        rms_residual_mps2=_rms(residual), rms_inclination_deg=_rms(inclination_residual_deg),
+        parameter_covariance=turn @ rows @ turn.T)
 
 
 def fit_sphere(readings, g):

@@ -33,7 +33,20 @@ to T_s errs by ``dK A + dB`` with ``dK = sum dc_k (u^k - u_s^k)``, ``dB = sum
 dd_k (u^k - u_s^k)`` (u the normalised temperature), so the variance of axis
 i is ``g^T C_p g`` with ``g = ((u^k - u_s^k) A_i, (u^k - u_s^k))`` (zero at T_s:
 the stage's reference is where the later stages were captured).
+
+A fit's own error (``CalibrationModel.parameter_blocks``: the reference-free
+shot fit, the magnetometer stand, the rotation fit) is its parameter
+covariance C_p (from the fit's Jacobian and residuals) with the Jacobians of
+the corrected vectors to those parameters: an affine stage ``y = M (x - o)``
+has ``dy = dM (x - o) - M do`` (``affine_jacobian``, M row-major then o), a
+seed-000 rotation ``y = C^-1(gamma, beta) x`` has ``dy = (dC^-1/dgamma x,
+dC^-1/dbeta x)`` (``tilt_jacobian``).  One parameter moves G and B together
+(a tool axis turns both), so the azimuth takes ``d^T C_p d`` with ``d =
+dA/dG J_G + dA/dB J_B`` (``azimuth_std_rad``'s ``parameter_blocks``), the
+inclination and toolface ``J_G C_p J_G^T`` added to the covariance of f.
 """
+
+import math
 
 import numpy as np
 
@@ -89,6 +102,50 @@ def temperature_compensation_covariance(readings, u, u_reference, parameter_cova
         covariance[:, axis, axis] = np.einsum('mi,ij,mj->m', grad, parameter_covariance[axis],
                                               grad)
     return covariance
+
+
+def affine_jacobian(offset_inputs, matrix):
+    """
+    Return d y / d(M, o) (N, 3, 12) of ``y = M (x - o)`` at ``offset_inputs`` = x - o (N, 3).
+
+    Parameters in the order M row-major (9), then o (3).
+    """
+    offset_inputs = np.asarray(offset_inputs, dtype=float)
+    count = offset_inputs.shape[0]
+    jacobian = np.zeros((count, 3, 12))
+    for row in range(3):
+        jacobian[:, row, 3 * row:3 * row + 3] = offset_inputs
+    jacobian[:, :, 9:] = -np.asarray(matrix, dtype=float)
+    return jacobian
+
+
+def tilt_jacobian(vectors, gamma, beta):
+    """
+    Return d(C^-1 x) / d(gamma, beta) (N, 3, 2) of seed 000 Eq. 8's C^-1 [unit of x per rad].
+
+    ``C^-1 = [[cg, -sb sg, sg cb], [0, cb, sb], [-sg, -sb cg, cb cg]]``
+    (``installation.inverse_installation_matrix``) differentiated.
+    """
+    cg, sg, cb, sb = math.cos(gamma), math.sin(gamma), math.cos(beta), math.sin(beta)
+    d_gamma = np.array([[-sg, -sb * cg, cg * cb], [0.0, 0.0, 0.0], [-cg, sb * sg, -cb * sg]])
+    d_beta = np.array([[0.0, -cb * sg, -sg * sb], [0.0, -sb, cb], [0.0, -cb * cg, -sb * cg]])
+    vectors = np.asarray(vectors, dtype=float)
+    return np.stack([vectors @ d_gamma.T, vectors @ d_beta.T], axis=2)
+
+
+def parameter_covariance(blocks, which):
+    """
+    Return sum ``J C J^T`` (M, 3, 3) of ``blocks`` (C, J_f, J_B) for ``which`` (1: f, 2: B).
+
+    None when no block moves that vector.
+    """
+    total = None
+    for block in blocks:
+        jacobian = block[which]
+        if jacobian is not None:
+            term = jacobian @ block[0] @ jacobian.transpose(0, 2, 1)
+            total = term if total is None else total + term
+    return total
 
 
 def inclination_std_rad(f, covariance, tilt_var=0.0):
@@ -160,20 +217,30 @@ def azimuth_gradients(G, B):
                 (den[:, None] * d_num_b - num[:, None] * d_den_b) * scale[:, None])
 
 
-def azimuth_std_rad(G, B, covariance_G, covariance_B, tilt_var=0.0):
+def azimuth_std_rad(G, B, covariance_G, covariance_B, tilt_var=0.0, parameter_blocks=()):
     """
     Return the 1 sigma [rad] of the azimuth of G, B (M, 3) (ISCWSA frame).
 
     ``covariance_G`` (M, 3, 3) [unit of G ^2], ``covariance_B`` (3, 3) or
     (M, 3, 3) [nT^2]; ``tilt_var`` the calibration's tilt variance [rad^2]
     (tangential to G: the azimuth does not change with |G|, so the isotropic
-    ``tilt_var |G|^2 I`` is exact).  NaN where the azimuth is undefined.
+    ``tilt_var |G|^2 I`` is exact); ``parameter_blocks``: (C_p, J_G, J_B) of
+    each fit's own error, Jacobians (M, 3, p) in the ISCWSA frame (None: that
+    vector does not move), with their G-B correlation (module docstring).
+    NaN where the azimuth is undefined.
     """
     grad_g, grad_b = azimuth_gradients(G, B)
     g2 = np.einsum('ij,ij->i', np.asarray(G, dtype=float), np.asarray(G, dtype=float))
     covariance_G = covariance_G + (tilt_var * g2)[:, None, None] * np.eye(3)
     covariance_B = np.broadcast_to(covariance_B, covariance_G.shape)
-    return np.sqrt(_outer_sum(grad_g, covariance_G) + _outer_sum(grad_b, covariance_B))
+    variance = _outer_sum(grad_g, covariance_G) + _outer_sum(grad_b, covariance_B)
+    for covariance, jacobian_G, jacobian_B in parameter_blocks:
+        d = 0.0
+        for grad, jacobian in ((grad_g, jacobian_G), (grad_b, jacobian_B)):
+            if jacobian is not None:
+                d = d + np.einsum('mi,mip->mp', grad, jacobian)
+        variance = variance + np.einsum('mp,pq,mq->m', d, covariance, d)
+    return np.sqrt(variance)
 
 
 def dip_std_rad(G, B, g_std, b_std_nT):

@@ -7,7 +7,8 @@ only, so their CDR is encoded and decoded here for a whole batch at once with
 numpy structured arrays instead of message by message: byte-for-byte what
 rosbags' ``serialize_cdr`` gives (the tests check it), at a fraction of the
 cost; a batch of a few messages (at most SMALL_BATCH: the node's usual batch
-at low rates) goes through ``struct`` instead, whose cost has no fixed part
+at low rates), or of frame_ids mostly distinct (fewer than SMALL_BATCH
+messages per name), goes through ``struct`` instead, whose cost has no fixed part
 (the same bytes and the same errors, tested).  Reading goes chunk by chunk
 (at most CHUNK_SIZE messages and CHUNK_BYTES bytes), so a bag of any size,
 or of huge frame_ids, streams in bounded memory; frame_ids are kept as one
@@ -244,15 +245,23 @@ def _groups(keys):
     Yield (key, index) per distinct value of ``keys``; index is ``slice(None)`` if one.
 
     The common case, one frame_id or one message size in a whole batch, is
-    checked first and costs no sort.
+    checked first and costs no sort; otherwise one stable sort splits the
+    indices of every key at once (each ascending).
     """
     keys = np.asarray(keys)
     if keys.size and np.all(keys == keys[0]):
         yield keys[0], slice(None)
         return
     names, inverse = np.unique(keys, return_inverse=True)
-    for k, name in enumerate(names):
-        yield name, np.flatnonzero(inverse.reshape(-1) == k)
+    inverse = inverse.reshape(-1)
+    order = np.argsort(inverse, kind='stable')
+    bounds = np.cumsum(np.bincount(inverse, minlength=names.size))[:-1]
+    yield from zip(names, np.split(order, bounds))
+
+
+def _mostly_distinct(groups, count):
+    """Return whether ``count`` messages in ``groups`` make groups of fewer than SMALL_BATCH."""
+    return len(groups) * SMALL_BATCH > count
 
 
 def _gather(parts, count, dtype):
@@ -269,10 +278,11 @@ def encode(series):
     """Return the little-endian CDR of every message of ``series`` (list of bytes)."""
     values = np.asarray(series.values(), dtype=float)
     stamps_ns = np.asarray(series.stamps_ns, dtype=np.int64)
-    if stamps_ns.size <= SMALL_BATCH:
-        return _encode_small(stamps_ns, series.frame_ids, values)
+    groups = [] if stamps_ns.size <= SMALL_BATCH else list(_groups(series.frame_ids))
+    if stamps_ns.size <= SMALL_BATCH or _mostly_distinct(groups, stamps_ns.size):
+        return _encode_small(stamps_ns, series.frame_ids, values)   # no fixed cost per group
     messages = [None] * stamps_ns.size
-    for name, index in _groups(series.frame_ids):
+    for name, index in groups:
         frame = str(name).encode()
         offset = _values_offset(len(frame))
         records = np.zeros(stamps_ns[index].size,
@@ -336,11 +346,15 @@ def _frame_ids(frame_bytes, lengths):
         width = max(int(length) - 1, 1)
         raw = np.ascontiguousarray(frame_bytes[index, :width]).view(f'S{width}').reshape(-1)
         strings = np.empty(raw.size, dtype=object)
-        for name, where in _groups(raw):
-            try:
-                strings[where] = name.decode()
-            except UnicodeDecodeError as err:
-                raise BagError(f'a frame_id is not UTF-8 ({err}): a damaged message') from None
+        names = list(_groups(raw))
+        try:
+            if _mostly_distinct(names, raw.size):   # one by one: no fixed cost per name
+                strings[:] = [name.decode() for name in raw.tolist()]
+            else:
+                for name, where in names:
+                    strings[where] = name.decode()
+        except UnicodeDecodeError as err:
+            raise BagError(f'a frame_id is not UTF-8 ({err}): a damaged message') from None
         frame_ids[index] = strings
     return frame_ids
 

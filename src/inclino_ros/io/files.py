@@ -95,22 +95,27 @@ _TEMPORARY_EXTRA = 1 + 11 + 9 + 4
 _NAME_HASH_DIGITS = 12
 
 
-def _temporary_stem(name):
+def fitting_name(name, extra_bytes):
     """
-    Return the part of ``name`` its temporaries start with.
+    Return ``name``, or a shortened stand-in for it, such that ``extra_bytes`` more fit NAME_MAX.
 
-    The name itself when the temporary fits NAME_MAX, else its first bytes and
-    '~' with a hash of the whole name: any name the OS accepts (up to 255
-    bytes) has a temporary it accepts too, still recognisable as ours (the
-    stale cleanup finds it) and distinct from the temporaries of another name
-    with the same beginning.
+    The name itself when it fits, else its first bytes and '~' with a hash of
+    the whole name: any name the OS accepts (up to 255 bytes) has a derived
+    name (a temporary, a history folder) the OS accepts too, found again from
+    the name alone, and distinct from the one of another name with the same
+    beginning.
     """
     encoded = os.fsencode(name)
-    if len(encoded) + _TEMPORARY_EXTRA <= NAME_MAX:
+    if len(encoded) + extra_bytes <= NAME_MAX:
         return name
     digest = hashlib.sha256(encoded).hexdigest()[:_NAME_HASH_DIGITS]
-    keep = NAME_MAX - _TEMPORARY_EXTRA - 1 - _NAME_HASH_DIGITS
+    keep = NAME_MAX - extra_bytes - 1 - _NAME_HASH_DIGITS
     return f'{os.fsdecode(encoded[:keep])}~{digest}'
+
+
+def _temporary_stem(name):
+    """Return the part of ``name`` its temporaries start with (recognised by the stale cleanup)."""
+    return fitting_name(name, _TEMPORARY_EXTRA)
 
 
 def temporary_path(final):

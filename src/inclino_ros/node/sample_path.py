@@ -71,6 +71,15 @@ class BatchWaker:
         raise self._failure
 
     def _wait_loop(self):
+        # rclpy (7.1, Jazzy) has no public wait set.  Its public ways to wait cost what this
+        # thread is for avoiding, or cannot batch: an Executor builds a new wait set over
+        # every entity of its nodes at each spin_once (~0.15 ms) and runs one callback per
+        # message, deserialized; rclpy.wait_for_message creates and destroys a subscription
+        # per call (messages between calls are lost) and takes one message; the
+        # experimental EventsExecutor also runs one callback per message.  What is used
+        # here is the binding rclpy's own public wait_for_message and executors are
+        # built on (rclpy/wait_for_message.py, executors.py), with the handles held as
+        # they hold them; ros-constraints.txt pins the rclpy it was written against.
         wait_set = _rclpy.WaitSet(len(self._subscriptions), 0, 0, 0, 0, 0,
                                   self._context.handle)
         while not self._stop.is_set():

@@ -1,0 +1,118 @@
+"""
+Calibrate on the physical simulator, then survey: the coverage of the azimuth, inclination sigma.
+
+Issue 19 item 2: a calibration's own error belongs in every sigma computed from
+it.  Each draw calibrates a fresh tool of ``sim.sensor_model`` one way
+(``CALIBRATIONS``), then reads one station (the mean of STATION_SAMPLES samples)
+at a random attitude (inclination 10-80 deg, azimuth N, E or W, toolface
+uniform) through ``pipeline.run``: its error is the calibration's and the
+station's noise.  Shared by ``test_calibration_coverage`` and
+``bench/bench_coverage.py``.
+
+Calibrations:
+
+- ``fit-magnetometer``: 24 shots (8 spread, two roll groups of 8) of the tool of
+  ``shots_sim`` (mount 0.8 / -1.2 / 30 deg, the magnetometer turned a further
+  (0.5, -0.3, 1.0) deg, each triad's matrix and bias, hard and soft iron, a
+  drill-string field), ``calibrate_from_shots`` on an empty model (what
+  ``inclino fit-magnetometer`` runs): sphere fit, K_m, b_m, the triads' rotation,
+  the tool axis;
+- ``stand``: both triads on a 12-position stand with known azimuth, 500
+  readings a position (``solve_positions``: seed 001 Eqs. 10-12);
+- ``rotation``: 36 single readings of one rotation about the tool axis
+  (inclination 30 deg, azimuth 45 deg) of a tool whose only magnetometer error is
+  cross-axial hard and soft iron (det 1: the rotation fit's circle keeps the
+  field), ``solve_rotation`` on an empty model (seed 002 §2.1).
+
+``without_covariance`` drops the fits' parameter covariance (what files before
+schema 7 held): the former sigma.
+"""
+
+from dataclasses import replace
+
+from inclino_ros.calibration.magnetometer import calibrate_from_shots
+from inclino_ros.calibration.model import CalibrationModel
+from inclino_ros.calibration.rotation import solve_rotation
+from inclino_ros.calibration.stand_capture import solve_positions
+from inclino_ros.pipeline import MagneticSettings, run, Settings
+from inclino_ros.sim import sensor_model as sm
+import numpy as np
+import shots_sim
+from test_magnetometer_stand import POSITIONS_DEG, REFERENCE, stand_positions
+
+STATION_SAMPLES = 100
+CALIBRATIONS = ('fit-magnetometer', 'stand', 'rotation')
+#: (name, preset, readings a shot of fit-magnetometer).
+TOOLS = (('quartz', sm.QUARTZ_FLUXGATE, 1), ('MEMS', sm.MEMS, 1))
+ROTATION_SAMPLES = 36
+
+
+def rotation_tool(preset):
+    """Return error-free triads with ``preset``'s noise and cross-axial hard and soft iron."""
+    return sm.Tool(
+        accelerometer=sm.Triad(noise_std=preset.accelerometer.noise_std),
+        magnetometer=sm.Triad(noise_std=preset.magnetometer.noise_std),
+        hard_iron_nT=(300.0, -150.0, 0.0),
+        soft_iron=((1.02, 0.01, 0.0), (0.01, (1.0 + 1e-4) / 1.02, 0.0), (0.0, 0.0, 1.0)))
+
+
+def calibrate(kind, preset, shot_samples, rng):
+    """Return (tool, model) of one calibration ``kind`` of a fresh ``preset`` tool."""
+    if kind == 'fit-magnetometer':
+        tool = shots_sim.tool(preset)
+        incl, tf, azim, group = shots_sim.shot_attitudes(rng)
+        accel, field = shots_sim.read(tool, incl, tf, azim, rng, shot_samples)
+        return tool, calibrate_from_shots(CalibrationModel(3), accel, field, group).model
+    if kind == 'stand':
+        tool = shots_sim.tool(preset)
+        stand, field, _, _ = solve_positions(stand_positions(tool, rng, POSITIONS_DEG, 500),
+                                             sm.STANDARD_GRAVITY_MPS2, 1.0, REFERENCE, 1.0)
+        return tool, CalibrationModel(3, stand=stand, magnetometer=field.magnetometer,
+                                      magnetometer_alignment=field.alignment)
+    tool = rotation_tool(preset)
+    toolface = np.arange(ROTATION_SAMPLES) * 360.0 / ROTATION_SAMPLES + rng.uniform(0.0, 10.0)
+    readings = sm.read(tool, np.full(ROTATION_SAMPLES, 30.0), toolface,
+                       np.full(ROTATION_SAMPLES, 45.0), field=shots_sim.FIELD, rng=rng)
+    return tool, solve_rotation(CalibrationModel(3), readings.mag_nT).model
+
+
+def without_covariance(model):
+    """Return ``model`` without the fits' parameter covariance (a schema-6 file)."""
+    if model.magnetometer is not None:
+        model = replace(model, magnetometer=replace(
+            model.magnetometer, parameter_covariance=None, covariance_stages=None))
+    if model.magnetic is not None:
+        model = replace(model, magnetic=replace(model.magnetic, rotation_covariance=None))
+    return model
+
+
+def ratios(kind, preset, shot_samples, draws, rng):
+    """
+    Return |error| / sigma (draws, 2, 2): [azimuth, inclination] x [with, without covariance].
+
+    A NaN azimuth (beyond its sigma limit: none at these inclinations) gives NaN.
+    """
+    settings = Settings(noise_std_mps2=preset.accelerometer.noise_std)
+    magnetic = MagneticSettings(noise_std_nT=preset.magnetometer.noise_std,
+                                azimuth_max_std_deg=5.0)
+    out = np.full((draws, 2, 2), np.nan)
+    for k in range(draws):
+        tool, model = calibrate(kind, preset, shot_samples, rng)
+        incl, azim = rng.uniform(10.0, 80.0), rng.choice([0.0, 90.0, 270.0])
+        toolface = rng.uniform(0.0, 360.0)
+        accel, field = shots_sim.read(tool, [incl], [toolface], [azim], rng, STATION_SAMPLES,
+                                      interference_nT=(0.0, 0.0, 0.0) if kind == 'rotation'
+                                      else shots_sim.INTERFERENCE_NT)
+        for column, used in enumerate((model, without_covariance(model))):
+            survey = run(accel, used, settings, None, field, magnetic, averaged=STATION_SAMPLES)
+            out[k, 0, column] = abs(shots_sim.angle_error_deg(
+                survey.magnetic.defined_azimuth_deg[0], azim)) / survey.magnetic.azimuth_std_deg[0]
+            out[k, 1, column] = (abs(survey.inclination_deg[0] - incl)
+                                 / survey.inclination_std_deg[0])
+    return out
+
+
+def coverage(values):
+    """Return (fraction within 1 sigma, within 2 sigma) of |error| / sigma values."""
+    values = np.asarray(values)
+    return float(np.mean(values <= 1.0)), float(np.mean(values <= 2.0))
