@@ -19,19 +19,26 @@ an ``averaging.Averager`` closes.  The series are encoded to CDR by
 writes them to a bag).  No ROS here.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
+from functools import partial
 import math
 
 from inclino_ros import scalar_chain
-from inclino_ros.calibration.plausibility import field_reading_ok
+from inclino_ros.calibration.plausibility import check_for_sensor, field_reading_ok, Implausible
+from inclino_ros.calibration.store import axes_refusal, check_axes_maps
 from inclino_ros.core.magnetics import true_azimuth_deg
 from inclino_ros.core.screening import ACCEPTED, count_reasons, REASONS
 from inclino_ros.core.temperature import in_range
-from inclino_ros.io.bag import ImuSeries, not_measured_covariance, Vector3Series
+from inclino_ros.io.bag import (
+    BagError, concatenate, IMU, ImuSeries, MAGNETIC_FIELD, not_measured_covariance, read,
+    topic_info, VECTOR3_STAMPED, Vector3Series)
 from inclino_ros.io.timing import pair_nearest, pairing_tolerance
-from inclino_ros.pipeline import average, imu_covariances, MagneticSettings, run
+from inclino_ros.pipeline import average, imu_covariances, MagneticSettings, run, Settings
 import numpy as np
 
+#: The topics ``inclino process`` writes.
+SURVEY_TOPIC = '/survey'
+IMU_TOPIC = '/imu/data'
 #: Azimuth counts of the summary (accepted samples; mag_non_finite: magnetometer messages).
 MAGNETIC_COUNTS = ('mag_non_finite', 'mag_paired', 'mag_unpaired', 'azimuth_trusted',
                    'azimuth_untrusted', 'azimuth_imprecise', 'qc_failed', 'qc_failed_b_total',
@@ -380,3 +387,105 @@ def row_status(codes, outside=None):
         status = [OUTSIDE_FIT if far and text == 'ok' else text
                   for text, far in zip(status, outside)]
     return status
+
+
+def survey_table(header, rows, codes, columns, outside=None):
+    """
+    Return (the CSV columns, the input columns renamed) of a survey (``inclino survey``).
+
+    The input rows (``header``, ``rows``: text cells) first, an input column
+    named as an output one kept as ``input_<name>``; then the output
+    ``columns`` (``survey_columns``: NaN in the rows not accepted) and each
+    row's status (``row_status`` with ``outside``).
+    """
+    names = list(columns) + ['status']
+    renamed = [f'input_{name}' if name in names else name for name in header]
+    full = {}
+    for name, (accepted, values) in columns.items():
+        column = np.full(len(rows), math.nan, dtype=object)
+        column[accepted] = list(values)
+        full[name] = column
+    table = ([(name, [row[k] for row in rows]) for k, name in enumerate(renamed)]
+             + [(name, full[name]) for name in columns]
+             + [('status', row_status(codes, outside))])
+    return table, [name for name, new in zip(header, renamed) if name != new]
+
+
+def replay_settings(model, path, range_option, **settings):
+    """
+    Return the pipeline Settings a recording is corrected with by ``model`` (the file ``path``).
+
+    ``settings``: those of ``pipeline.Settings`` (``accelerometer_axes``
+    None: the model's).  ValueError (CalibrationFileError for the maps) when
+    they disagree with the model: another number of axes
+    (``store.axes_refusal``), a model implausible for the sensor's range
+    (``plausibility.check_for_sensor``; ``range_option`` names what sets the
+    range), readings turned by other axes maps than it was fitted in
+    (``store.check_axes_maps``).
+    """
+    settings['accelerometer_axes'] = settings['accelerometer_axes'] or model.accelerometer_axes
+    reason = axes_refusal(model, settings['accelerometer_axes'], path)
+    if reason is not None:
+        raise ValueError(reason)
+    try:
+        check_for_sensor(model, settings['accelerometer_range_mps2'])
+    except Implausible as err:
+        raise ValueError(f'{path}: {err} ({range_option})') from None
+    settings = Settings(**settings)
+    check_axes_maps(model, (settings.accelerometer_axes_map, settings.magnetometer_axes_map),
+                    path)
+    return settings
+
+
+def recorded_magnetometer(path, topic, max_pairing_s, reference, noise_std_nT,
+                          azimuth_max_std_deg):
+    """
+    Return the Magnetometer of the MagneticField ``topic`` of the bag ``path``.
+
+    ``reference``: (total_nT, dip_deg, declination_deg or None) each azimuth
+    is checked against (ValueError without total and dip: no azimuth is
+    written unchecked); BagError unless the topic holds MagneticField
+    messages.
+    """
+    total_nT, dip_deg, declination_deg = reference
+    if total_nT is None or dip_deg is None:
+        raise ValueError('--mag-topic needs the reference field to check each azimuth '
+                         'against: --reference-total-nT and --reference-dip-deg, or --site '
+                         '(the calibration holds no multi-station analysis to take it from)')
+    msgtype, count = topic_info(path, topic)
+    if msgtype != MAGNETIC_FIELD or count == 0:
+        raise BagError(f'{topic} in {path} holds {count} {msgtype} messages, not '
+                       f'{MAGNETIC_FIELD} ones')
+    settings = MagneticSettings(reference_total_nT=total_nT, reference_dip_deg=dip_deg,
+                                declination_deg=declination_deg or 0.0, noise_std_nT=noise_std_nT,
+                                azimuth_max_std_deg=azimuth_max_std_deg)
+    return Magnetometer.from_series(concatenate(read(path, topic)), max_pairing_s, settings)
+
+
+def replay_recording(in_path, topic, out, model, settings, chunk_size, summary, temperature=None,
+                     magnetometer=None, averager=None, imu=None, progress=None):
+    """
+    Correct ``topic`` of the bag ``in_path`` into the open BagWriter ``out`` (``replay``).
+
+    Writes SURVEY_TOPIC and IMU_TOPIC.  ``temperature`` (a TemperatureSeries
+    or None) gives each sample its temperature, ``magnetometer`` (a
+    Magnetometer or None) its field; with an ``averager``
+    (``core.averaging.Averager``) the windows it closes are written instead
+    of the samples.  ``imu``: the ImuSeries of a CSV log, read instead of
+    ``topic`` of the bag.  Counts in ``summary`` (a Summary), returned.
+    """
+    out.add_topic(SURVEY_TOPIC, VECTOR3_STAMPED)
+    out.add_topic(IMU_TOPIC, IMU)
+    batches = (read(in_path, topic, chunk_size) if imu is None else
+               (ImuSeries(*(getattr(imu, f.name)[start:start + chunk_size] for f in fields(imu)))
+                for start in range(0, imu.stamps_ns.size, chunk_size)))
+    replay(batches, partial(_write_recorded, out), model, settings, summary, temperature,
+           magnetometer, averager, progress)
+    if averager is not None:
+        summary.averaged, summary.samples_not_averaged = True, averager.pending
+    return summary
+
+
+def _write_recorded(out, published):
+    """Write one Outputs (``outputs``) to SURVEY_TOPIC and IMU_TOPIC of the BagWriter ``out``."""
+    out.write_series({SURVEY_TOPIC: published.survey, IMU_TOPIC: published.imu})

@@ -12,13 +12,14 @@ import os
 
 from inclino_ros.calibration.continuous_log import (
     GYRO_COLUMNS, log_segments, longest_still_part, TIME_COLUMN)
-from inclino_ros.calibration.plausibility import temperature_ok
+from inclino_ros.calibration.plausibility import (
+    check_acceleration_unit, check_field_unit, check_temperatures, Implausible, temperature_ok)
 from inclino_ros.core.refusal import Refused
 from inclino_ros.core.stillness import (
     find_still_segments, label_attitudes, SegmentLimits, StillLimits)
 from inclino_ros.io import tables
 from inclino_ros.io.bag import (
-    BagError, concatenate, ImuSeries, read, TemperatureSeries, topic_info)
+    BagError, concatenate, IMU, ImuSeries, read, TEMPERATURE, TemperatureSeries, topic_info)
 from inclino_ros.io.timing import in_window, pair_nearest
 import numpy as np
 
@@ -26,6 +27,8 @@ AXIS_COLUMNS = ('ax', 'ay', 'az')
 FIELD_COLUMNS = ('bx', 'by', 'bz')
 ATTITUDE_COLUMNS = ('inclination_deg', 'toolface_deg')
 AZIMUTH_COLUMN = 'azimuth_deg'
+#: The column of a survey row's count of averaged readings (``survey_input``).
+SAMPLES_COLUMN = 'samples'
 #: Per triad of a heating run: its CSV columns and reference columns.
 TRIAD_COLUMNS = {'accelerometer': (AXIS_COLUMNS, ('ref_ax', 'ref_ay', 'ref_az')),
                  'magnetometer': (FIELD_COLUMNS, ('ref_bx', 'ref_by', 'ref_bz'))}
@@ -362,3 +365,75 @@ def known_temperatures(series, name, path):
         raise tables.TableError(f'{name} in {path} holds no temperature a sensor reads')
     return TemperatureSeries(series.stamps_ns[kept], series.frame_ids[kept],
                              series.temperature_c[kept], series.variance[kept])
+
+
+def imu_count(path, topic):
+    """Return the message count of ``topic`` in the bag ``path``; BagError unless Imu messages."""
+    msgtype, count = topic_info(path, topic)
+    if msgtype != IMU:
+        raise BagError(f'{topic} in {path} holds {msgtype}, not {IMU}')
+    return count
+
+
+def bag_temperatures(path, topic):
+    """
+    Return the TemperatureSeries of ``topic`` in the bag ``path`` (``known_temperatures``).
+
+    BagError unless it holds Temperature messages.
+    """
+    msgtype, count = topic_info(path, topic)
+    if msgtype != TEMPERATURE or count == 0:
+        raise BagError(f'{topic} in {path} holds {count} {msgtype} messages, not '
+                       f'{TEMPERATURE} ones')
+    return known_temperatures(concatenate(read(path, topic)), topic, path)
+
+
+def survey_input(path, gravity_mps2):
+    """
+    Return (header, rows, raw (N, 3), field (N, 3) or None, samples or None) of a survey CSV.
+
+    ``ax, ay, az`` [m/s^2] required, ``bx, by, bz`` [nT] all three or none,
+    ``samples`` (the readings each row averages) optional; TableError for a
+    missing column or readings in another unit
+    (``plausibility.check_acceleration_unit``, ``check_field_unit``).
+    """
+    header, rows = tables.read_rows(path)
+    has_field = [name in header for name in FIELD_COLUMNS]
+    missing = [name for name in AXIS_COLUMNS if name not in header] + (
+        [name for name, has in zip(FIELD_COLUMNS, has_field) if not has]
+        if any(has_field) else [])
+    if missing:
+        raise tables.TableError(f'{path} lacks the column(s) {", ".join(missing)}; it has '
+                                f'{", ".join(header)}')
+    raw = np.column_stack([tables.number_column(rows, header, n) for n in AXIS_COLUMNS])
+    field = (np.column_stack([tables.number_column(rows, header, n) for n in FIELD_COLUMNS])
+             if any(has_field) else None)
+    averaged = tables.count_column(path, rows, header, SAMPLES_COLUMN)
+    try:
+        check_acceleration_unit(raw, gravity_mps2, 'ax, ay, az')
+        if field is not None:
+            check_field_unit(field, 'bx, by, bz')
+    except Implausible as err:
+        raise tables.TableError(err.reason) from None
+    return header, rows, raw, field, averaged
+
+
+def survey_temperatures(path, header, rows):
+    """
+    Return the ``temperature_c`` column [deg C] of a survey CSV; TableError if unusable.
+
+    Every cell must be a number a sensor reads (``plausibility.TEMPERATURE_C``:
+    1e6 or text is no temperature).
+    """
+    temperature_c = tables.number_column(rows, header, 'temperature_c')
+    unread = np.flatnonzero(~np.isfinite(temperature_c))
+    if unread.size:
+        raise tables.TableError(
+            f'{path} data row {unread[0] + 1}: temperature_c '
+            f'{rows[unread[0]][header.index("temperature_c")]!r} is not a number '
+            f'({unread.size} such row(s))')
+    try:
+        check_temperatures(temperature_c, f'{path} temperature_c')
+    except Implausible as err:
+        raise tables.TableError(err.reason) from None
+    return temperature_c

@@ -15,7 +15,8 @@ import math
 
 from inclino_ros.calibration.model import (
     Magnetometer, MagnetometerAlignment, readings_temperature_c, Stand, ToolAxis, utc_now_iso)
-from inclino_ros.calibration.stand_fit import stood_for_c, temperature_plateaus
+from inclino_ros.calibration.stand_fit import (
+    group_positions, position_noise_deg, position_stood_c, stood_for_c, temperature_plateaus)
 from inclino_ros.core.attitude import angle_between
 from inclino_ros.core.constants import STANDARD_GRAVITY_MPS2
 from inclino_ros.core.installation import installation_matrix, to_tool_frame
@@ -142,6 +143,31 @@ def fit_field_stand(fields_nT, attitudes_deg, reference_total_nT, reference_dip_
             shots=int(fields_nT.shape[0]), fitted_at=now, temperature_c=temperature_c),
         residual_deg=residual_deg, rms_residual_deg=rms_deg, plateaus=plateaus,
         plateau_rms_deg=plateau_rms_deg)
+
+
+def fit_field_positions(existing, fields_nT, attitude_deg, times_s, temperature_c, stand,
+                        reference, max_rms_deg, still):
+    """
+    Return (FieldStandFit, positions) of a stand's magnetometer samples (``fit_field_stand``).
+
+    ``fields_nT`` (N, 3) with ``attitude_deg``, ``times_s`` and
+    ``temperature_c`` (None: unknown) per sample; samples without a paired
+    reading (NaN) are left out, the others go through ``existing``'s
+    magnetometer stages before ``magnetometer`` and are grouped by attitude
+    as the accelerometer's (``stand_fit.group_positions``); each position's
+    noise is judged by the ``still`` limits (``position_noise_deg``:
+    CaptureRefused) and stood for ``position_stood_c``.  ``reference``:
+    (total_nT, dip_deg).  StandFitRefused as ``fit_field_stand`` refuses.
+    """
+    paired = np.isfinite(fields_nT).all(axis=1)
+    temperature_c = None if temperature_c is None else temperature_c[paired]
+    fields_nT = existing.apply_magnetic(fields_nT[paired], temperature_c, before='magnetometer')
+    positions, means, counts, position = group_positions(fields_nT, attitude_deg[paired])
+    stood_c = position_stood_c(existing.magnetometer_temperature, temperature_c, position,
+                               counts)
+    position_noise_deg(fields_nT, None if times_s is None else times_s[paired], position,
+                       len(means), still, ' (magnetometer)')
+    return fit_field_stand(means, positions, *reference, stand, max_rms_deg, stood_c), len(means)
 
 
 def mean_temperature_c(temperature_c):

@@ -208,6 +208,26 @@ def solve_stand(readings, attitudes_deg, gravity_mps2, max_rms_deg, temperatures
                          refusal=refusal, plateaus=plateaus)
 
 
+def solve_sample_positions(readings, attitude_deg, times_s, stood_c, still, gravity_mps2,
+                           max_rms_deg, max_temperature_difference_c, names):
+    """
+    Return (StandSolution, attitudes, samples, noise_deg) per position of stand samples.
+
+    ``readings`` (N, 3) at ``attitude_deg`` are grouped into positions
+    (``group_positions``), each position's noise judged by the ``still``
+    limits (``position_noise_deg``: CaptureRefused) and the temperature it
+    stood for is the mean of its samples' ``stood_c`` (None: unknown); then
+    ``solve_stand`` (as ``stand_capture.solve_positions`` fits the node's
+    positions), StandFitRefused as it refuses.
+    """
+    attitudes, means, counts, position = group_positions(readings, attitude_deg)
+    temperatures_c = (None if stood_c is None else
+                      np.bincount(position, weights=stood_c) / counts)
+    noise_deg = position_noise_deg(readings, times_s, position, len(means), still)
+    return (solve_stand(means, attitudes, gravity_mps2, max_rms_deg, temperatures_c,
+                        max_temperature_difference_c, names), attitudes, counts, noise_deg)
+
+
 def temperature_plateaus(readings, truth, temperatures_c):
     """
     Return the TemperatureStandFit of positions at two or more plateaus, else None.

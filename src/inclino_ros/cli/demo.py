@@ -20,20 +20,18 @@ only).
 
 import json
 import os
-import random
 import signal
 import subprocess
 import sys
 import tempfile
-import time
 
 from inclino_ros.cli.helptext import add_command
-from inclino_ros.cli.live import LiveSession
 from inclino_ros.cli.options import add_force_argument
-from inclino_ros.io.bag import concatenate, IMU, read
+from inclino_ros.io.bag import concatenate, read
 from inclino_ros.io.files import Outputs
-from inclino_ros.io.timing import Timeline
-from inclino_ros.node.playback import publish_timed
+from inclino_ros.node.domain import (  # noqa: F401 (choose_private_domain: public here too)
+    choose_private_domain, isolate_dds)
+from inclino_ros.node.session import DemoSession
 from inclino_ros.report.demo import plot, station_table, table_lines
 import numpy as np
 
@@ -43,10 +41,6 @@ DEMO_FILES = ('bench', 'bench.truth.json', 'calibration.json', 'processed', 'res
               'demo.png')
 #: Accuracy target of a corrected inclination [deg] (a tilt error of this size).
 TARGET_DEG = 0.01
-#: Domain ids the demo may take (0-101 are safe with the default DDS port mapping).
-DOMAIN_IDS = range(1, 102)
-#: Seconds the demo listens on a domain for other ROS nodes before it takes it.
-LISTEN_S = 1.0
 
 
 def register(subparsers):
@@ -70,63 +64,6 @@ def register(subparsers):
     parser.set_defaults(func=run)
 
 
-def choose_private_domain(exclude=(), candidates=None, listen_s=LISTEN_S):
-    """
-    Return a ROS domain id on which no other ROS node is seen, or None.
-
-    Candidates (default: 1..101 from a random start) in ``exclude`` are
-    skipped; each is listened to for ``listen_s`` with a node of its own.
-    """
-    import rclpy
-    from rclpy.context import Context
-    from rclpy.signals import SignalHandlerOptions
-
-    if candidates is None:
-        first = random.randrange(len(DOMAIN_IDS))
-        candidates = list(DOMAIN_IDS[first:]) + list(DOMAIN_IDS[:first])
-    for domain in candidates:
-        if domain in exclude:
-            continue
-        context = Context()
-        rclpy.init(context=context, domain_id=domain,
-                   signal_handler_options=SignalHandlerOptions.NO)
-        try:
-            node = rclpy.create_node('inclino_demo_listener', context=context,
-                                     start_parameter_services=False, enable_rosout=False)
-            time.sleep(listen_s)   # DDS discovery runs in its own threads
-            others = [name for name in node.get_node_names() if name != node.get_name()]
-            node.destroy_node()
-        finally:
-            rclpy.try_shutdown(context=context)
-        if not others:
-            return domain
-    return None
-
-
-def isolate_dds(log_dir, domain_id=None):
-    """
-    Keep DDS on this host and on a domain of this run's own; say which.
-
-    ``domain_id`` None: a free one (``choose_private_domain``); RuntimeError
-    when none is found.  Logs go under ``log_dir``.
-    """
-    os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
-    os.environ['ROS_LOG_DIR'] = log_dir
-    shell = os.environ.get('ROS_DOMAIN_ID')
-    if domain_id is not None:
-        print(f'== ROS domain {domain_id} (given with --domain-id), this host only')
-    else:
-        exclude = {int(shell)} if shell and shell.isdigit() else {0}
-        domain_id = choose_private_domain(exclude)
-        if domain_id is None:
-            raise RuntimeError('no free ROS domain found: give one with --domain-id')
-        print(f'== ROS domain {domain_id}: a private one (no other ROS node seen on it), this '
-              f'host only; ROS_DOMAIN_ID of this shell ({shell or "unset"}) not used '
-              '(--domain-id N to choose)')
-    os.environ['ROS_DOMAIN_ID'] = str(domain_id)
-    return domain_id
-
-
 def accelerometer_noise_mps2(truth):
     """
     Return the simulated accelerometer noise [m/s^2] of a truth file (``inclino simulate``).
@@ -145,62 +82,6 @@ def start_node(calibration_file, log_path, noise_std_mps2):
         [executable, '--ros-args', '-p', f'calibration_file:={calibration_file}',
          '-p', f'accelerometer_noise_std_mps2:={noise_std_mps2}'],
         stdout=log, stderr=subprocess.STDOUT)
-
-
-class DemoSession(LiveSession):
-    """The demo's own rclpy node: replays bag segments, records the node's surveys."""
-
-    def __init__(self):
-        """Create the publisher, the survey recorder and the service client."""
-        from geometry_msgs.msg import Vector3Stamped
-        from rclpy.qos import QoSProfile
-        from sensor_msgs.msg import Imu
-        from std_srvs.srv import Trigger
-
-        super().__init__('inclino_demo')
-        self.publisher = self.node.create_publisher(Imu, 'imu/data_raw', QoSProfile(depth=1000))
-        self.surveys = {}
-        self.survey_sub = self.node.create_subscription(
-            Vector3Stamped, 'survey', self._on_survey, QoSProfile(depth=1000))
-        self.client = self.node.create_client(Trigger, '/inclinometer/calibrate_level')
-        self.trigger = Trigger.Request
-
-    def _on_survey(self, msg):
-        stamp_ns = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
-        self.surveys[stamp_ns] = (msg.vector.x, msg.vector.y, msg.vector.z)
-
-    def wait_for_node(self, timeout_s=30.0):
-        """Wait until the node's subscription, survey and service are matched."""
-        if not self.spin_until(lambda: (self.publisher.get_subscription_count()
-                                        and self.client.service_is_ready()
-                                        and self.survey_sub.get_publisher_count()),
-                               timeout_s):
-            raise RuntimeError('inclinometer_node did not come up')
-        self.spin(0.3)
-
-    def play(self, series):
-        """Publish an ImuSeries with its timing (RATE times faster)."""
-        publish_timed(Timeline.of([('imu/data_raw', IMU, series)]),
-                      {'imu/data_raw': self.publisher}, RATE,
-                      lambda seconds: self.spin(min(seconds, 0.01)))
-
-    def replay(self, series):
-        """Publish an ImuSeries with its timing; return the node's surveys of it (N, 3)."""
-        self.surveys = {}
-        self.play(series)
-        self.spin(0.5)
-        answers = np.array([self.surveys.get(stamp, (np.nan,) * 3)
-                            for stamp in series.stamps_ns.tolist()])
-        print(f'   {np.count_nonzero(np.isfinite(answers[:, 0]))} of {series.stamps_ns.size} '
-              'surveys received')
-        return answers
-
-    def calibrate_during(self, series):
-        """Call ~/calibrate_level while the level segment plays; return the answer."""
-        future = self.client.call_async(self.trigger())
-        self.play(series)
-        self.spin_until(future.done, 15.0)
-        return future.result() if future.done() else None
 
 
 def segment(series, mask):
@@ -244,7 +125,7 @@ def run(args):
     noise_std_mps2 = accelerometer_noise_mps2(truth_doc)
     node = start_node(calibration_file, os.path.join(out, 'node.log'), noise_std_mps2)
     try:
-        with DemoSession() as session:
+        with DemoSession(RATE) as session:
             session.wait_for_node()
             print(f'== 3. replay {len(segments) - 1} stations uncalibrated ({RATE}x)')
             raw = session.replay(stations)

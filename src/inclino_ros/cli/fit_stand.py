@@ -9,7 +9,7 @@ positions or a continuous log, a bag with ``/stand/attitude``):
 stand and sphere fits, K(T) of a multi-temperature stand and what a new stand
 drops: ``calibration.stand_fit`` (as ``~/solve_stand_calibration``); the
 magnetometer's K_m and bias against a reference field (seed 001 Eq. 12):
-``calibration.magnetometer.fit_field_stand``; plausible readings:
+``calibration.magnetometer.fit_field_positions``; plausible readings:
 ``calibration.plausibility``; the report: ``report.stand``; the atomic write
 with its history: ``fitting.run_fit``.  Exit 0 written, 1 refused (the
 calibration file untouched), 2 unusable input.
@@ -17,11 +17,11 @@ calibration file untouched), 2 unusable input.
 
 from inclino_ros.calibration.continuous_log import log_segments, segment_limits, sphere_readings
 from inclino_ros.calibration.inputs import stand_input
-from inclino_ros.calibration.magnetometer import fit_field_stand
+from inclino_ros.calibration.magnetometer import fit_field_positions
 from inclino_ros.calibration.plausibility import check_accelerometer_readings
 from inclino_ros.calibration.stand_fit import (
-    check_temperature_span, group_positions, position_noise_deg, position_stood_c,
-    repeatability_note, solve_sphere, solve_stand, stand_readings, stood_for_c, with_stand)
+    check_temperature_span, repeatability_note, solve_sample_positions, solve_sphere,
+    stand_readings, stood_for_c, with_stand)
 from inclino_ros.calibration.still_capture import CaptureRefused
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
@@ -34,7 +34,6 @@ from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core.stand import StandFitRefused
 from inclino_ros.report.common import Fitted
 from inclino_ros.report.stand import field_lines, position_report, sphere_report
-import numpy as np
 
 ATTITUDE_TOPIC = '/stand/attitude'
 ATTITUDE_COLUMNS = ('inclination_deg', 'toolface_deg')
@@ -188,19 +187,15 @@ def fit_positions(args, readings, attitude_deg, times_s, stood_c, lines):
     """
     Return (Stand stage, refusal or None, draw, residual rows) of a known-attitude stand fit.
 
-    ``stand_fit.solve_stand``, as ``~/solve_stand_calibration`` fits the
-    node's positions; ``stood_c``: the temperature each reading stood for
+    ``stand_fit.solve_sample_positions``, as ``~/solve_stand_calibration``
+    fits the node's positions; ``stood_c``: the temperature each reading stood for
     (None: unknown).  ``draw(path)`` plots the report.
     """
-    attitudes, means, counts, position = group_positions(readings, attitude_deg)
-    temperatures_c = (None if stood_c is None else
-                      np.bincount(position, weights=stood_c) / counts)
     try:
-        spread_deg = position_noise_deg(readings, times_s, position, len(means),
-                                        still_limits(args))
-        solution = solve_stand(means, attitudes, args.gravity_mps2, args.max_rms_deg,
-                               temperatures_c, args.max_temperature_difference_c,
-                               ('--max-rms-deg', '--max-temperature-difference-c'))
+        solution, attitudes, counts, spread_deg = solve_sample_positions(
+            readings, attitude_deg, times_s, stood_c, still_limits(args), args.gravity_mps2,
+            args.max_rms_deg, args.max_temperature_difference_c,
+            ('--max-rms-deg', '--max-temperature-difference-c'))
     except (CaptureRefused, StandFitRefused) as err:
         raise Refused(str(err)) from None
     report, rows, draw = position_report(solution, attitudes, counts, spread_deg,
@@ -215,8 +210,8 @@ def fit_magnetometer(args, existing, fields, attitude_deg, times_s, temperature_
     Return the magnetometer fit (``FieldStandFit``) of the stand positions, or None.
 
     Fitted when the input has magnetometer readings and a reference field is
-    given (seed 001 Eq. 12, ``magnetometer.fit_field_stand``); Refused as it
-    refuses.
+    given (seed 001 Eq. 12, ``magnetometer.fit_field_positions``); Refused
+    as it refuses.
     """
     try:
         total_nT, dip_deg, _, source = resolve_reference(args)
@@ -227,20 +222,13 @@ def fit_magnetometer(args, existing, fields, attitude_deg, times_s, temperature_
             'no bx, by, bz (or magnetometer topic) in the input' if fields is None else
             'no reference field (--reference-total-nT and --reference-dip-deg, or --site)'))
         return None
-    paired = np.isfinite(fields).all(axis=1)
-    temperature_c = None if temperature_c is None else temperature_c[paired]
-    fields = existing.apply_magnetic(fields[paired], temperature_c, before='magnetometer')
-    positions, means, counts, position = group_positions(fields, attitude_deg[paired])
-    stood_c = position_stood_c(existing.magnetometer_temperature, temperature_c, position,
-                               counts)
     try:
-        position_noise_deg(fields, None if times_s is None else times_s[paired], position,
-                           len(means), still_limits(args), ' (magnetometer)')
-        fit = fit_field_stand(means, positions, total_nT, dip_deg, stand,
-                              args.max_field_rms_deg, stood_c)
+        fit, positions = fit_field_positions(
+            existing, fields, attitude_deg, times_s, temperature_c, stand, (total_nT, dip_deg),
+            args.max_field_rms_deg, still_limits(args))
     except (CaptureRefused, StandFitRefused) as err:
         raise Refused(str(err)) from None
-    lines += field_lines(fit, total_nT, dip_deg, source, len(means))
+    lines += field_lines(fit, total_nT, dip_deg, source, positions)
     return fit
 
 

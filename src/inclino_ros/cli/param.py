@@ -14,6 +14,7 @@ import time
 
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.live import add_node_arguments, live_command, LiveSession, node_name
+from inclino_ros.node.parameters import format_value, parse_value
 
 #: A negative number in any of Python's float spellings (argparse's own misses -1e-3, -inf).
 NEGATIVE_NUMBER = re.compile(r'^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|infinity|nan)$',
@@ -155,33 +156,3 @@ def set_parameter(session, client, args):
 
 
 ACTIONS = {'list': list_parameters, 'get': get_parameter, 'set': set_parameter}
-
-
-def parse_value(text, like):
-    """Return ``text`` as the type of ``like`` (bool, int, float or str); ValueError if not."""
-    if isinstance(like, bool):
-        if text.lower() not in ('true', 'false'):
-            raise ValueError(f'{text!r} is not true or false')
-        return text.lower() == 'true'
-    for kind, name in ((int, 'an integer'), (float, 'a number')):
-        if isinstance(like, kind):
-            try:
-                value = kind(text)
-            except ValueError:
-                raise ValueError(f'{text!r} is not {name}') from None
-            if kind is int and not -2 ** 63 <= value < 2 ** 63:
-                raise ValueError(f'{text} is beyond a 64-bit integer (what a ROS integer '
-                                 'parameter holds)')
-            return value
-    if isinstance(like, str):
-        return text
-    raise ValueError(f'cannot set a {type(like).__name__} parameter from the command line')
-
-
-def format_value(value):
-    """Return a parameter value as the YAML of the parameter file writes it."""
-    if isinstance(value, bool):
-        return 'true' if value else 'false'
-    if isinstance(value, str):
-        return repr(value)
-    return str(value)

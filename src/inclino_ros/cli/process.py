@@ -59,16 +59,13 @@ never (``io.files.Outputs``).  A damaged IN (a read that fails or yields
 fewer messages than the bag says) is an error and leaves no OUT.
 """
 
-from dataclasses import fields
-from functools import partial
 import os
 import sys
 
-from inclino_ros.calibration.inputs import known_temperatures, log_series
+from inclino_ros.calibration.inputs import (
+    bag_temperatures, imu_count, known_temperatures, log_series)
 from inclino_ros.calibration.model import (
-    CalibrationFileError, check_axes_maps, missing_temperature, MissingTemperature)
-from inclino_ros.calibration.plausibility import check_for_sensor, Implausible
-from inclino_ros.calibration.store import axes_refusal
+    CalibrationFileError, missing_temperature, MissingTemperature)
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     add_sensor_argument, load_calibration, NODE_DEFAULTS, node_option, warn_outside_range)
@@ -78,16 +75,11 @@ from inclino_ros.cli.options import (
     add_force_argument, add_reference_temperature_argument, between, node_parameter)
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core.averaging import Averager
-from inclino_ros.io.bag import (
-    BagWriter, CHUNK_SIZE, concatenate, IMU, ImuSeries, MAGNETIC_FIELD, read, STORAGES,
-    TEMPERATURE, topic_info, VECTOR3_STAMPED)
+from inclino_ros.io.bag import BagWriter, CHUNK_SIZE, STORAGES
 from inclino_ros.io.files import Outputs
-from inclino_ros.pipeline import MagneticSettings, Settings
-from inclino_ros.stream import Magnetometer, replay, Summary
+from inclino_ros.stream import (
+    IMU_TOPIC, recorded_magnetometer, replay_recording, replay_settings, Summary, SURVEY_TOPIC)
 from tqdm import tqdm
-
-SURVEY_TOPIC = '/survey'
-IMU_TOPIC = '/imu/data'
 
 
 def register(subparsers):
@@ -259,25 +251,15 @@ def _prepare(args, log=None):
                   if model.magnetic is not None else ''), file=sys.stderr)
     for note in model.uncertainty_notes:
         print(f'inclino process: warning: {args.calibration}: {note}', file=sys.stderr)
-    axes = args.axes or model.accelerometer_axes
-    reason = axes_refusal(model, axes, args.calibration)
-    if reason is not None:
-        raise CommandError(reason)
     try:
-        check_for_sensor(model, args.range_mps2)
-    except Implausible as err:
-        raise CommandError(f'{args.calibration}: {err} (--range-mps2)') from None
-    try:
-        settings = Settings(
-            accelerometer_axes=axes, gravity_mps2=args.gravity_mps2,
-            accelerometer_range_mps2=args.range_mps2,
+        settings = replay_settings(
+            model, args.calibration, '--range-mps2', accelerometer_axes=args.axes,
+            gravity_mps2=args.gravity_mps2, accelerometer_range_mps2=args.range_mps2,
             toolface_convention=args.toolface_convention, noise_std_mps2=args.noise_std_mps2,
             toolface_max_std_deg=args.toolface_max_std_deg,
             g_total_tolerance_mps2=args.g_total_tolerance_mps2,
             two_axis_max_inclination_deg=args.two_axis_max_inclination_deg,
             **settings_maps(args))
-        check_axes_maps(model, (args.accelerometer_axes_map, args.magnetometer_axes_map),
-                        args.calibration)
     except (ValueError, CalibrationFileError) as err:
         raise CommandError(str(err)) from None
     if log is not None:
@@ -286,19 +268,11 @@ def _prepare(args, log=None):
             refuse_missing_temperature(args, model, f'{args.input} has no temperature_c column')
         return model, settings, imu.stamps_ns.size, None if series is None else \
             known_temperatures(series, args.temperature_topic or 'temperature_c', args.input)
-    msgtype, count = topic_info(args.input, args.topic)
-    if msgtype != IMU:
-        raise CommandError(f'{args.topic} in {args.input} holds {msgtype}, not {IMU}')
+    count = imu_count(args.input, args.topic)
     if args.temperature_topic is None:
         refuse_missing_temperature(args, model, 'no --temperature-topic was given')
         return model, settings, count, None
-    msgtype, temperatures = topic_info(args.input, args.temperature_topic)
-    if msgtype != TEMPERATURE or temperatures == 0:
-        raise CommandError(f'{args.temperature_topic} in {args.input} holds {temperatures} '
-                           f'{msgtype} messages, not {TEMPERATURE} ones')
-    return model, settings, count, known_temperatures(
-        concatenate(read(args.input, args.temperature_topic)), args.temperature_topic,
-        args.input)
+    return model, settings, count, bag_temperatures(args.input, args.temperature_topic)
 
 
 def refuse_missing_temperature(args, model, missing):
@@ -319,34 +293,24 @@ def refuse_missing_temperature(args, model, missing):
 
 
 def _magnetometer(args, model):
-    """Return the Magnetometer of --mag-topic, or None without it; CommandError if unusable."""
+    """Return the Magnetometer of --mag-topic or None (``stream.recorded_magnetometer``)."""
     if args.mag_topic is None:
         return None
-    stage = model.magnetic
     try:
-        total_nT, dip_deg, declination_deg, source = resolve_reference(args, model)
+        *reference, source = resolve_reference(args, model)
+        magnetometer = recorded_magnetometer(args.input, args.mag_topic, args.max_pairing_s,
+                                             reference, args.mag_noise_nT,
+                                             args.azimuth_max_std_deg)
     except ValueError as err:
         raise CommandError(str(err)) from None
-    if total_nT is None or dip_deg is None:
-        raise CommandError('--mag-topic needs the reference field to check each azimuth '
-                           'against: --reference-total-nT and --reference-dip-deg, or --site '
-                           '(the calibration holds no multi-station analysis to take it from)')
-    msgtype, count = topic_info(args.input, args.mag_topic)
-    if msgtype != MAGNETIC_FIELD or count == 0:
-        raise CommandError(f'{args.mag_topic} in {args.input} holds {count} {msgtype} '
-                           f'messages, not {MAGNETIC_FIELD} ones')
-    if stage is None:
+    if model.magnetic is None:
         print(f'inclino process: warning: {args.calibration} has no magnetic stage: the '
               'azimuth is of the raw magnetometer', file=sys.stderr)
-    declination_deg = declination_deg or 0.0
-    print(f'reference field: {total_nT:.1f} nT, dip {dip_deg:.3f} deg, declination '
-          f'{declination_deg:.3f} deg ({source}); /survey z is the magnetic azimuth',
-          file=sys.stderr)
-    settings = MagneticSettings(reference_total_nT=total_nT, reference_dip_deg=dip_deg,
-                                declination_deg=declination_deg, noise_std_nT=args.mag_noise_nT,
-                                azimuth_max_std_deg=args.azimuth_max_std_deg)
-    return Magnetometer.from_series(concatenate(read(args.input, args.mag_topic)),
-                                    args.max_pairing_s, settings)
+    settings = magnetometer.settings
+    print(f'reference field: {settings.reference_total_nT:.1f} nT, dip '
+          f'{settings.reference_dip_deg:.3f} deg, declination {settings.declination_deg:.3f} '
+          f'deg ({source}); /survey z is the magnetic azimuth', file=sys.stderr)
+    return magnetometer
 
 
 def process(in_path, topic, out, model, settings, chunk_size, count=None, temperature=None,
@@ -354,31 +318,13 @@ def process(in_path, topic, out, model, settings, chunk_size, count=None, temper
     """
     Correct ``topic`` of the bag ``in_path`` into the open BagWriter ``out``.
 
-    ``temperature`` (a TemperatureSeries or None) gives each sample its
-    temperature, ``magnetometer`` (a Magnetometer or None) its field; with
-    an ``averager`` (``core.averaging.Averager``) the windows it closes are
-    written instead of the samples.
-    ``imu``: the ImuSeries of a CSV log, read instead of ``topic`` of the bag.
-    Returns the Summary; shows a progress bar of ``count`` messages on stderr.
+    ``stream.replay_recording`` with a progress bar of ``count`` messages on
+    stderr; returns the Summary.
     """
-    out.add_topic(SURVEY_TOPIC, VECTOR3_STAMPED)
-    out.add_topic(IMU_TOPIC, IMU)
     summary = Summary(settings.gravity_mps2)
     with tqdm(total=count, unit='msg', desc='inclino process', file=sys.stderr) as progress:
         try:
-            batches = (read(in_path, topic, chunk_size) if imu is None else
-                       (ImuSeries(*(getattr(imu, f.name)[start:start + chunk_size]
-                                    for f in fields(imu)))
-                        for start in range(0, imu.stamps_ns.size, chunk_size)))
-            replay(batches, partial(_write, out), model, settings, summary, temperature,
-                   magnetometer, averager, progress)
+            return replay_recording(in_path, topic, out, model, settings, chunk_size, summary,
+                                    temperature, magnetometer, averager, imu, progress)
         except KeyboardInterrupt:
             raise KeyboardInterrupt(f'after {summary.samples_in} of {count} messages') from None
-    if averager is not None:
-        summary.averaged, summary.samples_not_averaged = True, averager.pending
-    return summary
-
-
-def _write(out, published):
-    """Write one Outputs (``stream.outputs``) to /survey and /imu/data."""
-    out.write_series({SURVEY_TOPIC: published.survey, IMU_TOPIC: published.imu})

@@ -51,34 +51,21 @@ OUT, OUT.truth.json and the CSV are written under temporary names, renamed
 when all are complete, and refused when they exist unless ``--force``.
 """
 
-from dataclasses import replace
-import json
-
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.mounting import add_axes_map_arguments, settings_maps
 from inclino_ros.cli.options import add_force_argument, between, finite, reference_total_nT
-from inclino_ros.core.mounting import to_sensor_axes
 from inclino_ros.core.msa import MAX_INTERFERENCE_NT
-from inclino_ros.io.bag import magnetometer
 from inclino_ros.io.files import Outputs
 from inclino_ros.pipeline import Settings
-from inclino_ros.sim import sensor_model
 from inclino_ros.sim.bench import (
-    command_tool, DEMO_BETA_DEG, DEMO_GAMMA_DEG, DEMO_MAG_NOISE_NT, DEMO_NOISE_MPS2,
-    HEATING_ATTITUDE_DEG, PRESETS, Scenario, simulate, simulate_heating, simulate_stand, StandRun,
-    tool_from_iscwsa)
+    DEMO_BETA_DEG, DEMO_GAMMA_DEG, DEMO_MAG_NOISE_NT, DEMO_NOISE_MPS2, HEATING_ATTITUDE_DEG,
+    PRESETS, Scenario)
 from inclino_ros.sim.recording import (  # noqa: F401 (write_bag, write_csv: public here too)
-    check_run, describe, FRAME_ID, MAG_TOPIC, MAX_SAMPLES, RAW_TOPIC, STAND_TOPIC,
+    DEFAULT_SAMPLES, MAG_TOPIC, MAX_SAMPLES, RAW_TOPIC, record, simulated_run, STAND_TOPIC,
     TEMPERATURE_TOPIC, TRUTH_TOPIC, write_bag, write_csv)
 from inclino_ros.sim.well import WellScenario
-import numpy as np
 
-#: Default samples: per stand position (--stand; the node's stand.samples, which a MEMS
-#: at its own 2 mg needs), over the ramp at each attitude (--heating).
-DEFAULT_SAMPLES = {'stand': 500, 'heating': 1601}
-#: Default preset per scenario (None: the bench).
-DEFAULT_SENSOR = {None: 'ideal', 'stand': 'mems', 'heating': 'mems'}
 #: Seconds a segment may last (a day).
 MAX_SEGMENT_S = 86_400.0
 
@@ -223,28 +210,6 @@ def add_magnetic_arguments(parser):
 interference_nT = between(-MAX_INTERFERENCE_NT, MAX_INTERFERENCE_NT, why=' nT (a drill string)')
 
 
-def tool_of(args, sensor):
-    """Return the ``sensor_model.Tool`` of the command line (``bench.command_tool``)."""
-    return command_tool(sensor, (args.gamma_deg, args.beta_deg, args.roll_deg,
-                                 args.magnetometer_deg), args.noise_std_mps2,
-                        getattr(args, 'mag_noise_nT', None), (DEMO_NOISE_MPS2, DEMO_MAG_NOISE_NT),
-                        ('--noise-mps2', '--mag-noise-nT'), args.axes)
-
-
-def bench_scenario(args, tool):
-    """Return the bench Scenario of the command line; ValueError for impossible values."""
-    if not args.reference_total_nT > 0.0 or args.rotation_s < 0.0:
-        raise ValueError('--reference-total-nT must be positive, --rotation-s not negative')
-    return Scenario(
-        tool=tool, azimuth_deg=tuple(args.azimuth_deg),
-        field=sensor_model.Field(args.reference_total_nT, args.reference_dip_deg),
-        interference_tool_nT=tool_from_iscwsa(args.interference_nT),
-        rotation_s=args.rotation_s if args.magnetic else 0.0,
-        rotation_turns=args.rotation_turns,
-        rotation_attitude_deg=tuple(args.rotation_attitude_deg), rate_hz=args.rate_hz,
-        level_s=args.level_s, station_s=args.station_s, seed=args.seed)
-
-
 def run(args):
     """Simulate and write the bag and its truth file; return the exit code."""
     outputs = Outputs(force=args.force)
@@ -253,72 +218,15 @@ def run(args):
             outputs.check(path)
     try:
         mounting = Settings(accelerometer_axes=args.axes, **settings_maps(args))
+        simulated = simulated_run(args)
     except ValueError as err:
         raise CommandError(str(err)) from None
-    sensor, tool, sim, what = simulated(args)
-    magnetic = None
-    if args.magnetic:
-        magnetic = magnetometer(sim.stamps_ns, FRAME_ID,
-                                to_sensor_axes(sim.mag_nT, mounting.magnetometer_matrix),
-                                np.max(tool.magnetometer.noise_std))
-        what += (f'; magnetometer on {MAG_TOPIC}, interference '
-                 f'{", ".join(f"{v:g}" for v in args.interference_nT)} nT (ISCWSA x, y, z)')
-    # The bag holds what a board mounted so reads: sensor = M^-1 tool.
-    sim = replace(sim, raw_mps2=to_sensor_axes(sim.raw_mps2, mounting.accelerometer_matrix))
-    truth_path = f'{args.out}.truth.json'
+    sim, truth_path = simulated[2], f'{args.out}.truth.json'
     with outputs:
-        topics = write_bag(outputs.path(args.out), args.storage, sim,
-                           np.asarray(tool.accelerometer.noise_std), args.mode, magnetic)
-        extra = {'sensor': sensor, 'bag': args.out, 'storage': args.storage, 'topics': topics,
-                 'frame_id': FRAME_ID, 'mounting': {
-                     'accelerometer_axes_map': args.accelerometer_axes_map,
-                     'magnetometer_axes_map': args.magnetometer_axes_map}}
-        if args.magnetic:
-            extra['magnetic'] = {
-                'topic': MAG_TOPIC, 'frame': 'the magnetometer triad (tool frame turned by the '
-                                             'mount), tesla on the topic',
-                'pairing': 'one message per accelerometer sample, same stamp'}
-        with open(outputs.path(truth_path), 'x') as stream:
-            json.dump(dict(sim.truth, **extra), stream, indent=2)
-            stream.write('\n')
-        if args.csv:
-            write_csv(outputs.path(args.csv), sim, args.mode is not None,
-                      args.mode == 'heating')
+        topics, magnetic = record(args, outputs, simulated, mounting)
     print(f'wrote {args.out} ({args.storage}): {sim.stamps_ns.size} messages on each of '
-          f'{", ".join(topics.values())}; {what}')
+          f'{", ".join(topics.values())}; {simulated[3]}{magnetic}')
     print(f'wrote {truth_path}: {len(sim.truth["segments"])} segments, every error source')
     if args.csv:
         print(f'wrote {args.csv}: {sim.stamps_ns.size} rows')
     return 0
-
-
-def simulated(args):
-    """
-    Return (preset, tool, the simulated run, what it is); CommandError if impossible.
-
-    The run's options are checked first (``recording.check_run``).
-    """
-    sensor = args.sensor or DEFAULT_SENSOR[args.mode]
-    samples = DEFAULT_SAMPLES.get(args.mode) if args.samples is None else args.samples
-    try:
-        pairs = check_run(args.mode, args.magnetic, args.axes,
-                          tuple(args.heating_attitudes or HEATING_ATTITUDE_DEG),
-                          args.heating_attitudes is not None, samples, args.rate_hz,
-                          (args.level_s, args.station_s, args.rotation_s))
-        tool = tool_of(args, sensor)
-        if args.mode is None:
-            sim = simulate(bench_scenario(args, tool))
-        else:
-            stand_run = StandRun(tool=tool, rate_hz=args.rate_hz, seed=args.seed)
-            sim = (simulate_stand(stand_run, samples=samples) if args.mode == 'stand' else
-                   simulate_heating(stand_run, pairs, samples=samples))
-    except ValueError as err:
-        raise CommandError(str(err)) from None
-    what = describe(sensor, tool)
-    if args.mode is not None:
-        what = f'{args.mode} run of a {what}'
-    if args.mode == 'heating':
-        what += '; attitudes ' + ', '.join(
-            f'{segment["inclination_deg"]:g}/{segment["toolface_deg"]:g}'
-            for segment in sim.truth['segments']) + ' deg'
-    return sensor, tool, sim, what

@@ -38,12 +38,10 @@ nT, a temperature missing, not a number or not one a sensor reads, no
 calibration file).
 """
 
-import math
 import sys
 
+from inclino_ros.calibration.inputs import survey_input, survey_temperatures
 from inclino_ros.calibration.model import CalibrationModel
-from inclino_ros.calibration.plausibility import (
-    check_acceleration_unit, check_field_unit, check_temperatures, Implausible)
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
     load_calibration, NODE_DEFAULTS, node_option, warn_outside_range)
@@ -54,15 +52,9 @@ from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core.magnetics import QcLimits
 from inclino_ros.io import tables
 from inclino_ros.io.files import Outputs
-from inclino_ros.io.tables import count_column, number_column
 from inclino_ros.pipeline import MagneticSettings, run as run_pipeline, Settings
-from inclino_ros.stream import OUTSIDE_FIT, outside_fit, row_status, survey_columns
+from inclino_ros.stream import OUTSIDE_FIT, outside_fit, survey_columns, survey_table
 import numpy as np
-
-ACCEL_COLUMNS = ('ax', 'ay', 'az')
-FIELD_COLUMNS = ('bx', 'by', 'bz')
-#: The column of a row's count of averaged readings.
-SAMPLES_COLUMN = 'samples'
 
 
 def register(subparsers):
@@ -107,27 +99,16 @@ def run(args):
 
 def _temperatures(args, header, rows, model):
     """
-    Return the temperature_c column [deg C] (None without one); CommandError if unusable.
+    Return the temperature_c column [deg C] (None without one; ``inputs.survey_temperatures``).
 
-    Every cell must be a number a sensor reads (``plausibility.TEMPERATURE_C``:
-    1e6 or text is no temperature); a calibration with a temperature stage
-    needs the column unless ``--at-reference-temperature`` (the one rule of
-    ``inclino process`` too: ``provenance.missing_temperature``).
+    A calibration with a temperature stage needs the column unless
+    ``--at-reference-temperature`` (the one rule of ``inclino process`` too:
+    ``provenance.missing_temperature``).
     """
     if 'temperature_c' not in header:
         refuse_missing_temperature(args, model, f'{args.input} has no temperature_c column')
         return None
-    temperature_c = number_column(rows, header, 'temperature_c')
-    unread = np.flatnonzero(~np.isfinite(temperature_c))
-    if unread.size:
-        raise CommandError(f'{args.input} data row {unread[0] + 1}: temperature_c '
-                           f'{rows[unread[0]][header.index("temperature_c")]!r} is not a '
-                           f'number ({unread.size} such row(s))')
-    try:
-        check_temperatures(temperature_c, f'{args.input} temperature_c')
-    except Implausible as err:
-        raise CommandError(err.reason) from None
-    return temperature_c
+    return survey_temperatures(args.input, header, rows)
 
 
 def _model(path):
@@ -146,30 +127,10 @@ def _model(path):
 
 def survey(args, outputs):
     """Compute and write the survey; return (rows, rows with an azimuth or None: no field)."""
-    try:
-        header, rows = tables.read_rows(args.input)
-    except tables.TableError as err:
-        raise CommandError(str(err)) from None
-    has_field = [name in header for name in FIELD_COLUMNS]
-    missing = [name for name in ACCEL_COLUMNS if name not in header] + (
-        [name for name, has in zip(FIELD_COLUMNS, has_field) if not has]
-        if any(has_field) else [])
-    if missing:
-        raise CommandError(f'{args.input} lacks the column(s) {", ".join(missing)}; it has '
-                           f'{", ".join(header)}')
-    raw = np.column_stack([number_column(rows, header, n) for n in ACCEL_COLUMNS])
-    field = (np.column_stack([number_column(rows, header, n) for n in FIELD_COLUMNS])
-             if any(has_field) else None)
-    averaged = count_column(args.input, rows, header, SAMPLES_COLUMN)
+    header, rows, raw, field, averaged = survey_input(args.input, args.gravity_mps2)
     if field is None:
         print(f'inclino survey: no bx, by, bz in {args.input}: inclination and toolface '
               'only (an accelerometer-only tool: no azimuth columns)', file=sys.stderr)
-    try:
-        check_acceleration_unit(raw, args.gravity_mps2, 'ax, ay, az')
-        if field is not None:
-            check_field_unit(field, 'bx, by, bz')
-    except Implausible as err:
-        raise CommandError(err.reason) from None
     model = _model(args.calibration)
     if model.accelerometer_axes != 3:
         raise CommandError(f'{args.calibration} is for a two-axis accelerometer: a survey '
@@ -205,30 +166,20 @@ def survey(args, outputs):
 
 def write(path, header, rows, codes, columns, outside=None):
     """
-    Write the input rows with the output columns (and the status) to ``path``.
+    Write the input rows with the output columns and the status to ``path`` (``survey_table``).
 
     ``outside``: rows whose temperature lies outside the calibration's fitted
     range, their status ``temperature_outside_fit`` (the compensation holds
     the range's edge there).
     """
-    names = list(columns) + ['status']
-    renamed = [f'input_{name}' if name in names else name for name in header]
-    if renamed != header:
-        print('inclino survey: input column(s) '
-              + ', '.join(n for n, r in zip(header, renamed) if n != r)
-              + ' kept as input_<name>', file=sys.stderr)
-    status = row_status(codes, outside)
+    table, renamed = survey_table(header, rows, codes, columns, outside)
+    if renamed:
+        print(f'inclino survey: input column(s) {", ".join(renamed)} kept as input_<name>',
+              file=sys.stderr)
     if outside is not None and outside.any():
         print(f'inclino survey: {int(outside.sum())} row(s) with a temperature outside the '
               f"calibration's fitted range: status {OUTSIDE_FIT}", file=sys.stderr)
-    full = {}
-    for name, (accepted, values) in columns.items():
-        column = np.full(len(rows), math.nan, dtype=object)
-        column[accepted] = list(values)
-        full[name] = column
     try:
-        tables.write_csv(path, [(name, [row[k] for row in rows])
-                                for k, name in enumerate(renamed)]
-                         + [(name, full[name]) for name in columns] + [('status', status)])
+        tables.write_csv(path, table)
     except OSError as err:
         raise CommandError(f'cannot write {path}: {err}') from None

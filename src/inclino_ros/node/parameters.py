@@ -267,5 +267,39 @@ def markdown_table():
     return '\n'.join(rows)
 
 
+def parse_value(text, like):
+    """
+    Return ``text`` as the type of ``like`` (bool, int, float or str); ValueError if not.
+
+    What ``inclino param set`` sends: the node checks it against the table.
+    """
+    if isinstance(like, bool):
+        if text.lower() not in ('true', 'false'):
+            raise ValueError(f'{text!r} is not true or false')
+        return text.lower() == 'true'
+    for kind, name in ((int, 'an integer'), (float, 'a number')):
+        if isinstance(like, kind):
+            try:
+                value = kind(text)
+            except ValueError:
+                raise ValueError(f'{text!r} is not {name}') from None
+            if kind is int and not -2 ** 63 <= value < 2 ** 63:
+                raise ValueError(f'{text} is beyond a 64-bit integer (what a ROS integer '
+                                 'parameter holds)')
+            return value
+    if isinstance(like, str):
+        return text
+    raise ValueError(f'cannot set a {type(like).__name__} parameter from the command line')
+
+
+def format_value(value):
+    """Return a parameter value as the YAML of the parameter file writes it (``inclino param``)."""
+    if isinstance(value, bool):
+        return 'true' if value else 'false'
+    if isinstance(value, str):
+        return repr(value)
+    return str(value)
+
+
 if __name__ == '__main__':
     print(markdown_table())

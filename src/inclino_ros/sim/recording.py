@@ -4,14 +4,22 @@ What ``inclino simulate`` records: a simulated run as a bag (and a CSV), and the
 The topics a simulated bag holds (the raw sensor, the truth, the stand
 attitude, the temperature, the magnetometer), one message per sample on
 each, and the checks a run's options must pass before it is simulated
-(``check_run``).
+(``check_run``); ``simulated_run`` simulates the run ``inclino simulate``
+asks for and ``record`` writes it with its truth file.
 """
 
+from dataclasses import replace
+import json
+
+from inclino_ros.core.mounting import to_sensor_axes
 from inclino_ros.io import tables
 from inclino_ros.io.bag import (
-    BagWriter, IMU, MAGNETIC_FIELD, MagneticFieldSeries, raw_imu, TEMPERATURE,
+    BagWriter, IMU, MAGNETIC_FIELD, MagneticFieldSeries, magnetometer, raw_imu, TEMPERATURE,
     TemperatureSeries, VECTOR3_STAMPED, Vector3Series)
-from inclino_ros.sim.bench import Scenario, STAND_POSITIONS_DEG
+from inclino_ros.sim import sensor_model
+from inclino_ros.sim.bench import (
+    command_tool, DEMO_MAG_NOISE_NT, DEMO_NOISE_MPS2, HEATING_ATTITUDE_DEG, Scenario, simulate,
+    simulate_heating, simulate_stand, STAND_POSITIONS_DEG, StandRun, tool_from_iscwsa)
 import numpy as np
 
 RAW_TOPIC = '/imu/data_raw'
@@ -22,6 +30,11 @@ MAG_TOPIC = '/imu/mag'
 FRAME_ID = 'inclinometer'
 #: Most samples of one run (1 000 000: 83 min of a 200 Hz bench).
 MAX_SAMPLES = 1_000_000
+#: Default samples: per stand position (--stand; the node's stand.samples, which a MEMS
+#: at its own 2 mg needs), over the ramp at each attitude (--heating).
+DEFAULT_SAMPLES = {'stand': 500, 'heating': 1601}
+#: Default preset per scenario (None: the bench).
+DEFAULT_SENSOR = {None: 'ideal', 'stand': 'mems', 'heating': 'mems'}
 
 
 def check_run(mode, magnetic, axes, heating_attitudes, attitudes_given, samples, rate_hz,
@@ -113,3 +126,93 @@ def write_csv(path, sim, temperature, attitude=False):
         columns['attitude'] = sim.segment
     columns.update(zip(('ax', 'ay', 'az'), sim.raw_mps2.T))
     tables.write_csv(path, columns)
+
+
+def tool_of(args, sensor):
+    """Return the ``sensor_model.Tool`` of ``inclino simulate``'s options (``command_tool``)."""
+    return command_tool(sensor, (args.gamma_deg, args.beta_deg, args.roll_deg,
+                                 args.magnetometer_deg), args.noise_std_mps2,
+                        getattr(args, 'mag_noise_nT', None), (DEMO_NOISE_MPS2, DEMO_MAG_NOISE_NT),
+                        ('--noise-mps2', '--mag-noise-nT'), args.axes)
+
+
+def bench_scenario(args, tool):
+    """Return the bench Scenario of ``inclino simulate``'s options; ValueError if impossible."""
+    if not args.reference_total_nT > 0.0 or args.rotation_s < 0.0:
+        raise ValueError('--reference-total-nT must be positive, --rotation-s not negative')
+    return Scenario(
+        tool=tool, azimuth_deg=tuple(args.azimuth_deg),
+        field=sensor_model.Field(args.reference_total_nT, args.reference_dip_deg),
+        interference_tool_nT=tool_from_iscwsa(args.interference_nT),
+        rotation_s=args.rotation_s if args.magnetic else 0.0,
+        rotation_turns=args.rotation_turns,
+        rotation_attitude_deg=tuple(args.rotation_attitude_deg), rate_hz=args.rate_hz,
+        level_s=args.level_s, station_s=args.station_s, seed=args.seed)
+
+
+def simulated_run(args):
+    """
+    Return (preset, tool, the simulated run, what it is); ValueError if impossible.
+
+    ``args``: the options of ``inclino simulate`` (its argparse namespace).
+    The run's options are checked first (``check_run``).
+    """
+    sensor = args.sensor or DEFAULT_SENSOR[args.mode]
+    samples = DEFAULT_SAMPLES.get(args.mode) if args.samples is None else args.samples
+    pairs = check_run(args.mode, args.magnetic, args.axes,
+                      tuple(args.heating_attitudes or HEATING_ATTITUDE_DEG),
+                      args.heating_attitudes is not None, samples, args.rate_hz,
+                      (args.level_s, args.station_s, args.rotation_s))
+    tool = tool_of(args, sensor)
+    if args.mode is None:
+        sim = simulate(bench_scenario(args, tool))
+    else:
+        stand_run = StandRun(tool=tool, rate_hz=args.rate_hz, seed=args.seed)
+        sim = (simulate_stand(stand_run, samples=samples) if args.mode == 'stand' else
+               simulate_heating(stand_run, pairs, samples=samples))
+    what = describe(sensor, tool)
+    if args.mode is not None:
+        what = f'{args.mode} run of a {what}'
+    if args.mode == 'heating':
+        what += '; attitudes ' + ', '.join(
+            f'{segment["inclination_deg"]:g}/{segment["toolface_deg"]:g}'
+            for segment in sim.truth['segments']) + ' deg'
+    return sensor, tool, sim, what
+
+
+def record(args, outputs, run, mounting):
+    """
+    Write the simulated ``run`` (``simulated_run``) as ``inclino simulate`` does; return topics.
+
+    OUT (the bag), OUT.truth.json and the CSV (``args.csv``) go to their
+    temporaries in ``outputs`` (``io.files.Outputs``).  ``mounting``: the
+    pipeline Settings whose axes maps turn the tool-frame readings into the
+    sensor axes the bag holds (sensor = M^-1 tool).  Returns
+    (``{role: topic}``, what the magnetometer adds to the run's description).
+    """
+    sensor, tool, sim, _ = run
+    magnetic, what = None, ''
+    if args.magnetic:
+        magnetic = magnetometer(sim.stamps_ns, FRAME_ID,
+                                to_sensor_axes(sim.mag_nT, mounting.magnetometer_matrix),
+                                np.max(tool.magnetometer.noise_std))
+        what = (f'; magnetometer on {MAG_TOPIC}, interference '
+                f'{", ".join(f"{v:g}" for v in args.interference_nT)} nT (ISCWSA x, y, z)')
+    sim = replace(sim, raw_mps2=to_sensor_axes(sim.raw_mps2, mounting.accelerometer_matrix))
+    topics = write_bag(outputs.path(args.out), args.storage, sim,
+                       np.asarray(tool.accelerometer.noise_std), args.mode, magnetic)
+    extra = {'sensor': sensor, 'bag': args.out, 'storage': args.storage, 'topics': topics,
+             'frame_id': FRAME_ID, 'mounting': {
+                 'accelerometer_axes_map': args.accelerometer_axes_map,
+                 'magnetometer_axes_map': args.magnetometer_axes_map}}
+    if args.magnetic:
+        extra['magnetic'] = {
+            'topic': MAG_TOPIC, 'frame': 'the magnetometer triad (tool frame turned by the '
+                                         'mount), tesla on the topic',
+            'pairing': 'one message per accelerometer sample, same stamp'}
+    with open(outputs.path(f'{args.out}.truth.json'), 'x') as stream:
+        json.dump(dict(sim.truth, **extra), stream, indent=2)
+        stream.write('\n')
+    if args.csv:
+        write_csv(outputs.path(args.csv), sim, args.mode is not None, args.mode == 'heating')
+    return topics, what
