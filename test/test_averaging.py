@@ -110,8 +110,10 @@ def test_averaged_angles_carry_the_standard_error_of_the_mean():
     """
     400 windows of 100 samples of a still tool (physical model, 0.01 m/s^2 per axis).
 
-    The covariance of each averaged reading is the per-sample one / 100 (closed
-    form: sigma^2 / N I for an uncalibrated three-axis sensor); the published
+    The covariance of each averaged reading is at least the configured per-sample one /
+    100 (closed form: sigma^2 / N I for an uncalibrated three-axis sensor: the floor), the
+    window's own noise with its n_eff above it (``stillness.floored_count``): white noise at
+    the configured sigma, so within 25 % of the floor for most windows; the published
     1 sigma of the inclination matches the scatter of the 400 averaged
     inclinations (within 15 %: 400 windows estimate a std to 3.5 %), and
     their mean is the true inclination within 4 standard errors.
@@ -126,17 +128,21 @@ def test_averaged_angles_carry_the_standard_error_of_the_mean():
     assert kept.all() and len(parts) == 1
     rows, survey = parts[0]
     assert survey.accepted.all() and rows.size == windows_count
-    np.testing.assert_allclose(survey.covariance_mps2, np.broadcast_to(
-        per_sample.covariance_mps2[0] / n, (windows_count, 3, 3)), rtol=1e-12)
-    np.testing.assert_allclose(survey.covariance_mps2[0], NOISE_MPS2 ** 2 / n * np.eye(3),
-                               rtol=1e-12)
+    floor = NOISE_MPS2 ** 2 / n
+    np.testing.assert_allclose(per_sample.covariance_mps2[0] / n, floor * np.eye(3), rtol=1e-12)
+    variance = np.diagonal(survey.covariance_mps2, axis1=1, axis2=2)
+    assert np.all(variance >= floor * (1.0 - 1e-12))
+    assert np.median(variance) < 1.25 * floor
+    np.testing.assert_allclose(survey.covariance_mps2 - variance[:, :, None] * np.eye(3), 0.0,
+                               atol=1e-18)
     scatter = np.std(survey.inclination_deg, ddof=1)
     published = np.mean(survey.inclination_std_deg)
     assert 0.85 < scatter / published < 1.15, (scatter, published)
     assert abs(np.mean(survey.inclination_deg) - 30.0) < 4 * scatter / np.sqrt(windows_count)
-    # The per-sample 1 sigma is sqrt(n) times larger (at the noisy attitudes of the samples).
-    np.testing.assert_allclose(published * np.sqrt(n),
-                               np.mean(per_sample.inclination_std_deg), rtol=1e-3)
+    # The per-sample 1 sigma is sqrt(n) times the floor's (at the noisy attitudes of the
+    # samples): the windows' own noise leaves them at most 25 % above it on average.
+    ratio = published * np.sqrt(n) / np.mean(per_sample.inclination_std_deg)
+    assert 1.0 - 1e-3 < ratio < 1.25, ratio
 
 
 def test_a_tool_turning_within_a_window_is_not_averaged():
@@ -172,3 +178,30 @@ def test_an_output_rate_below_a_window_of_100_s_is_refused(rate_hz):
     with pytest.raises(ValueError, match='below 0.01 Hz'):
         Averager(rate_hz=rate_hz)
     assert Averager(rate_hz=0.01).period_ns == 100_000_000_000
+
+
+@pytest.mark.parametrize('rho,n', [(0.5, 200), (0.73, 200), (0.9, 500)])
+def test_averaged_windows_of_correlated_noise_state_their_own_sigma(rho, n):
+    """
+    AR(1) noise (a low-pass filter below the output rate), windows of 200 / 500 at 100 Hz.
+
+    The simulator's noise keeps its stationary sigma (the configured one), so main's
+    noise / sqrt(n) under-stated the windows' 1 sigma (issue 19 item 4): 1 sigma coverage
+    0.43 / 0.28 / 0.14 (failed first).  The windows' own noise and n_eff
+    (``stillness.own_noise``, the capture rule): 120-300 windows cover 0.60-0.80 at 1 sigma
+    and at least 0.90 at 2 (binomial 1 sigma <= 0.045 / 0.027).  At rho 0.9 a window needs
+    ~500 samples: of 200 (n_eff ~10) the correlation is under-estimated (0.48 / 0.83).
+    """
+    count = 60000 // n
+    tool = sensor_model.Tool(accelerometer=sensor_model.Triad(noise_std=NOISE_MPS2,
+                                                              noise_rho=rho))
+    readings = sensor_model.read(tool, np.full(n * count, 30.0), 40.0, rng=11)
+    stamps = np.arange(n * count) * 10_000_000
+    (windows,) = push_in_batches(Averager(samples=n), stamps, readings.accel_mps2,
+                                 [n * count])
+    kept, parts = average(windows, CalibrationModel(accelerometer_axes=3), SETTINGS)
+    assert kept.all() and len(parts) == 1
+    survey = parts[0][1]
+    ratio = np.abs(survey.inclination_deg - 30.0) / survey.inclination_std_deg
+    one, two = np.mean(ratio <= 1.0), np.mean(ratio <= 2.0)
+    assert 0.60 <= one <= 0.80 and two >= 0.90, (one, two)

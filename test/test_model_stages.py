@@ -65,11 +65,11 @@ def test_temperature_is_clamped_and_defaults_to_the_reference():
 
 
 def test_round_trip_with_every_stage(tmp_path):
-    """A model with all stages saves and loads back equal; the file is version 6."""
+    """A model with all stages saves and loads back equal; the file is version 8."""
     path = tmp_path / 'calibration.json'
     save_model(path, MODEL)
     assert load_model(path) == MODEL
-    assert json.loads(path.read_text())['schema_version'] == 7
+    assert json.loads(path.read_text())['schema_version'] == 8
 
 
 def test_version_1_file_still_loads(tmp_path):

@@ -199,7 +199,7 @@ def test_temperature_stage_uses_the_latest_temperature(node_and_probe, tmp_path)
     slope = temperature_model(tmp_path)
     _, probe = node_and_probe()
     status = diagnostics_status(probe, ': temperature')
-    assert status.level == DiagnosticStatus.WARN and 'no temperature' in status.message
+    assert status.level == DiagnosticStatus.ERROR and 'no temperature' in status.message
 
     f = specific_force(40.0, 130.0)
     for temperature_c in (20.0, 80.0, 100.0):
@@ -215,6 +215,61 @@ def test_temperature_stage_uses_the_latest_temperature(node_and_probe, tmp_path)
     assert inclination_of(probe, drifted) == pytest.approx(40.0, abs=1e-9)
     status = diagnostics_status(probe, ': temperature')
     assert status.level == DiagnosticStatus.WARN and 'outside the fitted range' in status.message
+
+
+def imu_of(probe, survey):
+    """Return the imu/data message of the sample ``survey`` stands for (same stamp)."""
+    def found():
+        return next((m for m in probe.received['imu/data']
+                     if m.header.stamp == survey.header.stamp), None)
+    probe.spin_until(lambda: found() is not None)
+    return found()
+
+
+def test_a_missing_temperature_is_refused_or_widened_by_the_rule_of_the_commands(
+        node_and_probe, tmp_path):
+    """
+    A temperature stage and no imu/temperature: the rule of process/survey (issue 19 item 1).
+
+    Default (temperature.at_reference false, as without --at-reference-temperature):
+    nothing is published, the diagnostics say ERROR and count the withheld outputs, the
+    log says it once.  temperature.at_reference true: published, compensated at 25 C,
+    WARN, and the acceleration covariance widened by the drift over the fitted range 20-100
+    C: a reading r taken at T stands for r / K_i(T) with K_T = 1 + s (T - 25); compensated
+    at 25 C it errs by r - r / K_i(T), largest at 100 C: the trace is that error's square
+    (written out here, not the model's code) plus the noise 3 (0.01 m/s^2)^2.
+    """
+    slope = temperature_model(tmp_path)
+    node, probe = node_and_probe()
+    f = specific_force(40.0, 130.0)
+    status = diagnostics_status(probe, ': temperature')
+    assert status.level == DiagnosticStatus.ERROR
+    assert 'refused: no temperature on imu/temperature' in status.message
+    assert 'temperature.at_reference:=true' in status.message
+
+    def withheld():
+        probe.publish(f)
+        return int(probe.wait_status(': temperature')[1]['withheld_no_temperature']) >= 3
+    probe.spin_until(withheld)
+    assert probe.received['survey'] == [] and probe.received['inclination'] == []
+    assert node.log().count('refused: no temperature on imu/temperature') == 1
+
+    probe.set_parameters(temperature__at_reference=True)
+    status = diagnostics_status(probe, ': temperature')
+    assert status.level == DiagnosticStatus.WARN and 'widened by the drift' in status.message
+    worst_error = f - f / (1.0 + slope * (100.0 - 25.0))
+    survey = probe.survey_for(lambda: probe.publish(f))
+    assert survey.vector.x == pytest.approx(40.0, abs=1e-9)
+    covariance = np.reshape(imu_of(probe, survey).linear_acceleration_covariance, (3, 3))
+    assert np.trace(covariance) == pytest.approx(np.sum(worst_error ** 2) + 3 * 0.01 ** 2,
+                                                 rel=1e-6)
+    assert 'widened by the drift over the fitted range' in node.log()
+
+    probe.set_temperature(100.0)   # a temperature: compensated at it, noise only
+    survey = probe.survey_for(lambda: probe.publish(f * (1.0 + slope * 75.0)))
+    assert survey.vector.x == pytest.approx(40.0, abs=1e-9)
+    covariance = np.reshape(imu_of(probe, survey).linear_acceleration_covariance, (3, 3))
+    assert np.trace(covariance) == pytest.approx(3 * 0.01 ** 2, rel=1e-6)
 
 
 def test_a_sensor_read_in_g_gives_no_capture_and_the_node_lives_on(node_and_probe, tmp_path):

@@ -683,7 +683,13 @@ def test_unusable_inputs_exit_2(runs, tmp_path):
 
 
 def test_seed001_fits_of_a_mounted_board(runs, tmp_path):
-    """Stand and heating runs of a board with -Y+X+Z axes: with the map, the same stages."""
+    """
+    Stand and heating runs of a board with -Y+X+Z axes: with the map, the same corrections.
+
+    The stand stage is the same (tool axes); the temperature stage is fitted per sensor axis
+    (issue 19 item 7: its rows are the sensor's, y and x swapped) and compensates tool-axis
+    readings as the unmounted board's does.
+    """
     maps = ('--accelerometer-axes-map', '-Y+X+Z')
     # The runs fixture's simulate options, so that only the axes map differs.
     for name, mode, extra in (('stand', '--stand', ('--samples', 100)),
@@ -700,5 +706,9 @@ def test_seed001_fits_of_a_mounted_board(runs, tmp_path):
     mounted = load_model(tmp_path / 'cal.json')
     np.testing.assert_allclose(mounted.stand.scale_matrix, runs['model'].stand.scale_matrix,
                                atol=1e-12)
-    np.testing.assert_allclose(mounted.temperature.coefficients,
-                               runs['model'].temperature.coefficients, atol=1e-12)
+    assert mounted.temperature.axes_map == '-Y+X+Z'
+    readings = np.array([[3.0, -5.0, 7.0], [-6.0, 2.0, 7.5], [0.5, 9.0, -1.0]])
+    for temperature_c in (20.0, 60.0, 100.0):
+        np.testing.assert_allclose(mounted.temperature.apply(readings, temperature_c),
+                                   runs['model'].temperature.apply(readings, temperature_c),
+                                   atol=1e-9)

@@ -23,7 +23,7 @@ from inclino_ros.core.magnetics import (
     survey_qc, SurveyQc, true_azimuth_deg)
 from inclino_ros.core.mounting import axes_map_matrix, IDENTITY, keeps_axial, to_tool_axes
 from inclino_ros.core.screening import ACCEPTED, screen, screen_corrected
-from inclino_ros.core.stillness import assess, tangent_angles
+from inclino_ros.core.stillness import floored_count, own_noise
 from inclino_ros.core.uncertainty import (
     azimuth_std_rad, dip_std_rad, inclination_std_rad, parameter_covariance,
     roll_pitch_covariance, specific_force_covariance, toolface_std_rad)
@@ -259,7 +259,10 @@ def run(raw, model, settings, temperature_c=None, field_nT=None,
     Screen, correct and resolve a batch of raw readings (N x 3, m/s^2, sensor axes).
 
     ``temperature_c`` (scalar or (N,)) feeds the model's temperature stages;
-    None compensates at the reference temperature.  ``field_nT`` (N x 3,
+    None (or NaN for a row) compensates at the reference temperature and
+    widens every 1 sigma by the drift over the fitted range
+    (``_TemperatureStage.compensation_covariance``; whether that is allowed:
+    ``provenance.missing_temperature``).  ``field_nT`` (N x 3,
     magnetometer axes, NaN rows where no reading is paired) adds the azimuth.
     ``averaged``: each row is the mean of that many samples (a station), one
     count or one per row (N,): its noise is the per-sample noise /
@@ -351,22 +354,11 @@ def effective_count(vectors, times_s, noise_floor):
     Return the count of white samples of noise ``noise_floor`` a capture's mean is worth.
 
     ``vectors`` (M, 3) of one still capture (readings of one sensor), ``times_s``
-    (M,) or None.  The capture's own noise (``stillness.assess``: per-sample
-    sigma of its direction times its length, and n_eff with its correlation,
-    ``core.correlated_noise``) gives the mean's 1 sigma ``sigma sqrt(F / M)``;
-    the configured per-sample noise is its floor: the count is
-    ``n_eff min(1, (noise_floor / sigma)^2)``, so that ``noise_floor /
-    sqrt(count)`` is the larger of the two.  Fewer than the still test's
-    samples: M (white noise at the floor).
+    (M,) or None: ``stillness.floored_count`` of its ``stillness.own_noise``.
     """
     vectors = np.asarray(vectors, dtype=float)
-    try:
-        stillness = assess(tangent_angles(vectors), times_s)
-    except ValueError:
-        return float(vectors.shape[0])
-    sigma = math.radians(stillness.noise_deg) * float(np.linalg.norm(vectors.mean(axis=0)))
-    ratio = 1.0 if not sigma > noise_floor else (noise_floor / sigma) ** 2
-    return stillness.effective_samples * ratio
+    sigma, effective = own_noise(vectors, times_s)
+    return float(floored_count(sigma, effective, vectors.shape[0], noise_floor))
 
 
 def capture_mean(tool_mps2, times_s, model, settings, temperature_c=None, field_nT=None,
@@ -401,17 +393,22 @@ def average(windows, model, settings, magnetic_settings=None):
     Return (kept (W,), [(rows, Survey)]): the angles of the averaged readings of ``windows``.
 
     ``windows`` (``averaging.Windows``): mean readings in the tool axes, each
-    corrected by ``correct`` as a station of ``samples`` readings: its noise,
-    and so every 1 sigma and covariance, is the standard error (the per-sample
-    noise / sqrt(n); the field's over its distinct readings), at its mean
-    temperature.  A window whose readings scatter more than MOVING_SIGMA
+    corrected by ``correct`` as a station worth ``stillness.floored_count``
+    samples of the configured noise: the window's own noise with its
+    effective sample size, the configured noise its floor (the rule of a
+    capture's mean, ``capture_mean``; the field's over its distinct
+    readings), at its mean temperature.  A window whose readings scatter more than MOVING_SIGMA
     times the per-sample noise held a moving tool: not kept (its mean is no
     attitude and its standard error would be false).  The kept windows come
     in one Survey, or two when only some had a temperature (those without it
     compensate at the reference temperature): ``rows`` are their indices.
     With ``magnetic_settings`` the mean fields give the azimuth.
     """
-    kept = ~(windows.scatter_mps2 > MOVING_SIGMA * settings.noise_std_mps2)
+    # The per-sample noise: the window's own (within its blocks, a steady turn taken out),
+    # the configured one its floor: a noise above the configured is no motion.
+    noise = settings.noise_std_mps2 if windows.noise is None else np.fmax(
+        settings.noise_std_mps2, windows.noise)
+    kept = ~(windows.scatter_mps2 > MOVING_SIGMA * noise)
     known = np.isfinite(windows.temperature_c)
     parts = []
     for rows in (np.flatnonzero(kept & ~known), np.flatnonzero(kept & known)):
@@ -420,8 +417,13 @@ def average(windows, model, settings, magnetic_settings=None):
                 windows.raw_mps2[rows], model, settings,
                 windows.temperature_c[rows] if known[rows[0]] else None,
                 None if magnetic_settings is None else windows.field_nT[rows],
-                magnetic_settings or MagneticSettings(), averaged=windows.samples[rows],
-                field_averaged=windows.field_samples[rows])))
+                magnetic_settings or MagneticSettings(), averaged=floored_count(
+                    windows.noise[rows], windows.effective_samples[rows],
+                    windows.samples[rows], settings.noise_std_mps2),
+                field_averaged=floored_count(
+                    windows.field_noise[rows], windows.field_effective_samples[rows],
+                    windows.field_samples[rows], (magnetic_settings or MagneticSettings())
+                    .noise_std_nT))))
     return kept, parts
 
 

@@ -85,13 +85,16 @@ class Prepared:
         Return the covariance (3, 3) of one corrected sample, as ``pipeline.correct``.
 
         ``uncertainty.specific_force_covariance`` (its constant for three
-        axes) plus ``CalibrationModel.temperature_covariance``.
+        axes) plus ``CalibrationModel.temperature_covariance`` (with a
+        temperature stage and no temperature: its drift over the fitted range).
         """
         covariance = self.covariance
         if covariance is None:
             covariance = specific_force_covariance(np.array([sensor]), self.noise, 2,
                                                    self.model.linear_map)[0]
-        if self.with_temperature_covariance:
+        unknown = self.model.temperature is not None and (
+            temperature_c is None or not math.isfinite(temperature_c))
+        if self.with_temperature_covariance or unknown:
             covariance = covariance + self.model.temperature_covariance(
                 np.array([sensor]), temperature_c)[0]
         return covariance.tolist()

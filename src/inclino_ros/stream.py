@@ -241,14 +241,16 @@ def averaged_outputs(averager, stamps_ns, frame_ids, survey, temperature_c, mode
     windows = averager.push(stamps_ns, frame_ids, survey.uncorrected_mps2, temperature_c,
                             field_nT)
     if windows is None:
-        return 0, 0, []
+        return 0, 0, [], (math.nan, math.nan)
     kept, parts = average(windows, model, settings, magnetic_settings)
+    noise = tuple(float(np.nanmax(values[kept])) if np.isfinite(values[kept]).any()
+                  else math.nan for values in (windows.noise, windows.field_noise))
     published, dropped = [], 0
     for rows, averaged in parts:
         rows = rows[averaged.accepted]
         dropped += averaged.codes.size - rows.size
         published.append(outputs(windows.stamps_ns[rows], windows.frame_ids[rows], averaged))
-    return windows.count - int(np.count_nonzero(kept)), dropped, published
+    return windows.count - int(np.count_nonzero(kept)), dropped, published, noise
 
 
 @dataclass(frozen=True)
@@ -259,6 +261,9 @@ class Batch:
     published: list         # [Outputs]: the accepted samples', or the closed windows'
     windows_moving: int     # windows of a moving tool (averaging only)
     windows_dropped: int    # windows whose mean reading was dropped by screening
+    # (accelerometer [m/s^2], magnetometer [nT]) largest own per-sample noise of the kept
+    # windows (averaging only; NaN: none measured)
+    noise_measured: tuple = (math.nan, math.nan)
 
 
 def correct_batch(raw_mps2, stamps_ns, frame_ids, model, settings, temperature_c=None,
@@ -281,10 +286,10 @@ def correct_batch(raw_mps2, stamps_ns, frame_ids, model, settings, temperature_c
     stamps_ns, frame_ids = np.asarray(stamps_ns)[accepted], np.asarray(frame_ids)[accepted]
     if averager is None:
         return Batch(survey, [outputs(stamps_ns, frame_ids, survey)], 0, 0)
-    moving, dropped, published = averaged_outputs(
+    moving, dropped, published, noise = averaged_outputs(
         averager, stamps_ns, frame_ids, survey, temperature_c, model, settings,
         None if field_nT is None else magnetic_settings)
-    return Batch(survey, published, moving, dropped)
+    return Batch(survey, published, moving, dropped, noise)
 
 
 def replay(batches, write, model, settings, summary, temperature=None, magnetometer=None,

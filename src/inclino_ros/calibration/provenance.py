@@ -124,7 +124,8 @@ class MissingTemperature(ValueError):
     """A calibration compensates temperature and the input gives none (refused)."""
 
 
-def missing_temperature(model, calibration, missing, at_reference=False):
+def missing_temperature(model, calibration, missing, at_reference=False,
+                        option='--at-reference-temperature'):
     """
     Apply the one rule for readings without a temperature (``inclino process`` and ``survey``).
 
@@ -133,8 +134,14 @@ def missing_temperature(model, calibration, missing, at_reference=False):
     temperature, a silent error of up to the stage's whole drift (5° of
     inclination over 60 K).  So it is refused (MissingTemperature, naming the
     stages, what is ``missing`` and the way out) unless ``at_reference``:
-    then the text of a loud warning naming the reference temperature(s) is
-    returned.  None: the calibration compensates no temperature.
+    then the readings are compensated at the reference temperature with
+    every 1 sigma widened by the stage's drift over its fitted range
+    (``_TemperatureStage.compensation_covariance``), and the text of a loud
+    warning naming the reference temperature(s) is returned.  None: the
+    calibration compensates no temperature.  ``option``: the way out as the
+    caller spells it.  The one rule of ``inclino
+    process``, ``inclino survey`` (``--at-reference-temperature``) and the
+    node (parameter ``temperature.at_reference``).
     """
     stages = [name for name in TEMPERATURE_STAGES if getattr(model, name) is not None]
     if not stages:
@@ -142,9 +149,10 @@ def missing_temperature(model, calibration, missing, at_reference=False):
     if not at_reference:
         raise MissingTemperature(
             f'{missing} but {calibration} compensates temperature ({", ".join(stages)}): give '
-            'the temperature of every reading, or --at-reference-temperature to compensate '
-            'at the reference temperature')
+            f'the temperature of every reading, or {option} to compensate at the reference '
+            'temperature (1 sigma widened by the drift over the fitted range)')
     references = ', '.join(f'{name} {getattr(model, name).reference_temperature_c:g} deg C'
                            for name in stages)
-    return (f'warning: {missing}: --at-reference-temperature: {calibration} compensates at its '
-            f'reference temperature ({references}), not at that of the readings')
+    return (f'warning: {missing}: {option}: {calibration} compensates at its reference '
+            f'temperature ({references}), not at that of the readings: every 1 sigma is '
+            'widened by the drift over the fitted range')

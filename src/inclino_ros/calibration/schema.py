@@ -311,7 +311,17 @@ def _temperature_fields(unit):
     return {'coefficients': _rows, f'bias_coefficients_{unit}': _optional(_rows),
             't_min_c': _number, 't_max_c': _number, 'reference_temperature_c': _number,
             f'rms_residual_{unit}': _array(3), 'samples': _count, 'attitudes': _count,
-            'fitted_at': _time, 'parameter_covariance': _parameter_covariance}
+            'fitted_at': _time, 'parameter_covariance': _parameter_covariance,
+            'axes_map': _optional(_axes_map)}
+
+
+def _axes_map(section, name, key):
+    """Read an axes map (``core.mounting``), as written; ValueError if it is none."""
+    value = section[key]
+    if not isinstance(value, str):
+        raise ValueError(f'{name}.{key} {value!r} is not an axes map')
+    axes_map_matrix(value, allow_left_handed=True)
+    return value
 
 
 #: Each stage's section: its dataclass, a reader per field (which validates and

@@ -13,9 +13,11 @@ import math
 from inclino_ros.core.cross_axial import apply_cross_axial
 from inclino_ros.core.installation import (
     inverse_installation_matrix, pseudo_inclination, to_tool_frame)
+from inclino_ros.core.mounting import axes_map_matrix, to_sensor_axes, to_tool_axes
 from inclino_ros.core.stand import correct_stand, rotation_part
 from inclino_ros.core.temperature import (
-    compensate_temperature, in_range, normalised_temperature, TemperatureFit)
+    compensate_temperature, in_range, normalised_temperature, TemperatureFit,
+    unknown_temperature_covariance)
 from inclino_ros.core.uncertainty import temperature_compensation_covariance
 import numpy as np
 
@@ -290,10 +292,26 @@ class _TemperatureStage:
         return np.clip(np.where(np.isnan(temperature_c), self.reference_temperature_c,
                                 temperature_c), self.t_min_c, self.t_max_c)
 
+    @cached_property
+    def axes_matrix(self):
+        """
+        Return the axes map M of the sensor the drift was fitted in (tool = M sensor).
+
+        The drift is per SENSOR axis (issue 19 item 7): a stage fitted with an
+        axes map (``axes_map``) turns tool-axis readings back into the
+        sensor's axes, compensates there, and turns them forward again; a
+        board mounted at 45 deg would otherwise spread one axis's drift over
+        two.  None (older files: fitted in the tool axes): identity.
+        """
+        if self.axes_map is None:
+            return np.eye(3)
+        return axes_map_matrix(self.axes_map, allow_left_handed=True)
+
     def apply(self, f, temperature_c=None):
         """
-        Return ``(A_T - B_T(T)) / K_T(T)`` per axis (seed 001 Eq. 6), T clamped to the range.
+        Return ``(A_T - B_T(T)) / K_T(T)`` per sensor axis (seed 001 Eq. 6), T clamped.
 
+        ``f`` (N, 3) in the tool axes, per sensor axis through ``axes_matrix``.
         Without a temperature (None, or NaN for a sample), the reference
         temperature is used (no change).
         """
@@ -301,28 +319,41 @@ class _TemperatureStage:
         if temperature_c is None:
             temperature_c = self.reference_temperature_c
         temperature_c = np.broadcast_to(self.clamp(temperature_c), f.shape[:1])
-        return compensate_temperature(f, temperature_c, self.fit)
+        matrix = self.axes_matrix
+        return to_tool_axes(compensate_temperature(to_sensor_axes(f, matrix), temperature_c,
+                                                   self.fit), matrix)
 
     def compensation_covariance(self, readings, temperature_c=None):
         """
-        Return the covariance (M, 3, 3) of the compensated ``readings`` from the fit's own error.
+        Return the covariance (M, 3, 3) of the compensated ``readings``: the fit's error, or none.
 
+        ``readings`` in the tool axes; computed in the sensor's (``axes_matrix``)
+        and turned into the tool axes.  At a known temperature:
         ``uncertainty.temperature_compensation_covariance`` at the clamped
-        temperature (None or NaN: the reference, zero); zero for a file
-        without the fit's covariance (its error is the residual's, in
-        ``residual_angle_rad``).
+        temperature (zero for a file without the fit's covariance: its error
+        is the residual's, in ``residual_angle_rad``).  Without one (None, or
+        NaN for a sample) the reading was compensated at the reference
+        temperature: ``temperature.unknown_temperature_covariance``, the
+        drift over the fitted range (``provenance.missing_temperature``: the
+        rule that allows it).
         """
-        readings = np.asarray(readings, dtype=float)
-        if self.parameter_covariance is None:
-            return np.zeros(readings.shape + (3,))
-        if temperature_c is None:
-            temperature_c = self.reference_temperature_c
-        temperature_c = np.broadcast_to(self.clamp(temperature_c), readings.shape[:1])
-        u, u_reference = (normalised_temperature(t, self.t_min_c, self.t_max_c)
-                          for t in (temperature_c, self.reference_temperature_c))
-        return temperature_compensation_covariance(
-            readings, u, u_reference, self.parameter_covariance,
-            self._bias_coefficients is not None)
+        matrix = self.axes_matrix
+        readings = to_sensor_axes(np.asarray(readings, dtype=float), matrix)
+        count = readings.shape[0]
+        temperature_c = np.broadcast_to(
+            np.nan if temperature_c is None else np.asarray(temperature_c, dtype=float),
+            (count,))
+        covariance = np.zeros(readings.shape + (3,))
+        if self.parameter_covariance is not None:
+            u, u_reference = (normalised_temperature(t, self.t_min_c, self.t_max_c)
+                              for t in (self.clamp(temperature_c), self.reference_temperature_c))
+            covariance = temperature_compensation_covariance(
+                readings, u, u_reference, self.parameter_covariance,
+                self._bias_coefficients is not None)
+        unknown = np.isnan(temperature_c)
+        if unknown.any():
+            covariance[unknown] += unknown_temperature_covariance(readings[unknown], self.fit)
+        return matrix @ covariance @ matrix.T
 
     def residual_angle_rad(self, magnitude):
         """Return the fit's RMS residual as an angle against a vector of ``magnitude``."""
@@ -344,6 +375,9 @@ class Temperature(_TemperatureStage):
     attitudes: int = 1           # 1: scale only (seed 001); >= 2: bias and scale
     # 3 per-axis covariances of the drift coefficients (core.temperature); None: not recorded
     parameter_covariance: tuple = None
+    # The axes map of the sensor whose own axes the drift is per (tool = M sensor, as
+    # core.mounting); None: fitted in the tool axes (files before schema 6).
+    axes_map: str = None
 
     @property
     def _bias_coefficients(self):
@@ -368,6 +402,9 @@ class MagnetometerTemperature(_TemperatureStage):
     bias_coefficients_nT: tuple = None
     attitudes: int = 1
     parameter_covariance: tuple = None  # as Temperature's
+    # The axes map of the sensor whose own axes the drift is per (tool = M sensor, as
+    # core.mounting); None: fitted in the tool axes (files before schema 6).
+    axes_map: str = None
 
     @property
     def _bias_coefficients(self):

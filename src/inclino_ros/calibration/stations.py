@@ -18,7 +18,8 @@ from inclino_ros.calibration.stages import NO_MAGNETIC_CORRECTION
 from inclino_ros.core.cross_axial import apply_cross_axial
 from inclino_ros.core.magnetics import gravity_from_specific_force, iscwsa_from_tool
 from inclino_ros.core.msa import (
-    improved_cross_axial, short_collar, solve_msa_axial, solve_msa_classic, solve_msa_improved)
+    improved_cross_axial, MsaLimits, short_collar, solve_msa_axial, solve_msa_classic,
+    solve_msa_improved)
 from inclino_ros.io.files import read_json, write_json
 import numpy as np
 
@@ -101,7 +102,8 @@ def raw_survey_inputs(model, gravity, field_nT, gravity_mps2):
 
 
 def solve_interference(method, gravity, field_nT, reference, reference_std,
-                       rotation_fitted_at=None, given_nT=None, exclude_failing_qc=False):
+                       rotation_fitted_at=None, given_nT=None, exclude_failing_qc=False,
+                       azimuth_max_std_deg=MsaLimits.max_azimuth_std_deg):
     """
     Return (MsaResult, cross-axial source or None) of ``method`` over ISCWSA stations.
 
@@ -109,11 +111,14 @@ def solve_interference(method, gravity, field_nT, reference, reference_std,
     after a rotation fit, else the classic solve's (``msa.improved_cross_axial``;
     MsaRefused otherwise); ``classic`` and ``axial`` solve as named;
     ``short-collar`` corrects each station alone.  ``reference``: (total nT,
-    dip deg), ``reference_std`` their 1 sigma.
+    dip deg), ``reference_std`` their 1 sigma; ``azimuth_max_std_deg`` the
+    outputs' limit on an azimuth's 1 sigma, which refuses a solution whose
+    interference alone gives more (``MsaLimits.max_azimuth_std_deg``).
     """
     if method == 'short-collar':
         return short_collar(gravity, field_nT, *reference), None
-    options = {'exclude_failing_qc': exclude_failing_qc, 'reference_std': reference_std}
+    options = {'exclude_failing_qc': exclude_failing_qc, 'reference_std': reference_std,
+               'limits': MsaLimits(max_azimuth_std_deg=azimuth_max_std_deg)}
     if method != 'improved':
         return SOLVERS[method](gravity, field_nT, *reference, **options), None
     cross_axial, source, covariance = improved_cross_axial(

@@ -87,15 +87,15 @@ def later_stages_temperature(model, later, result, max_difference_c):
     return target_c
 
 
-def stage_of(triad, result, samples):
-    """Return the Temperature or MagnetometerTemperature stage of a fit."""
+def stage_of(triad, result, samples, axes_map=None):
+    """Return the Temperature or MagnetometerTemperature stage of a fit (sensor ``axes_map``)."""
     bias = (None if result.bias_coefficients is None
             else tuple(map(tuple, result.bias_coefficients.tolist())))
     common = {'coefficients': tuple(map(tuple, result.coefficients.tolist())),
               't_min_c': float(result.t_min_c), 't_max_c': float(result.t_max_c),
               'reference_temperature_c': float(result.reference_temperature_c),
               'samples': int(samples), 'fitted_at': utc_now_iso(),
-              'attitudes': int(result.attitudes),
+              'attitudes': int(result.attitudes), 'axes_map': axes_map,
               'parameter_covariance': tuple(tuple(map(tuple, axis))
                                             for axis in result.parameter_covariance.tolist())}
     rms = tuple(result.rms_residual.tolist())
@@ -105,13 +105,16 @@ def stage_of(triad, result, samples):
 
 
 def solve_temperature(model, triad, temperature_c, readings, attitude, order, reference=None,
-                      window_c=1.0, max_difference_c=2.0):
+                      window_c=1.0, max_difference_c=2.0, axes_map=None):
     """
     Return (stage, TemperatureFit, notes) of a heating run of ``triad`` for ``model``.
 
     ``attitude`` (N,): a label per reading (readings of one label share one
     attitude, ``stillness.label_attitudes``); ``reference`` (N, 3) or None:
-    the reading each stood for at 25 deg C (a one-attitude fit).  The fit is
+    the reading each stood for at 25 deg C (a one-attitude fit).  ``readings``
+    and ``reference`` in the sensor's own axes, ``axes_map`` the map that
+    turns them into the tool axes (``core.mounting``; None: they are the tool
+    axes): a drift is per sensor axis (issue 19 item 7).  The fit is
     referenced to the later stages' temperature (``later_stages_temperature``);
     TemperatureFitRefused as the fit or that rule refuses.  ``notes``: what
     the report must say.
@@ -133,7 +136,7 @@ def solve_temperature(model, triad, temperature_c, readings, attitude, order, re
         notes.append(f'WARNING: the {" and ".join(n for n in later if getattr(model, n))} '
                      'stage(s) record no temperature: compensating to '
                      f'{result.reference_temperature_c:g} C assumes they were captured there')
-    return stage_of(triad, result, temperature_c.size), result, notes
+    return stage_of(triad, result, temperature_c.size, axes_map), result, notes
 
 
 def _per_attitude_reference(values, attitude, temperature_c, reference_c):

@@ -97,21 +97,22 @@ def fit(args, lines, outputs):
     """Fit the temperature stage of ``args.input`` into ``args.calibration``; see ``run_fit``."""
     _, _, unit, section, later = TRIADS[args.triad]
     existing = load_existing(args.calibration, args.sensor_id, maps=axes_maps(args))
-    temperature_c, readings, reference, attitude, note = temperature_input(
+    temperature_c, sensor_readings, sensor_reference, attitude, note = temperature_input(
         source_of(args), args.triad, args.attitude_separation_deg)
     if note:
         print(f'inclino fit-temperature: {note}', file=sys.stderr)
-    readings = tool_axes(args, readings, args.triad)
-    reference = tool_axes(args, reference, args.triad)
+    readings = tool_axes(args, sensor_readings, args.triad)
     if args.triad == 'accelerometer':
         check_accelerometer_readings(readings, STANDARD_GRAVITY_MPS2)
     else:
         check_field_readings(readings)
     check_temperatures(temperature_c)
     try:
+        # Fitted per SENSOR axis, applied through its axes map (issue 19 item 7).
         stage, result, notes = solve_temperature(
-            existing, args.triad, temperature_c, readings, attitude, args.order, reference,
-            args.reference_window_c, args.max_temperature_difference_c)
+            existing, args.triad, temperature_c, sensor_readings, attitude, args.order,
+            sensor_reference, args.reference_window_c, args.max_temperature_difference_c,
+            getattr(args, f'{args.triad}_axes_map'))
     except TemperatureFitRefused as err:
         raise Refused(err.reason) from None
     lines += notes

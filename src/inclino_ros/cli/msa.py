@@ -244,7 +244,8 @@ def correct(args, table, lines):
     result, source = solve_interference(
         args.method, table['G'], table['B'], (args.reference_total_nT, args.reference_dip_deg),
         (args.reference_total_std_nT, args.reference_dip_std_deg),
-        table.get('rotation_fitted_at'), args.cross_axial_nT, args.exclude_failing)
+        table.get('rotation_fitted_at'), args.cross_axial_nT, args.exclude_failing,
+        args.azimuth_max_std_deg)
     if args.method == 'short-collar':
         lines.append(f'short-collar: eps_z per station {np.nanmin(result.eps_z_nT):.1f} .. '
                      f'{np.nanmax(result.eps_z_nT):.1f} nT; {int(result.east_west.sum())} '

@@ -2,7 +2,10 @@
 Averaged survey output: the mean of every N accepted samples, or of each output period.
 
 An MWD tool sends stations, not every sample of a fast sensor: the mean of the
-readings over a window, whose noise is the per-sample noise / sqrt(n).  The
+readings over a window, whose noise is the per-sample noise / sqrt(n_eff): each
+window keeps its readings' own noise and effective sample size
+(``stillness.own_noise``; ``stillness.floored_count`` puts the configured noise
+under it, issue 19 item 4).  The
 readings are averaged before the correction and the angles are those of the
 mean reading (the captures of seed 000 and 001 do the same).  Windows are cut
 over the accepted samples of a stream, across batches (the rows of an open
@@ -24,6 +27,7 @@ noise averages over the distinct readings of the window only
 
 from dataclasses import dataclass
 
+from inclino_ros.core.stillness import own_noise
 import numpy as np
 
 
@@ -39,6 +43,10 @@ class Windows:
     samples: np.ndarray        # (W,) accelerometer samples averaged
     field_samples: np.ndarray  # (W,) distinct magnetometer readings averaged
     scatter_mps2: np.ndarray   # (W,) largest per-axis sample std of the readings (0 for one)
+    noise: np.ndarray = None          # (W,) own per-sample noise [m/s^2], NaN: too few
+    effective_samples: np.ndarray = None    # (W,) n_eff of the accelerometer's mean
+    field_noise: np.ndarray = None    # (W,) of the distinct field readings [nT], NaN: too few
+    field_effective_samples: np.ndarray = None
 
     @property
     def count(self):
@@ -50,6 +58,12 @@ def _group_sums(index, values, count):
     """Return per-group sums (count, k) of ``values`` (N, k) for group ``index`` (N,)."""
     return np.stack([np.bincount(index, weights=column, minlength=count)
                      for column in values.T], axis=1)
+
+
+def _groups(index, count):
+    """Return the rows of each group 0 .. count-1 of ``index``, each in its original order."""
+    order = np.argsort(index, kind='stable')
+    return np.split(order, np.cumsum(np.bincount(index, minlength=count))[:-1])
 
 
 def close_windows(index, stamps_ns, frame_ids, raw, temperature_c, field_nT):
@@ -76,13 +90,22 @@ def close_windows(index, stamps_ns, frame_ids, raw, temperature_c, field_nT):
         paired = np.isfinite(field_nT).all(axis=1)
         field = (_group_sums(index, np.where(paired[:, None], field_nT, 0.0), count)
                  / np.bincount(index, weights=paired.astype(float), minlength=count)[:, None])
-    distinct = np.unique(np.column_stack([index[paired], field_nT[paired]]), axis=0)
+    # The distinct field readings in the order they came (a slow magnetometer repeats one).
+    _, first = np.unique(np.column_stack([index[paired], field_nT[paired]]), axis=0,
+                         return_index=True)
+    came = np.flatnonzero(paired)[np.sort(first)]
     last = np.zeros(count, dtype=np.int64)
     np.maximum.at(last, index, np.arange(index.size))
+    times_s = (stamps_ns - base) * 1e-9
+    own = np.array([own_noise(raw[rows], times_s[rows]) for rows in _groups(index, count)])
+    field_own = np.array([own_noise(field_nT[rows], times_s[rows])
+                          for rows in (came[r] for r in _groups(index[came], count))])
     return Windows(stamps_ns=stamps, frame_ids=np.asarray(frame_ids, dtype=object)[last],
                    raw_mps2=mean, temperature_c=temperature, field_nT=field, samples=samples,
-                   field_samples=np.bincount(distinct[:, 0].astype(np.int64), minlength=count),
-                   scatter_mps2=np.sqrt(variance.max(axis=1)))
+                   field_samples=np.bincount(index[came], minlength=count),
+                   scatter_mps2=np.sqrt(variance.max(axis=1)), noise=own[:, 0],
+                   effective_samples=own[:, 1], field_noise=field_own[:, 0],
+                   field_effective_samples=field_own[:, 1])
 
 
 #: Slowest output rate [Hz] averaging by time: a window of at most 100 s, its samples held

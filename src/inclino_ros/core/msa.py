@@ -127,6 +127,15 @@ class MsaLimits:
       the short-collar correction must not be used (70-110, 250-290 deg).
     - ``interval_margin``, ``min_interval_nT``: the improved method's
       interval half-width d (module docstring).
+    - ``max_azimuth_std_deg``: the RMS over the used stations of the azimuth
+      1 sigma the solved interference alone gives (its covariance: fit and
+      reference field, ``station_azimuth_std_deg``) above which the solution
+      is refused (issue 19 item 9): the correction is then known no better
+      than it moves the azimuth.  Near east/west horizontal stations a
+      WMM-grade reference moves eps_z by thousands of nT: 1 sigma of 3-4 deg,
+      and the corrected azimuths were worse than the raw ones (RMS 4.7 vs
+      4.6 deg) while the axial sensitivity passed.  The same limit as the
+      outputs' (``magnetic.azimuth_max_std_deg``, ``--azimuth-max-std-deg``).
     """
 
     min_stations: int = 5
@@ -138,6 +147,7 @@ class MsaLimits:
     east_west_deg: float = 20.0
     interval_margin: float = 2.0
     min_interval_nT: float = 5.0
+    max_azimuth_std_deg: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -281,6 +291,7 @@ def solve_msa_improved(G, B, reference_total_nT, reference_dip_deg, cross_axial_
     covariance = result.eps_covariance_nT2.copy()
     covariance[:2, :2] += cross_axial_covariance_nT2
     G = as_vectors(G, 'G')
+    _refuse_imprecise(G[result.used], result.corrected_nT[result.used], covariance, limits)
     return replace(result, eps_covariance_nT2=covariance, azimuth_std_deg=station_azimuth_std_deg(
         G, result.corrected_nT, covariance, result.residual_std_nT,
         _gravity_noise(G[result.used])))
@@ -427,6 +438,7 @@ def _solve_used(method, G, B, reference_total_nT, reference_dip_deg, limits, cro
     _refuse_ill_posed(G, B - eps, reference, jacobian, limits, 'at the solution')
     covariance, residual_std = _eps_covariance(G, B - eps, reference, reference_total_nT,
                                                reference_dip_deg, axes, reference_std)
+    _refuse_imprecise(G, B - eps, covariance, limits)
     diagnostics = MsaDiagnostics(
         stations_used=count, toolface_gap_deg=gap_deg,
         inclination_range_deg=(float(inclination.min()), float(inclination.max())),
@@ -601,6 +613,20 @@ def _refuse_ill_posed(G, B, reference, jacobian, limits, where='at the start'):
             f'singular geometry {where}: the Jacobian has condition number {condition:.3g} '
             f'(limit {limits.max_condition_number:g}); the stations do not vary enough in '
             'attitude')
+
+
+def _refuse_imprecise(G, B, eps_covariance_nT2, limits):
+    """Raise MsaRefused when the interference's own azimuth 1 sigma exceeds the limit (RMS)."""
+    std_deg = station_azimuth_std_deg(G, B, eps_covariance_nT2, 0.0, 0.0)
+    rms_deg = float(np.sqrt(np.nanmean(std_deg ** 2)))
+    if not rms_deg <= limits.max_azimuth_std_deg:
+        raise MsaRefused(
+            f'the solved interference is too uncertain: it alone gives every azimuth a 1 sigma '
+            f'of {rms_deg:.3g} deg (RMS over the stations; limit max_azimuth_std_deg '
+            f'{limits.max_azimuth_std_deg:g} deg), eps_z 1 sigma '
+            f'{math.sqrt(eps_covariance_nT2[2, 2]):.0f} nT: the correction would be no better '
+            'than the raw azimuth (stations near east/west and horizontal? a better reference '
+            'field (IFR) or stations in other directions)')
 
 
 def _g_total_ok(G, finite, limits):

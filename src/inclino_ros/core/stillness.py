@@ -370,3 +370,65 @@ def label_attitudes(readings, separation_deg):
         labels[(labels < 0) & near] = label
         label += 1
     return labels
+
+
+def own_noise(vectors, times_s=None):
+    """
+    Return (sigma, n_eff) of still readings' own noise; (NaN, M) below MIN_SAMPLES.
+
+    ``vectors`` (M, 3) readings of one sensor, ``times_s`` (M,) or None:
+    ``assess`` of their tangent angles gives the per-sample sigma of the
+    direction (times the mean's length: the unit of the readings) and the
+    white samples n_eff the mean is worth with its correlation
+    (``core.correlated_noise``): the mean's 1 sigma is ``sigma / sqrt(n_eff)``.
+    """
+    vectors = np.asarray(vectors, dtype=float).reshape(-1, 3)
+    if vectors.shape[0] < MIN_SAMPLES:
+        return math.nan, float(vectors.shape[0])
+    try:
+        stillness = assess(tangent_angles(vectors), times_s)
+    except ValueError:
+        return math.nan, float(vectors.shape[0])
+    return (math.radians(stillness.noise_deg) * float(np.linalg.norm(vectors.mean(axis=0))),
+            stillness.effective_samples)
+
+
+def floored_count(sigma, effective, samples, noise_floor):
+    """
+    Return the count of white samples of noise ``noise_floor`` a mean is worth (issue 19 item 4).
+
+    The one rule of every averaged 1 sigma (captures, averaged output
+    windows): the readings' own noise ``sigma`` with ``effective`` (n_eff,
+    ``own_noise``) gives the mean's 1 sigma ``sigma / sqrt(n_eff)``; the
+    configured per-sample noise is its floor: ``n_eff min(1, (noise_floor /
+    sigma)^2)``, so that ``noise_floor / sqrt(count)`` is the larger of the
+    two.  A NaN ``sigma`` (too few readings to tell): ``samples`` (white
+    noise at the floor).  Element-wise.
+    """
+    sigma, effective, samples = (np.asarray(v, dtype=float) for v in (sigma, effective, samples))
+    with np.errstate(invalid='ignore', divide='ignore'):
+        ratio = np.where(sigma > noise_floor, (noise_floor / sigma) ** 2, 1.0)
+    return np.where(np.isfinite(sigma), effective * ratio, samples)
+
+
+#: The configured per-sample noise is checked against the measured one: a measured noise
+#: more than this many times the configured is said (issue 19 item 4: the configured
+#: noise is a floor and a check).
+NOISE_CHECK_FACTOR = 2.0
+
+
+def noise_check(measured, configured, name, unit):
+    """
+    Return the warning when the ``measured`` per-sample noise exceeds ``configured``, or None.
+
+    More than NOISE_CHECK_FACTOR times the configured ``name`` [``unit``]:
+    every per-sample 1 sigma and QC limit taken from it is that much too
+    tight (the averaged ones use the measured noise, ``floored_count``).
+    A NaN ``measured`` (nothing measured) is no warning.
+    """
+    if not measured > NOISE_CHECK_FACTOR * configured:
+        return None
+    return (f'measured per-sample noise {measured:.4g} {unit} is {measured / configured:.1f} '
+            f'times the configured {name} {configured:.4g} {unit} (more than '
+            f'{NOISE_CHECK_FACTOR:g} times): per-sample 1 sigma and QC limits are too tight; '
+            f'set {name} to the measured noise')

@@ -389,6 +389,37 @@ def compensate_temperature(readings, temperature_c, fit):
             / fit.scale_factor(temperature_c))
 
 
+#: Temperatures of the fitted range at which ``unknown_temperature_covariance`` looks.
+UNKNOWN_TEMPERATURE_POINTS = 33
+
+
+def unknown_temperature_covariance(readings, fit):
+    """
+    Return the covariance (M, 3, 3) of readings compensated without knowing their temperature.
+
+    Without a temperature a reading is compensated at the reference
+    temperature; at T it would be ``A(T) = compensate_temperature(A_T, T)``,
+    so the error is ``e(T) = A(T_ref) - A(T)``.  T anywhere in the fitted
+    range (``UNKNOWN_TEMPERATURE_POINTS`` evenly spaced, ends included):
+    the second moment ``E[e e^T]`` over the range gives the error's shape
+    (a drift common to all axes moves no angle), scaled so that its trace is
+    the largest ``|e(T)|^2``: the 1 sigma is the drift over the fitted range.
+    ``readings`` (M, 3) uncompensated, in the unit of the fit.
+    """
+    readings = np.asarray(readings, dtype=float).reshape(-1, 3)
+    grid = np.linspace(fit.t_min_c, fit.t_max_c, UNKNOWN_TEMPERATURE_POINTS)
+    count = readings.shape[0]
+    at_reference = compensate_temperature(
+        readings, np.full(count, fit.reference_temperature_c), fit)
+    errors = np.stack([at_reference - compensate_temperature(readings, np.full(count, t), fit)
+                       for t in grid])                                    # (G, M, 3)
+    moment = np.einsum('gmi,gmj->mij', errors, errors) / grid.size
+    trace = np.trace(moment, axis1=1, axis2=2)
+    worst = np.max(np.einsum('gmi,gmi->gm', errors, errors), axis=0)
+    scale = np.divide(worst, trace, out=np.zeros_like(worst), where=trace > 0.0)
+    return moment * scale[:, None, None]
+
+
 def in_range(temperature_c, fit):
     """Return whether each temperature lies in the fitted range [t_min_c, t_max_c]."""
     temperature_c = np.asarray(temperature_c, dtype=float)

@@ -108,6 +108,7 @@ class InclinometerNode(Node):
         self.add_post_set_parameters_callback(self._on_parameters_set)
         self.stats = InputStats()
         self.temperature = TemperatureInput()
+        self._missing_said = None
         self.magnetometer = MagneticInput()
 
         # Every QoS event handler is one more waitable the executor polls on every
@@ -284,6 +285,7 @@ class InclinometerNode(Node):
         if batch is None or not batch.stamps_ns.size:
             return
         temperature_c = self.temperature.value_c
+        refused, missing = self._missing_temperature()
         field_nT = None
         if self.magnetometer.stamp_ns is not None:  # no azimuth work without a magnetometer
             field_nT = self.magnetometer.paired(batch.stamps_ns,
@@ -305,8 +307,32 @@ class InclinometerNode(Node):
             self._capture_fed.trigger()
         if self.averager is not None:
             self.stats.count_windows(result.windows_moving, result.windows_dropped)
+            for text in self.stats.check_noise(result.noise_measured, (
+                    self.settings.noise_std_mps2, self.param('magnetometer_noise_std_nT'))):
+                self.get_logger().warning(text)
+        if refused:
+            self.temperature.withheld += sum(out.survey.stamps_ns.size
+                                             for out in result.published)
+            return
         for out in result.published:
             self._publish(out)
+
+    def _missing_temperature(self):
+        """
+        Return (refused, text) of the shared rule for a missing temperature (``stats``).
+
+        Logged when it changes (ERROR refused, WARN compensated at the
+        reference): the node says so loudly once, not per batch.
+        """
+        refused, text = self.temperature.missing(self.model,
+                                                 self.param('temperature.at_reference'))
+        if text != self._missing_said:
+            self._missing_said = text
+            if text is not None and refused:   # (rclpy: one severity per call site)
+                self.get_logger().error(text)
+            elif text is not None:
+                self.get_logger().warning(text)
+        return refused, text
 
     def _publish(self, out):
         """Publish a batch's Outputs (``stream.outputs``), serialized at once."""
@@ -330,7 +356,7 @@ class InclinometerNode(Node):
             self.stats.status(self.get_name(), now_s, self.settings.gravity_mps2,
                               self.param('level_capture.g_total_tolerance_mps2')),
             self.temperature.status(self.get_name(), now_s, self.param('temperature.max_age_s'),
-                                    temperature_stage(self.model)),
+                                    temperature_stage(self.model), self._missing_temperature()),
             self.magnetometer.status(self.get_name(), self.magnetic_settings,
                                      self.model.magnetic, len(self.magnetic.stations),
                                      self.model)]

@@ -142,7 +142,8 @@ class MagneticServices:
         try:
             result, source = solve_interference(
                 method, gravity, field, reference, reference_std,
-                rotation_fitted_at=self._stage().rotation_fitted_at)
+                rotation_fitted_at=self._stage().rotation_fitted_at,
+                azimuth_max_std_deg=settings.azimuth_max_std_deg)
             source = '' if source is None else f'; {source}'
             self.collector.commit(with_interference(node.model, result, reference))
         except (MsaRefused, CaptureRefused) as err:

@@ -214,6 +214,12 @@ PARAMETERS = (
     Parameter('temperature.max_age_s', 5.0,
               'Age [s] beyond which the latest imu/temperature is reported stale (it is '
               'still used).', 0.1, 3600.0, read_only=False),
+    Parameter('temperature.at_reference', False,
+              'A model with a temperature stage and no temperature on imu/temperature yet: '
+              'false refuses (no output published, diagnostics ERROR, logged); true '
+              'compensates at the reference temperature with every 1 sigma widened by the '
+              'drift over the fitted range (diagnostics WARN, logged): the '
+              '--at-reference-temperature of inclino process and survey.', read_only=False),
     Parameter('temperature.max_stage_difference_c', 2.0,
               'Without a temperature stage, stages whose readings stood for temperatures '
               'further apart than this [deg C] are refused (their drift is not corrected).',

@@ -4,9 +4,11 @@ from collections import deque
 
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 
-from inclino_ros.calibration.model import age_seconds, MOUNT_STAGES
+from inclino_ros.calibration.model import (
+    age_seconds, missing_temperature, MissingTemperature, MOUNT_STAGES)
 from inclino_ros.calibration.plausibility import field_reading_ok, temperature_ok
 from inclino_ros.core.screening import count_reasons, REASONS
+from inclino_ros.core.stillness import noise_check
 from inclino_ros.core.temperature import in_range
 from inclino_ros.io.timing import pair_nearest, pairing_tolerance
 import numpy as np
@@ -26,6 +28,7 @@ class InputStats:
         self._period_g_sum = 0.0
         self._period_start_s = None
         self.windows = None   # averaged output: [moving, dropped] windows, not published
+        self.noise_warnings = {}   # name: what noise_check said (kept: said once)
 
     def count(self, survey):
         """Count a batch (a ``pipeline.Survey``): accepted samples, G-totals, NaN toolfaces."""
@@ -40,6 +43,23 @@ class InputStats:
             self.dropped_total[code] += dropped
             self._period_reasons[code] += dropped
             self._period_dropped += dropped
+
+    def check_noise(self, measured, configured):
+        """
+        Return the new warnings of a measured noise beyond the configured (``noise_check``).
+
+        ``measured``, ``configured``: (accelerometer [m/s^2], magnetometer [nT]);
+        each warning is returned once (to be logged) and kept for the diagnostics.
+        """
+        new = []
+        for value, floor, name, unit in zip(
+                measured, configured, ('accelerometer_noise_std_mps2',
+                                       'magnetometer_noise_std_nT'), ('m/s^2', 'nT')):
+            text = noise_check(value, floor, name, unit)
+            if text is not None and name not in self.noise_warnings:
+                self.noise_warnings[name] = text
+                new.append(text)
+        return new
 
     def count_windows(self, moving, dropped):
         """Count averaged windows not published: of a moving tool, and not gravity."""
@@ -72,6 +92,9 @@ class InputStats:
             status.message = f'G-total {g_mean:.4f} m/s^2 is off gravity {gravity_mps2}'
         else:
             status.message = f'{rate_hz:.1f} samples/s'
+        if self.noise_warnings:   # said on every status once measured (configuration)
+            status.level = max(status.level, DiagnosticStatus.WARN)
+            status.message = '; '.join([status.message, *self.noise_warnings.values()])
         values = {'rate_hz': f'{rate_hz:.2f}', 'g_total_mps2': f'{g_mean:.5f}',
                   'accepted_total': str(self.accepted_total),
                   'dropped_total': str(sum(self.dropped_total)),
@@ -81,6 +104,8 @@ class InputStats:
         if self.windows is not None:
             values.update(windows_moving=str(self.windows[0]),
                           windows_dropped=str(self.windows[1]))
+        values.update({f'noise_check_{name}': text
+                       for name, text in self.noise_warnings.items()})
         status.values = [KeyValue(key=k, value=v) for k, v in values.items()]
         self._period_accepted = self._period_dropped = self._period_toolface_nan = 0
         self._period_reasons = [0] * len(REASONS)
@@ -97,6 +122,27 @@ class TemperatureInput:
         self.value_c = None
         self.received_s = None
         self.rejected = 0
+        self.withheld = 0      # outputs not published: refused without a temperature
+
+    def missing(self, model, at_reference):
+        """
+        Return (refused, text) of the shared rule for the samples of now; (False, None): none.
+
+        ``provenance.missing_temperature`` (the rule of ``inclino process`` and
+        ``survey``) when no temperature has come and the model compensates
+        one: refused (its reason), or with ``at_reference``
+        (``temperature.at_reference``, their ``--at-reference-temperature``)
+        the warning of a compensation at the reference temperature, every 1
+        sigma widened by the drift over the fitted range.
+        """
+        if self.value_c is not None:
+            return False, None
+        try:
+            return False, missing_temperature(
+                model, 'the calibration', 'no temperature on imu/temperature', at_reference,
+                option='temperature.at_reference:=true')
+        except MissingTemperature as err:
+            return True, f'refused: {err}: no output is published'
 
     def update(self, temperature_c, now_s):
         """Keep a temperature a sensor reads as the latest; count one it cannot (NaN, 1e300)."""
@@ -106,23 +152,31 @@ class TemperatureInput:
         else:
             self.rejected += 1
 
-    def status(self, node_name, now_s, max_age_s, stage):
+    def status(self, node_name, now_s, max_age_s, stage, missing=(False, None)):
         """
         Return the temperature DiagnosticStatus.
 
-        With a temperature stage in the model: WARN when no temperature has
-        arrived (compensation at the reference temperature), when the latest
-        is older than ``max_age_s`` (it is still used) or outside the fitted
-        range (clamped to it).
+        ``missing``: what ``missing`` says of a model with a temperature
+        stage and no temperature yet: ERROR when refused, WARN when
+        compensated at the reference temperature.  Otherwise with a
+        temperature-dependent stage: WARN when no temperature has arrived
+        (a stand's K(T) at its reference), when the latest is older than
+        ``max_age_s`` (it is still used) or outside the fitted range (clamped
+        to it).
         """
         status = DiagnosticStatus(name=f'{node_name}: temperature', level=DiagnosticStatus.OK)
         values = {'temperature_c': 'none' if self.value_c is None else f'{self.value_c:.2f}',
-                  'rejected_implausible': str(self.rejected)}
+                  'rejected_implausible': str(self.rejected),
+                  'withheld_no_temperature': str(self.withheld)}
         age_s = None if self.received_s is None else now_s - self.received_s
         if age_s is not None:
             values['age_s'] = f'{age_s:.1f}'
+        refused, text = missing
         if stage is None:
             status.message = 'not used: the model has no temperature stage'
+        elif text is not None:
+            status.level = DiagnosticStatus.ERROR if refused else DiagnosticStatus.WARN
+            status.message = text
         elif self.value_c is None:
             status.level = DiagnosticStatus.WARN
             status.message = (f'no temperature on imu/temperature: compensating at the '
