@@ -58,7 +58,7 @@ def calibrated_model(rng):
     """Return the model of a stand fit at STAND_C and a heating run, through the file."""
     stand = sm.read(STAND_TOOL, *POSITIONS_DEG.T, temperature_c=STAND_C, field=FIELD, rng=rng)
     fit = fit_field_stand(stand.mag_nT, POSITIONS_DEG, FIELD.total_nT, FIELD.dip_deg, None,
-                          1.0, temperature_c=STAND_C)
+                          1.0, temperatures_c=[STAND_C] * len(POSITIONS_DEG))
     model = CalibrationModel(3, magnetometer=fit.magnetometer,
                              magnetometer_alignment=fit.alignment)
     ramp = np.linspace(20.0, 100.0, HEATING_SAMPLES)
