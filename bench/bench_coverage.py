@@ -26,10 +26,11 @@ but for ~2 % of the cells at 2 sigma (the band's 2 sigma edges are 1.6 and 3.4 b
 sigma away).
 
 Calibration cells (issue 19 item 2, ``test/coverage_sim``): each draw calibrates a fresh
-simulated tool (fit-magnetometer's 24 one-reading shots; a 12-position stand; a
-36-reading rotation), then surveys one 100-sample station at a random attitude; the
-coverage of the azimuth and inclination sigma with the fits' parameter covariance, and
-without (``former``: files before schema 7).  ``--calibration-draws`` of them per cell
+simulated tool (fit-magnetometer's 24 one-reading shots; a 12-position stand of both
+triads; fit-stand of the accelerometer alone; a 36-reading rotation), then surveys one
+station at a random attitude; the coverage of the azimuth, inclination and toolface
+sigma with the fits' parameter covariance, and without (``former``: files before schema
+7, schema 9 for fit-stand).  ``--calibration-draws`` of them per cell
 (binomial 1 sigma 0.027 / 0.012 at 300); ``--calibration-only`` runs just these.
 
 Usage: .venv/bin/python bench/bench_coverage.py [--draws 200] [--samples 1000] [--seed 1]
@@ -113,23 +114,32 @@ def inside(one, two):
     return not (one < 0.60 or one > 0.76 or two < 0.93 or two > 0.98)
 
 
+def _pair(figures):
+    """Return '1s/2s' of a coverage pair, '-' when the angle was not read (NaN)."""
+    one, two = figures
+    return '-' if math.isnan(one) else f'{one:.2f}/{two:.2f}'
+
+
 def calibration_table(draws, seed):
     """Return the markdown lines of the calibration cells (module docstring)."""
     rng = np.random.default_rng(seed)
     lines = [f'Calibration cells: {draws} calibrations per cell, seed {seed}, each then one '
-             f'{coverage_sim.STATION_SAMPLES}-sample station (inclination 10-80 deg, azimuth '
-             "N/E/W); former: without the fits' parameter covariance (schema < 7).", '',
-             '| calibration | tool | azimuth 1s/2s | inclination 1s/2s | in band | '
-             'former azimuth 1s/2s | former inclination 1s/2s |', '|---|---|---|---|---|---|---|']
+             f'{coverage_sim.STATION_SAMPLES}-sample station ('
+             f'{coverage_sim.FIT_STAND_STATION_SAMPLES} after fit-stand; inclination 10-80 deg, '
+             "azimuth N/E/W); former: without the fits' parameter covariance (schema < 7, "
+             '< 9 for fit-stand); -: not read.', '',
+             '| calibration | tool | azimuth 1s/2s | inclination 1s/2s | toolface 1s/2s | '
+             'in band | former azimuth 1s/2s | former inclination 1s/2s | '
+             'former toolface 1s/2s |', '|---|---|---|---|---|---|---|---|---|']
     for kind in coverage_sim.CALIBRATIONS:
         for name, preset, shot_samples in coverage_sim.TOOLS:
             ratios = coverage_sim.ratios(kind, preset, shot_samples, draws, rng)
-            new = [coverage_sim.coverage(ratios[:, angle, 0]) for angle in (0, 1)]
-            old = [coverage_sim.coverage(ratios[:, angle, 1]) for angle in (0, 1)]
+            new = [coverage_sim.coverage(ratios[:, angle, 0]) for angle in (0, 1, 2)]
+            old = [coverage_sim.coverage(ratios[:, angle, 1]) for angle in (0, 1, 2)]
             band = all(inside(*figures) for figures in new)
             lines.append(f'| {kind} | {name} | ' + ' | '.join(
-                f'{one:.2f}/{two:.2f}' for one, two in new) + f' | {"yes" if band else "no"} | '
-                + ' | '.join(f'{one:.2f}/{two:.2f}' for one, two in old) + ' |')
+                _pair(figures) for figures in new) + f' | {"yes" if band else "no"} | '
+                + ' | '.join(_pair(figures) for figures in old) + ' |')
     return lines
 
 

@@ -19,21 +19,29 @@ Calibrations:
   the tool axis;
 - ``stand``: both triads on a 12-position stand with known azimuth, 500
   readings a position (``solve_positions``: seed 001 Eqs. 10-12);
+- ``fit-stand``: the accelerometer alone on the 12-position stand, STAND_SAMPLES
+  readings a position (``solve_stand``: what ``inclino fit-stand`` runs), no
+  magnetometer stage (inclination and toolface only), then a station of
+  FIT_STAND_STATION_SAMPLES (the stand's own error then weighs as much as the
+  station's noise, and the former rule, its residual RMS as a tilt variance,
+  over-states it);
 - ``rotation``: 36 single readings of one rotation about the tool axis
   (inclination 30 deg, azimuth 45 deg) of a tool whose only magnetometer error is
   cross-axial hard and soft iron (det 1: the rotation fit's circle keeps the
   field), ``solve_rotation`` on an empty model (seed 002 §2.1).
 
 ``without_covariance`` drops the fits' parameter covariance (what files before
-schema 7 held): the former sigma.
+schema 7 held, schema 9 for the accelerometer stand): the former sigma.
 """
 
 from dataclasses import replace
+import math
 
 from inclino_ros.calibration.magnetometer import calibrate_from_shots
 from inclino_ros.calibration.model import CalibrationModel
 from inclino_ros.calibration.rotation import solve_rotation
 from inclino_ros.calibration.stand_capture import solve_positions
+from inclino_ros.calibration.stand_fit import solve_stand
 from inclino_ros.pipeline import MagneticSettings, run, Settings
 from inclino_ros.sim import sensor_model as sm
 import numpy as np
@@ -41,7 +49,10 @@ import shots_sim
 from test_magnetometer_stand import POSITIONS_DEG, REFERENCE, stand_positions
 
 STATION_SAMPLES = 100
-CALIBRATIONS = ('fit-magnetometer', 'stand', 'rotation')
+CALIBRATIONS = ('fit-magnetometer', 'stand', 'fit-stand', 'rotation')
+#: Readings a stand position of ``fit-stand`` averages, and its station.
+STAND_SAMPLES = 50
+FIT_STAND_STATION_SAMPLES = 500
 #: (name, preset, readings a shot of fit-magnetometer).
 TOOLS = (('quartz', sm.QUARTZ_FLUXGATE, 1), ('MEMS', sm.MEMS, 1))
 ROTATION_SAMPLES = 36
@@ -69,6 +80,12 @@ def calibrate(kind, preset, shot_samples, rng):
                                              sm.STANDARD_GRAVITY_MPS2, 1.0, REFERENCE, 1.0)
         return tool, CalibrationModel(3, stand=stand, magnetometer=field.magnetometer,
                                       magnetometer_alignment=field.alignment)
+    if kind == 'fit-stand':
+        tool = shots_sim.tool(preset)
+        means = [shots_sim.read(tool, [incl], [tf], [azim], rng, STAND_SAMPLES)[0][0]
+                 for incl, tf, azim in POSITIONS_DEG]
+        solution = solve_stand(means, POSITIONS_DEG, sm.STANDARD_GRAVITY_MPS2, 1.0)
+        return tool, CalibrationModel(3, stand=solution.stage)
     tool = rotation_tool(preset)
     toolface = np.arange(ROTATION_SAMPLES) * 360.0 / ROTATION_SAMPLES + rng.uniform(0.0, 10.0)
     readings = sm.read(tool, np.full(ROTATION_SAMPLES, 30.0), toolface,
@@ -83,36 +100,49 @@ def without_covariance(model):
             model.magnetometer, parameter_covariance=None, covariance_stages=None))
     if model.magnetic is not None:
         model = replace(model, magnetic=replace(model.magnetic, rotation_covariance=None))
+    if model.stand is not None:
+        model = replace(model, stand=replace(model.stand, parameter_covariance=None))
     return model
 
 
 def ratios(kind, preset, shot_samples, draws, rng):
     """
-    Return |error| / sigma (draws, 2, 2): [azimuth, inclination] x [with, without covariance].
+    Return |error| / sigma (draws, 3, 2): [azimuth, inclination, toolface] x [with, without].
 
-    A NaN azimuth (beyond its sigma limit: none at these inclinations) gives NaN.
+    With and without the fits' covariance (``without_covariance``).  A NaN
+    azimuth (beyond its sigma limit: none at these inclinations; every azimuth
+    of ``fit-stand``, which reads no field) gives NaN.
     """
     settings = Settings(noise_std_mps2=preset.accelerometer.noise_std)
     magnetic = MagneticSettings(noise_std_nT=preset.magnetometer.noise_std,
                                 azimuth_max_std_deg=5.0)
-    out = np.full((draws, 2, 2), np.nan)
+    out = np.full((draws, 3, 2), np.nan)
     for k in range(draws):
         tool, model = calibrate(kind, preset, shot_samples, rng)
         incl, azim = rng.uniform(10.0, 80.0), rng.choice([0.0, 90.0, 270.0])
         toolface = rng.uniform(0.0, 360.0)
-        accel, field = shots_sim.read(tool, [incl], [toolface], [azim], rng, STATION_SAMPLES,
+        samples = FIT_STAND_STATION_SAMPLES if kind == 'fit-stand' else STATION_SAMPLES
+        accel, field = shots_sim.read(tool, [incl], [toolface], [azim], rng, samples,
                                       interference_nT=(0.0, 0.0, 0.0) if kind == 'rotation'
                                       else shots_sim.INTERFERENCE_NT)
         for column, used in enumerate((model, without_covariance(model))):
-            survey = run(accel, used, settings, None, field, magnetic, averaged=STATION_SAMPLES)
-            out[k, 0, column] = abs(shots_sim.angle_error_deg(
-                survey.magnetic.defined_azimuth_deg[0], azim)) / survey.magnetic.azimuth_std_deg[0]
+            survey = run(accel, used, settings, None, None if kind == 'fit-stand' else field,
+                         magnetic, averaged=samples)
+            if survey.magnetic is not None:
+                out[k, 0, column] = abs(shots_sim.angle_error_deg(
+                    survey.magnetic.defined_azimuth_deg[0], azim)
+                ) / survey.magnetic.azimuth_std_deg[0]
             out[k, 1, column] = (abs(survey.inclination_deg[0] - incl)
                                  / survey.inclination_std_deg[0])
+            out[k, 2, column] = abs(shots_sim.angle_error_deg(
+                survey.toolface_deg[0], toolface)) / survey.toolface_std_deg[0]
     return out
 
 
 def coverage(values):
-    """Return (fraction within 1 sigma, within 2 sigma) of |error| / sigma values."""
+    """Return (fraction within 1 sigma, within 2 sigma) of |error| / sigma values (no NaN)."""
     values = np.asarray(values)
+    values = values[~np.isnan(values)]
+    if values.size == 0:
+        return math.nan, math.nan
     return float(np.mean(values <= 1.0)), float(np.mean(values <= 2.0))

@@ -30,7 +30,7 @@ the vectorised chain (``applies``, ``run`` returning None).
 import math
 
 from inclino_ros.core.screening import ACCEPTED, DYNAMIC, TWO_AXIS_RANGE, ZERO_FRACTION
-from inclino_ros.core.uncertainty import specific_force_covariance
+from inclino_ros.core.uncertainty import parameter_covariance, specific_force_covariance
 from inclino_ros.pipeline import Survey, UNOBSERVED_YAW_VARIANCE
 import numpy as np
 
@@ -53,6 +53,9 @@ class Prepared:
         self.tilt_var = model.tilt_std_rad ** 2
         self.with_temperature_covariance = (model.temperature is not None and
                                             model.temperature.parameter_covariance is not None)
+        # Whether a fit's own error moves f (``CalibrationModel.parameter_blocks``).
+        self.with_fit_blocks = parameter_covariance(
+            model.parameter_blocks(np.zeros((1, 3))), 1) is not None
         # pipeline.correct at averaged=1: the noise is the per-sample noise / sqrt(1).
         self.noise = np.reshape(settings.noise_std_mps2 / np.sqrt(1), (-1, 1, 1))
         self.covariance = (specific_force_covariance(np.zeros((1, 3)), self.noise, 3,
@@ -86,7 +89,8 @@ class Prepared:
 
         ``uncertainty.specific_force_covariance`` (its constant for three
         axes) plus ``CalibrationModel.temperature_covariance`` (with a
-        temperature stage and no temperature: its drift over the fitted range).
+        temperature stage and no temperature: its drift over the fitted range)
+        plus the fits' own (``CalibrationModel.parameter_blocks``).
         """
         covariance = self.covariance
         if covariance is None:
@@ -97,6 +101,9 @@ class Prepared:
         if self.with_temperature_covariance or unknown:
             covariance = covariance + self.model.temperature_covariance(
                 np.array([sensor]), temperature_c)[0]
+        if self.with_fit_blocks:
+            covariance = covariance + parameter_covariance(
+                self.model.parameter_blocks(np.array([sensor]), None, temperature_c), 1)[0]
         return covariance.tolist()
 
 

@@ -193,10 +193,11 @@ class CalibrationModel:
         Return the 1 sigma of the corrected tilt from the calibration itself [rad].
 
         The stages' own uncertainties, independent, added in quadrature: the
-        installation capture's standard error, the stand fit's inclination
-        residual; a temperature stage's fit residual as an angle against g
+        installation capture's standard error; the stand fit's inclination
+        residual and a temperature stage's fit residual as an angle against g
         only from a file that lacks the fit's parameter covariance (which
-        ``temperature_covariance`` propagates instead, per temperature).
+        ``parameter_blocks`` and ``temperature_covariance`` propagate instead,
+        per reading).
         """
         variance = sum(stage.tilt_std_rad ** 2 for stage in (self.installation, self.stand)
                        if stage is not None)
@@ -213,6 +214,12 @@ class CalibrationModel:
                          "(schema < 5): the tilt 1 sigma takes the heating run's residual "
                          'instead (over-stated many times); fit the temperature stage again '
                          'to record it')
+        if (self.stand is not None and self.stand.method == 'stand'
+                and self.stand.parameter_covariance is None and 'stand' not in
+                self.covariance_stages):
+            notes.append('stand: the file holds no parameter covariance of the fit (schema < 9, '
+                         "or a stand at several temperatures): the tilt 1 sigma takes the fit's "
+                         'residual instead (over-stated); fit the stand again to record it')
         if self.magnetometer is not None and self.magnetometer.parameter_covariance is None:
             notes.append('magnetometer: the file holds no parameter covariance of the fit '
                          "(schema < 7): the azimuth 1 sigma leaves the fit's own error out "
@@ -267,7 +274,8 @@ class CalibrationModel:
         """
         Return what ``parameter_blocks`` needs of the stages, built once.
 
-        (the covered stages, their covariance, K^-1 of the stand, the
+        (the covered stages, their covariance, the stand fit's own covariance
+        when the magnetometer's does not cover it, K^-1 of the stand, the
         magnetometer's map into the accelerometer frame, the mount's C^-1,
         seed 002's W as 3x3, the tool axis's angles [rad], the rotation fit's
         covariance).
@@ -286,8 +294,11 @@ class CalibrationModel:
             start = dict(zip(covered, np.cumsum([0] + [sizes[n] for n in covered])))
             index = np.concatenate([np.arange(start[n], start[n] + sizes[n]) for n in names])
             covariance = np.array(self.magnetometer.parameter_covariance)[np.ix_(index, index)]
+        own_stand = (None if self.stand is None or self.stand.parameter_covariance is None
+                     or 'stand' in names else np.array(self.stand.parameter_covariance))
         return {
-            'names': names, 'covariance': covariance, 'soft_iron': soft_iron, 'mount': mount,
+            'names': names, 'covariance': covariance, 'own_stand': own_stand,
+            'soft_iron': soft_iron, 'mount': mount,
             'stand': None if self.stand is None else np.linalg.inv(self.stand.arrays[0]),
             'magnetometer': None if self.magnetometer is None else (
                 self.magnetometer_rotation @ np.linalg.inv(self.magnetometer.arrays[0])),
@@ -304,20 +315,23 @@ class CalibrationModel:
         3) raw magnetometer readings in the tool axes (None: no J_B); J_f, J_B
         of the corrected specific force and field, tool frame
         (``uncertainty.affine_jacobian``, ``uncertainty.tilt_jacobian``;
-        None: the block does not move that vector).  Blocks: the magnetometer
-        fit's (``covariance_stages``), the rotation fit's (seed 002 §2.1).
+        None: the block does not move that vector).  Blocks: the accelerometer
+        stand fit's (``Stand.parameter_covariance``, when the magnetometer's
+        does not cover it), the magnetometer fit's (``covariance_stages``), the
+        rotation fit's (seed 002 §2.1).
         """
         layout = self._fit_layout
         blocks = []
         count = np.shape(sensor)[0]
         soft_iron, mount = layout['soft_iron'], layout['mount']
+        if layout['own_stand'] is not None:
+            blocks.append((layout['own_stand'], self._stand_jacobian(sensor, temperature_c),
+                           None))
         if layout['names']:
             j_f, j_b = [], []
             for name in layout['names']:
                 if name == 'stand':
-                    inputs = (self.apply(sensor, temperature_c, before='stand')
-                              - self.stand.arrays[1])
-                    j_f.append(mount @ affine_jacobian(inputs, layout['stand']))
+                    j_f.append(self._stand_jacobian(sensor, temperature_c))
                     j_b.append(np.zeros((count, 3, 12)))
                 elif name == 'magnetometer':
                     j_f.append(np.zeros((count, 3, 12)))
@@ -344,6 +358,11 @@ class CalibrationModel:
             jacobian[:, :2, 4:] = -stage.correction
             blocks.append((layout['rotation'], None, jacobian))
         return blocks
+
+    def _stand_jacobian(self, sensor, temperature_c):
+        """Return d f / d(K^-1 row-major, b) (M, 3, 12) of the corrected specific force."""
+        inputs = self.apply(sensor, temperature_c, before='stand') - self.stand.arrays[1]
+        return self._fit_layout['mount'] @ affine_jacobian(inputs, self._fit_layout['stand'])
 
     def temperature_covariance(self, readings, temperature_c=None, triad='accelerometer'):
         """

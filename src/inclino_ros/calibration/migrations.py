@@ -14,20 +14,23 @@ Version 6 files lack the magnetometer fit's and the rotation fit's parameter
 covariance (``VERSION_7_FIELDS``; without them the azimuth 1 sigma leaves those
 fits' own error out, as before, and ``CalibrationModel.uncertainty_notes`` says so).
 Version 7 files' temperature stages were fitted in the tool axes
-(``VERSION_8_FIELDS``: no ``axes_map``, issue 19 item 7).
+(``VERSION_8_FIELDS``: no ``axes_map``, issue 19 item 7).  Version 8 files lack the
+accelerometer stand fit's parameter covariance (``VERSION_9_FIELDS``; without it the
+stand's residual stands for the fit's error as a tilt variance, as before, and
+``CalibrationModel.uncertainty_notes`` says so).
 """
 
 from inclino_ros.calibration.corrections import STAGES
 
-SCHEMA_VERSION = 8
+SCHEMA_VERSION = 9
 #: Versions load_model reads.
-READABLE_VERSIONS = (1, 2, 3, 4, 5, 6, 7, 8)
+READABLE_VERSIONS = (1, 2, 3, 4, 5, 6, 7, 8, 9)
 #: Sections of each readable schema version.
 SECTIONS = {1: ('installation',),
             2: ('temperature', 'stand', 'installation', 'magnetic'),
             3: STAGES + ('magnetometer_temperature', 'magnetometer', 'magnetometer_alignment',
                          'magnetic')}
-SECTIONS[4] = SECTIONS[5] = SECTIONS[6] = SECTIONS[7] = SECTIONS[8] = SECTIONS[3]
+SECTIONS[4] = SECTIONS[5] = SECTIONS[6] = SECTIONS[7] = SECTIONS[8] = SECTIONS[9] = SECTIONS[3]
 #: Fields version 3 added, with the value an older file's section gets.
 VERSION_3_FIELDS = {
     'installation': {'temperature_c': None},
@@ -70,9 +73,15 @@ VERSION_8_FIELDS = {
     'temperature': {'axes_map': None},
     'magnetometer_temperature': {'axes_map': None},
 }
+#: Fields version 9 added: the accelerometer stand fit's parameter covariance (issue 19
+#: item 0).
+VERSION_9_FIELDS = {
+    'stand': {'parameter_covariance': None},
+}
 #: The fields each version added, in order.
 ADDED_FIELDS = ((3, VERSION_3_FIELDS), (4, VERSION_4_FIELDS), (5, VERSION_5_FIELDS),
-                (6, VERSION_6_FIELDS), (7, VERSION_7_FIELDS), (8, VERSION_8_FIELDS))
+                (6, VERSION_6_FIELDS), (7, VERSION_7_FIELDS), (8, VERSION_8_FIELDS),
+                (9, VERSION_9_FIELDS))
 
 
 def upgraded(section, name, version):

@@ -243,9 +243,11 @@ def _magnetometer_covariance(values, name):
     values['parameter_covariance'] = _covariance(values, name, 'parameter_covariance', size)
 
 
-def _rotation_covariance(section, name, key):
-    """Read the rotation fit's 6 x 6 covariance of (W row-major, c), or None."""
-    return None if section[key] is None else _covariance(section, name, key, 6)
+def _square_covariance(size):
+    """Return the reader of a size x size covariance (``_covariance``)."""
+    def read_covariance(section, name, key):
+        return _covariance(section, name, key, size)
+    return read_covariance
 
 
 def _unit_of(name):
@@ -342,7 +344,8 @@ STAGE_FIELDS = {
         'method': _choice('stand', 'sphere'), 'rms_inclination_deg': _optional(_number),
         'positions': _count, 'fitted_at': _time, 'temperature_c': _temperature,
         'scale_coefficients': _kept, 'bias_coefficients_mps2': _kept,
-        't_min_c': _optional(_number), 't_max_c': _optional(_number)}, (_stand_polynomial,),
+        't_min_c': _optional(_number), 't_max_c': _optional(_number),
+        'parameter_covariance': _optional(_square_covariance(12))}, (_stand_polynomial,),
         plausibility.check_stand),
     'magnetometer': (Magnetometer, {
         'scale_matrix': _array(3, 3), 'bias_nT': _array(3), 'condition_number': _number,
@@ -369,6 +372,6 @@ STAGE_FIELDS = {
         'msa_method': _optional(_choice('improved', 'classic', 'axial')),
         'msa_stations': _kept, 'msa_reference_total_nT': _kept, 'msa_reference_dip_deg': _kept,
         'interference_std_nT': _optional(_array(3)), 'rotation_temperature_c': _temperature,
-        'rotation_covariance': _rotation_covariance},
+        'rotation_covariance': _optional(_square_covariance(6))},
         (_msa,), plausibility.check_magnetic),
 }

@@ -159,6 +159,9 @@ class Stand(_PolynomialOfTemperature):
     bias_coefficients_mps2: tuple = None  # b(T), likewise
     t_min_c: float = None                 # the plateaus' range; None: constant K, b
     t_max_c: float = None
+    # (12, 12) of (K^-1 row-major, b) (``stand.fit_stand``); None: a sphere fit, a stand at
+    # several temperatures or a file before schema 9 (then the residual stands for it)
+    parameter_covariance: tuple = None
 
     @property
     def bias_coefficients(self):
@@ -167,7 +170,15 @@ class Stand(_PolynomialOfTemperature):
 
     @property
     def tilt_std_rad(self):
-        """Return the fit's own inclination residual as the stage's tilt 1 sigma [rad]."""
+        """
+        Return the stage's tilt 1 sigma [rad] added to every angle's variance.
+
+        Zero when the fit's parameter covariance is known
+        (``CalibrationModel.parameter_blocks`` propagates it, per reading);
+        else the fit's own inclination residual.
+        """
+        if self.parameter_covariance is not None:
+            return 0.0
         return math.radians(self.rms_inclination_deg or 0.0)
 
     @cached_property

@@ -153,7 +153,10 @@ def stand_stage(result, method, rms_inclination_deg, positions, temperature_c):
                  rms_inclination_deg=(None if rms_inclination_deg is None
                                       else float(rms_inclination_deg)),
                  positions=int(positions), fitted_at=utc_now_iso(),
-                 temperature_c=temperature_c)
+                 temperature_c=temperature_c,
+                 parameter_covariance=(None if getattr(result, 'parameter_covariance', None)
+                                       is None else tuple(map(tuple, result.parameter_covariance
+                                                              .tolist()))))
 
 
 def solve_stand(readings, attitudes_deg, gravity_mps2, max_rms_deg, temperatures_c=None,
@@ -199,7 +202,7 @@ def solve_stand(readings, attitudes_deg, gravity_mps2, max_rms_deg, temperatures
                         stood_for_c(temperatures_c))
     if plateaus is not None:
         stage = replace(
-            stage, temperature_c=plateaus.centre_c,
+            stage, temperature_c=plateaus.centre_c, parameter_covariance=None,
             scale_coefficients=tuple(tuple(map(tuple, term))
                                      for term in plateaus.scale_coefficients.tolist()),
             bias_coefficients_mps2=tuple(map(tuple, plateaus.bias_coefficients.tolist())),
