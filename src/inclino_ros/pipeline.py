@@ -49,7 +49,9 @@ class Settings:
     Sensor and output settings of the chain (the node's parameters).
 
     ``noise_std_mps2``: the accelerometer's per-sample noise, 1 sigma per
-    axis; ``toolface_max_std_deg``: a toolface of larger 1 sigma is NaN;
+    axis; ``bias_instability_mps2``: its configured bias instability B (a
+    datasheet figure, ``stillness.floored_count``: the floor of a mean's
+    1 sigma; 0: none); ``toolface_max_std_deg``: a toolface of larger 1 sigma is NaN;
     ``g_total_tolerance_mps2``: a three-axis sample whose corrected G-total is
     further from g is not gravity (dropped, ``dynamic``);
     ``two_axis_max_inclination_deg``: a two-axis sample steeper than this is
@@ -67,6 +69,7 @@ class Settings:
     accelerometer_axes_map: str = IDENTITY  # core.mounting: sensor axes -> tool axes
     magnetometer_axes_map: str = IDENTITY
     allow_left_handed_axes: bool = False
+    bias_instability_mps2: float = 0.0   # IEEE Std 952 B of the accelerometer (0: none)
 
     def __post_init__(self):
         """Refuse settings the chain cannot honour."""
@@ -115,6 +118,7 @@ class MagneticSettings:
     limits: QcLimits = QcLimits()
     noise_std_nT: float = 100.0
     azimuth_max_std_deg: float = 1.0
+    bias_instability_nT: float = 0.0   # IEEE Std 952 B of the magnetometer (0: none)
 
 
 @dataclass(frozen=True)
@@ -349,16 +353,18 @@ def correct(tool_mps2, model, settings, temperature_c=None, field_nT=None,
                       blocks))
 
 
-def effective_count(vectors, times_s, noise_floor):
+def effective_count(vectors, times_s, noise_floor, bias_instability=0.0):
     """
     Return the count of white samples of noise ``noise_floor`` a capture's mean is worth.
 
     ``vectors`` (M, 3) of one still capture (readings of one sensor), ``times_s``
-    (M,) or None: ``stillness.floored_count`` of its ``stillness.own_noise``.
+    (M,) or None: ``stillness.floored_count`` of its ``stillness.own_noise`` and
+    the configured ``bias_instability``.
     """
     vectors = np.asarray(vectors, dtype=float)
     sigma, effective = own_noise(vectors, times_s)
-    return float(floored_count(sigma, effective, vectors.shape[0], noise_floor))
+    return float(floored_count(sigma, effective, vectors.shape[0], noise_floor,
+                               bias_instability))
 
 
 def capture_mean(tool_mps2, times_s, model, settings, temperature_c=None, field_nT=None,
@@ -372,18 +378,20 @@ def capture_mean(tool_mps2, times_s, model, settings, temperature_c=None, field_
     samples of its configured noise (``settings.noise_std_mps2``,
     ``magnetic_settings.noise_std_nT``): correlated noise (a low-pass filter
     below the output rate) widens every 1 sigma by sqrt(F), a noise above the
-    configured one by its ratio (issue 19 item 4).
+    configured one by its ratio (issue 19 item 4), a configured bias instability
+    by its flicker (``stillness.floored_count``).
     """
     tool_mps2 = np.asarray(tool_mps2, dtype=float).reshape(-1, 3)
-    count = effective_count(tool_mps2, times_s, settings.noise_std_mps2)
+    count = effective_count(tool_mps2, times_s, settings.noise_std_mps2,
+                            settings.bias_instability_mps2)
     mean_field, field_count = None, None
     if field_nT is not None:
         field_nT = np.asarray(field_nT, dtype=float).reshape(-1, 3)
         paired = np.isfinite(field_nT).all(axis=1)
         times = None if times_s is None else np.asarray(times_s, dtype=float)[paired]
         mean_field = field_nT[paired].mean(axis=0)[None]
-        field_count = [effective_count(field_nT[paired], times,
-                                       magnetic_settings.noise_std_nT)]
+        field_count = [effective_count(field_nT[paired], times, magnetic_settings.noise_std_nT,
+                                       magnetic_settings.bias_instability_nT)]
     return correct(tool_mps2.mean(axis=0)[None], model, settings, temperature_c, mean_field,
                    magnetic_settings, averaged=np.array([count]), field_averaged=field_count)
 
@@ -419,11 +427,13 @@ def average(windows, model, settings, magnetic_settings=None):
                 None if magnetic_settings is None else windows.field_nT[rows],
                 magnetic_settings or MagneticSettings(), averaged=floored_count(
                     windows.noise[rows], windows.effective_samples[rows],
-                    windows.samples[rows], settings.noise_std_mps2),
+                    windows.samples[rows], settings.noise_std_mps2,
+                    settings.bias_instability_mps2),
                 field_averaged=floored_count(
                     windows.field_noise[rows], windows.field_effective_samples[rows],
                     windows.field_samples[rows], (magnetic_settings or MagneticSettings())
-                    .noise_std_nT))))
+                    .noise_std_nT, (magnetic_settings or MagneticSettings())
+                    .bias_instability_nT))))
     return kept, parts
 
 

@@ -393,7 +393,7 @@ def own_noise(vectors, times_s=None):
             stillness.effective_samples)
 
 
-def floored_count(sigma, effective, samples, noise_floor):
+def floored_count(sigma, effective, samples, noise_floor, bias_instability=0.0):
     """
     Return the count of white samples of noise ``noise_floor`` a mean is worth (issue 19 item 4).
 
@@ -403,12 +403,20 @@ def floored_count(sigma, effective, samples, noise_floor):
     configured per-sample noise is its floor: ``n_eff min(1, (noise_floor /
     sigma)^2)``, so that ``noise_floor / sqrt(count)`` is the larger of the
     two.  A NaN ``sigma`` (too few readings to tell): ``samples`` (white
-    noise at the floor).  Element-wise.
+    noise at the floor).  A configured ``bias_instability`` B (IEEE Std 952,
+    the unit of ``noise_floor``; 0: none) adds the flicker that moves the
+    whole capture, which its own noise cannot show: ``(c B)^2`` to the mean's
+    variance (``correlated_noise.flicker_mean_factor``), the count becomes
+    ``1 / (1 / count + (c B / noise_floor)^2)``.  Element-wise.
     """
     sigma, effective, samples = (np.asarray(v, dtype=float) for v in (sigma, effective, samples))
     with np.errstate(invalid='ignore', divide='ignore'):
         ratio = np.where(sigma > noise_floor, (noise_floor / sigma) ** 2, 1.0)
-    return np.where(np.isfinite(sigma), effective * ratio, samples)
+    count = np.where(np.isfinite(sigma), effective * ratio, samples)
+    if not bias_instability:
+        return count
+    flicker = (correlated_noise.flicker_mean_factor() * bias_instability / noise_floor) ** 2
+    return 1.0 / (1.0 / count + flicker)
 
 
 #: The configured per-sample noise is checked against the measured one: a measured noise

@@ -88,6 +88,7 @@ class InclinometerNode(Node):
             accelerometer_range_mps2=self.param('accelerometer_range_mps2'),
             toolface_convention=self.param('toolface_convention'),
             noise_std_mps2=self.param('accelerometer_noise_std_mps2'),
+            bias_instability_mps2=self.param('accelerometer_bias_instability_mps2'),
             toolface_max_std_deg=self.param('toolface_max_std_deg'),
             g_total_tolerance_mps2=self.param('g_total_tolerance_mps2'),
             two_axis_max_inclination_deg=self.param('two_axis_max_inclination_deg'),
@@ -241,6 +242,7 @@ class InclinometerNode(Node):
             reference_dip_deg=self.param('magnetic.reference_dip_deg'),
             declination_deg=self.param('magnetic.declination_deg'),
             noise_std_nT=self.param('magnetometer_noise_std_nT'),
+            bias_instability_nT=self.param('magnetometer_bias_instability_nT'),
             azimuth_max_std_deg=self.param('magnetic.azimuth_max_std_deg'),
             limits=QcLimits(
                 b_total_tolerance_nT=self.param('magnetic.b_total_tolerance_nT'),

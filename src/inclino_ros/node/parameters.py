@@ -73,6 +73,14 @@ PARAMETERS = (
     Parameter('magnetometer_noise_std_nT', 100.0,
               'Per-sample magnetometer noise, 1 sigma per axis [nT]: enters the 1 sigma of '
               'the azimuth and the per-sample QC limits.', 1e-3, 10000.0),
+    Parameter('accelerometer_bias_instability_mps2', 0.0,
+              "Accelerometer bias instability B (IEEE Std 952, the datasheet's flicker floor) "
+              "[m/s^2]: adds (1.6 B)^2 to the variance of every capture's and averaged "
+              "window's mean (its flicker, which the capture's own noise cannot show). "
+              '0: none.', 0.0, 10.0),
+    Parameter('magnetometer_bias_instability_nT', 0.0,
+              'Magnetometer bias instability B (IEEE Std 952) [nT]: as '
+              'accelerometer_bias_instability_mps2, for the azimuth. 0: none.', 0.0, 10000.0),
     Parameter('toolface_convention', 'seed000',
               'Gravity toolface: seed000 (atan2(a_y, a_x), seed 000 Eq. 16) or '
               'iscwsa_highside (ISCWSA high-side, = seed000 + 90 deg).',
