@@ -174,6 +174,11 @@ def test_node_and_fit_stand_write_the_same_stand_stage(node_and_probe, tmp_path)
     for doc in (node_doc, command_doc):
         for name in numbers:
             doc['stand'].pop(name, None)
+    # The fit's parameter covariance, a number too: both doors record one, within the
+    # variance of what one lost sample could shift (the data are noise-free: ~1e-30).
+    covariances = [doc['stand'].pop('parameter_covariance') for doc in (node_doc, command_doc)]
+    assert None not in covariances
+    np.testing.assert_allclose(*covariances, rtol=0, atol=lost_tol ** 2)
     assert command_doc == node_doc
 
 
