@@ -3,27 +3,30 @@ Coverage of every published 1 sigma of a capture's mean, on the physical simulat
 
 Each draw is a still capture of ``--samples`` readings at 100 Hz of a tool whose triads
 have no error but their noise (``sim.sensor_model``, ideal geometry, an empty
-calibration): noise-only, so the error of the mean is the noise's.  Its mean goes through
-``pipeline.capture_mean`` (the capture's own noise with its effective sample size, the
-configured noise its floor) and, for comparison, through the former rule (configured
-noise / sqrt(samples), ``pipeline.correct`` with ``averaged`` = the samples).  Per cell
-it counts the fraction of draws whose error lies within 1 and 2 published sigma, for the
-inclination, the toolface and the azimuth (a toolface or an azimuth the chain leaves NaN,
-1 sigma beyond its limit near vertical, is not counted: ``n``).
+calibration): noise-only, so the error of the mean is the noise's.  Every draw is its own
+record (``sm.read(records=...)``: its own AR(1) start and its own flicker), so that the
+draws are independent and a coverage is a binomial proportion.  Its mean goes through the
+rule of ``pipeline.capture_mean`` (``effective_count``: the capture's own noise with its
+effective sample size, the configured noise its floor, the configured bias instability's
+flicker added; the angles of a cell's draws in one ``correct``) and, for comparison,
+through the former rule (configured noise / sqrt(samples), ``averaged`` = the samples).
+Per cell it counts the fraction of draws whose error lies within 1 and 2 published sigma,
+for the inclination, the toolface and the azimuth (a toolface or an azimuth the chain
+leaves NaN, 1 sigma beyond its limit near vertical, is not counted: ``n``).
 
 Cells: noise white, AR(1) rho 0.5 / 0.73 / 0.9 (a low-pass filter below the output rate;
 the stationary sigma stays the preset's), 1/f (white plus flicker whose Allan floor
-0.664 B equals the white standard error at 100 samples: B = 0.15 sigma); inclination 0.1,
-1, 10, 45, 89.9 deg; azimuth N, E, W (0, 90, 270 deg; toolface uniform); MEMS (2 mg,
-100 nT per sample) and quartz/fluxgate (0.1 mg, 5 nT) noise, the configured noise the
-preset's; the configured bias instability (``Settings.bias_instability_mps2``,
-``MagneticSettings.bias_instability_nT``) the simulator's B (0 but for 1/f; the draws of
-a cell are one continuous record).  A band 0.60-0.76 (1 sigma) and 0.93-0.98 (2 sigma)
-is what issue 19 asks of
-every cell; over D draws the binomial 1 sigma of a coverage is sqrt(p (1 - p) / D):
-0.033 / 0.015 at 1 / 2 sigma for the default 200, so a right sigma lands in the band
-but for ~2 % of the cells at 2 sigma (the band's 2 sigma edges are 1.6 and 3.4 binomial
-sigma away).
+0.664 B equals the white standard error at 100 samples: B = 0.15 sigma, synthesised over
+the band the configured B's 1 sigma assumes, ``FLICKER_SPAN``); inclination 0.1, 1, 10,
+45, 89.9 deg; azimuth N, E, W (0, 90, 270 deg; toolface uniform); MEMS (2 mg, 100 nT per
+sample) and quartz/fluxgate (0.1 mg, 5 nT) noise, the configured noise the preset's; the
+configured bias instability (``Settings.bias_instability_mps2``,
+``MagneticSettings.bias_instability_nT``) the simulator's B (0 but for 1/f).  A band
+0.60-0.76 (1 sigma) and 0.93-0.98 (2 sigma) is what issue 19 asks of every cell; over D
+draws the binomial 1 sigma of a coverage is sqrt(p (1 - p) / D): 0.015 / 0.0066 at 1 / 2
+sigma for the default 1000, so the band's edges lie 5.5 / 3.6 binomial sigma from a
+right sigma's 0.683 / 0.954 (at 200 draws only 1.6 at 2 sigma: ~10 % of right cells
+fell out by chance).
 
 Calibration cells (issue 19 item 2, ``test/coverage_sim``): each draw calibrates a fresh
 simulated tool (fit-magnetometer's 24 one-reading shots; a 12-position stand of both
@@ -31,10 +34,10 @@ triads; fit-stand of the accelerometer alone; a 36-reading rotation), then surve
 station at a random attitude; the coverage of the azimuth, inclination and toolface
 sigma with the fits' parameter covariance, and without (``former``: files before schema
 7, schema 9 for fit-stand).  ``--calibration-draws`` of them per cell
-(binomial 1 sigma 0.027 / 0.012 at 300); ``--calibration-only`` runs just these.
+(binomial 1 sigma 0.023 / 0.010 at the default 400); ``--calibration-only`` runs just these.
 
-Usage: .venv/bin/python bench/bench_coverage.py [--draws 200] [--samples 1000] [--seed 1]
-       [--calibration-draws 300] [--calibration-only] [--noises '1/f']
+Usage: .venv/bin/python bench/bench_coverage.py [--draws 1000] [--samples 1000] [--seed 1]
+       [--calibration-draws 400] [--calibration-only] [--noises '1/f']
        [--output bench/results/coverage.md]
 """
 
@@ -45,7 +48,8 @@ import sys
 import time
 
 from inclino_ros.calibration.model import CalibrationModel
-from inclino_ros.pipeline import capture_mean, correct, MagneticSettings, Settings
+from inclino_ros.core.correlated_noise import FLICKER_BAND_RATIO
+from inclino_ros.pipeline import correct, effective_count, MagneticSettings, Settings
 from inclino_ros.sim import sensor_model as sm
 import numpy as np
 
@@ -70,34 +74,55 @@ def wrapped(error_deg):
     return (np.asarray(error_deg) + 180.0) % 360.0 - 180.0
 
 
+#: The simulated flicker spans the band the configured bias instability's 1 sigma assumes
+#: (``correlated_noise.FLICKER_BAND_RATIO`` capture lengths since the calibration): the
+#: simulator's bins k / (S T) are the band from 1 / (S e^gamma T).
+FLICKER_SPAN = FLICKER_BAND_RATIO / math.exp(np.euler_gamma)
+
+
 def triad(noise_std, rho, flicker):
     """Return an error-free triad with the noise of one cell."""
-    return sm.Triad(noise_std=noise_std, noise_rho=rho, bias_instability=flicker * noise_std)
+    return sm.Triad(noise_std=noise_std, noise_rho=rho, bias_instability=flicker * noise_std,
+                    flicker_span=FLICKER_SPAN)
 
 
 def cell(tool, settings, magnetic, inclination_deg, azimuth_deg, draws, samples, rng):
-    """Return {angle: [(|error| / sigma) of each draw, new rule and former]} of one cell."""
+    """
+    Return {angle: [(|error| / sigma) of each draw, new rule and former]} of one cell.
+
+    Each draw is its own record (``sm.read(records=draws)``: noise, filter and flicker
+    independent), so that a coverage is a binomial proportion; each capture's own noise
+    is estimated alone (``effective_count``), the angles of all draws in one ``correct``.
+    """
     times_s = np.arange(samples) / RATE_HZ
     toolface_deg = rng.uniform(0.0, 360.0, draws)
     readings = sm.read(tool, inclination_deg, np.repeat(toolface_deg, samples), azimuth_deg,
-                       field=FIELD, rng=rng)
+                       field=FIELD, rng=rng, records=draws)
     accel = readings.accel_mps2.reshape(draws, samples, 3)
     field = readings.mag_nT.reshape(draws, samples, 3)
+    count = np.array([effective_count(accel[k], times_s, settings.noise_std_mps2,
+                                      settings.bias_instability_mps2) for k in range(draws)])
+    field_count = np.array([effective_count(field[k], times_s, magnetic.noise_std_nT,
+                                            magnetic.bias_instability_nT)
+                            for k in range(draws)])
     model = CalibrationModel(3)
-    ratios = {name: ([], []) for name in ANGLES}
-    for k in range(draws):
-        new = capture_mean(accel[k], times_s, model, settings, None, field[k], magnetic)
-        old = correct(accel[k].mean(axis=0)[None], model, settings, None,
-                      field[k].mean(axis=0)[None], magnetic, averaged=samples)
-        truth = (inclination_deg, toolface_deg[k], azimuth_deg)
-        for survey, column in ((new, 0), (old, 1)):
-            values = (survey.inclination_deg[0], survey.toolface_deg[0],
-                      survey.magnetic.defined_azimuth_deg[0])
-            sigmas = (survey.inclination_std_deg[0], survey.toolface_std_deg[0],
-                      survey.magnetic.azimuth_std_deg[0])
-            for name, value, sigma, true in zip(ANGLES, values, sigmas, truth):
-                if math.isfinite(value):
-                    ratios[name][column].append(abs(wrapped(value - true)) / sigma)
+    mean_accel, mean_field = accel.mean(axis=1), field.mean(axis=1)
+    truth = (np.full(draws, inclination_deg), toolface_deg, np.full(draws, azimuth_deg))
+    ratios = {}
+    surveys = (correct(mean_accel, model, settings, None, mean_field, magnetic,
+                       averaged=count, field_averaged=field_count),
+               correct(mean_accel, model, settings, None, mean_field, magnetic,
+                       averaged=np.full(draws, float(samples))))
+    for name, true, column in zip(ANGLES, truth, range(3)):
+        ratios[name] = []
+        for survey in surveys:
+            value = (survey.inclination_deg, survey.toolface_deg,
+                     survey.magnetic.defined_azimuth_deg)[column]
+            sigma = (survey.inclination_std_deg, survey.toolface_std_deg,
+                     survey.magnetic.azimuth_std_deg)[column]
+            defined = np.isfinite(value)
+            ratios[name].append(np.abs(wrapped(value[defined] - true[defined]))
+                                / sigma[defined])
     return ratios
 
 
@@ -146,18 +171,19 @@ def calibration_table(draws, seed):
 def main():
     """Run every cell; print and write the tables (markdown)."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[1])
-    parser.add_argument('--draws', type=int, default=200)
+    parser.add_argument('--draws', type=int, default=1000)
     parser.add_argument('--samples', type=int, default=1000)
     parser.add_argument('--seed', type=int, default=1)
-    parser.add_argument('--calibration-draws', type=int, default=300)
+    parser.add_argument('--calibration-draws', type=int, default=400)
     parser.add_argument('--calibration-only', action='store_true')
     parser.add_argument('--noises', nargs='*', default=None,
                         help="only these noise rows (e.g. '1/f'); default: all")
     parser.add_argument('--output', default=None, help='markdown file to write the tables to')
     args = parser.parse_args()
+    started = time.process_time()
     calibration = [] if args.noises else calibration_table(args.calibration_draws, args.seed)
     if args.calibration_only:
-        text = '\n'.join(calibration) + '\n'
+        text = '\n'.join(calibration + ['', f'CPU {time.process_time() - started:.0f} s.']) + '\n'
         print(text)
         if args.output:
             with open(args.output, 'w') as stream:
@@ -165,11 +191,10 @@ def main():
                              '(bench/bench_coverage.py --calibration-only)\n\n' + text)
         return
     rng = np.random.default_rng(args.seed)
-    started = time.process_time()
-    lines = [f'{args.draws} still captures of {args.samples} samples (100 Hz) per cell, '
-             f'seed {args.seed}; coverage of |error| <= 1 / 2 published sigma, '
-             "capture_mean (the capture's own noise, n_eff); former: configured noise / "
-             'sqrt(samples); n: draws with a defined angle.', '',
+    lines = [f'{args.draws} independent still captures of {args.samples} samples (100 Hz) '
+             f'per cell, seed {args.seed}; coverage of |error| <= 1 / 2 published sigma, '
+             "capture_mean (the capture's own noise, n_eff, the configured B); former: "
+             'configured noise / sqrt(samples); n: draws with a defined angle.', '',
              '| tool | noise | incl deg | az | inclination 1s/2s | toolface 1s/2s | '
              'azimuth 1s/2s | n tf/az | former incl 1s/2s | former az 1s/2s |',
              '|---|---|---|---|---|---|---|---|---|---|']

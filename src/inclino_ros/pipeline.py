@@ -258,7 +258,7 @@ def resolve_azimuth(corrected_mps2, field_nT, model, settings, magnetic_settings
 
 
 def run(raw, model, settings, temperature_c=None, field_nT=None,
-        magnetic_settings=MagneticSettings(), averaged=1):
+        magnetic_settings=MagneticSettings(), averaged=1, field_averaged=None):
     """
     Screen, correct and resolve a batch of raw readings (N x 3, m/s^2, sensor axes).
 
@@ -270,7 +270,8 @@ def run(raw, model, settings, temperature_c=None, field_nT=None,
     magnetometer axes, NaN rows where no reading is paired) adds the azimuth.
     ``averaged``: each row is the mean of that many samples (a station), one
     count or one per row (N,): its noise is the per-sample noise /
-    sqrt(averaged).  Screening looks at the
+    sqrt(averaged); ``field_averaged`` the magnetometer's (default
+    ``averaged``, ``station_counts``).  Screening looks at the
     sensor's own axes (its range is per axis, ``screening.screen``); the axes
     maps of ``settings`` then turn both sensors into the tool axes, and
     ``correct`` drops what cannot be gravity after the correction.
@@ -283,11 +284,13 @@ def run(raw, model, settings, temperature_c=None, field_nT=None,
         temperature_c = np.asarray(temperature_c)[kept]
     if np.ndim(averaged) == 1:
         averaged = np.asarray(averaged)[kept]
+    if np.ndim(field_averaged) == 1:
+        field_averaged = np.asarray(field_averaged)[kept]
     if field_nT is not None:
         field_nT = to_tool_axes(np.asarray(field_nT, dtype=float).reshape(-1, 3)[kept],
                                 settings.magnetometer_matrix)
     return correct(to_tool_axes(raw[kept], settings.accelerometer_matrix), model, settings,
-                   temperature_c, field_nT, magnetic_settings, codes, averaged)
+                   temperature_c, field_nT, magnetic_settings, codes, averaged, field_averaged)
 
 
 def correct(tool_mps2, model, settings, temperature_c=None, field_nT=None,
@@ -365,6 +368,23 @@ def effective_count(vectors, times_s, noise_floor, bias_instability=0.0):
     sigma, effective = own_noise(vectors, times_s)
     return float(floored_count(sigma, effective, vectors.shape[0], noise_floor,
                                bias_instability))
+
+
+def station_counts(samples, settings, magnetic_settings):
+    """
+    Return (accelerometer, magnetometer) counts of white samples rows of ``samples`` are worth.
+
+    A row the mean of ``samples`` readings (scalar or (N,)) whose own noise is
+    not known (``inclino survey``'s stations): ``stillness.floored_count``
+    with no own noise, i.e. ``samples`` white samples of the configured
+    noise with the configured bias instability's flicker added (B = 0:
+    ``samples`` unchanged), for ``run``'s ``averaged`` and ``field_averaged``.
+    """
+    nan = np.full(np.shape(samples), math.nan)
+    return (floored_count(nan, samples, samples, settings.noise_std_mps2,
+                          settings.bias_instability_mps2),
+            floored_count(nan, samples, samples, magnetic_settings.noise_std_nT,
+                          magnetic_settings.bias_instability_nT))
 
 
 def capture_mean(tool_mps2, times_s, model, settings, temperature_c=None, field_nT=None,

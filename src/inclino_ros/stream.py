@@ -438,14 +438,15 @@ def replay_settings(model, path, range_option, **settings):
 
 
 def recorded_magnetometer(path, topic, max_pairing_s, reference, noise_std_nT,
-                          azimuth_max_std_deg):
+                          azimuth_max_std_deg, bias_instability_nT=0.0):
     """
     Return the Magnetometer of the MagneticField ``topic`` of the bag ``path``.
 
     ``reference``: (total_nT, dip_deg, declination_deg or None) each azimuth
     is checked against (ValueError without total and dip: no azimuth is
     written unchecked); BagError unless the topic holds MagneticField
-    messages.
+    messages.  ``noise_std_nT``, ``azimuth_max_std_deg``, ``bias_instability_nT``:
+    those of ``MagneticSettings``.
     """
     total_nT, dip_deg, declination_deg = reference
     if total_nT is None or dip_deg is None:
@@ -458,7 +459,8 @@ def recorded_magnetometer(path, topic, max_pairing_s, reference, noise_std_nT,
                        f'{MAGNETIC_FIELD} ones')
     settings = MagneticSettings(reference_total_nT=total_nT, reference_dip_deg=dip_deg,
                                 declination_deg=declination_deg or 0.0, noise_std_nT=noise_std_nT,
-                                azimuth_max_std_deg=azimuth_max_std_deg)
+                                azimuth_max_std_deg=azimuth_max_std_deg,
+                                bias_instability_nT=bias_instability_nT)
     return Magnetometer.from_series(concatenate(read(path, topic)), max_pairing_s, settings)
 
 

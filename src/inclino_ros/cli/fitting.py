@@ -101,6 +101,17 @@ def node_option(parser, flag, parameter, help_text, **kwargs):
                         help=f'{help_text} (default: %(default)s, as {parameter})', **kwargs)
 
 
+def add_bias_instability_arguments(parser, magnetic):
+    """Add --bias-instability-mps2 (to ``parser``) and --mag-bias-instability-nT (``magnetic``)."""
+    node_option(parser, '--bias-instability-mps2', 'accelerometer_bias_instability_mps2',
+                'accelerometer bias instability B (IEEE Std 952) [m/s^2]: adds its flicker '
+                "(1.6 B) to the 1 sigma of every station's or window's mean; 0: none",
+                metavar='B_MPS2')
+    node_option(magnetic, '--mag-bias-instability-nT', 'magnetometer_bias_instability_nT',
+                'magnetometer bias instability B [nT]: as --bias-instability-mps2, for the '
+                'azimuth', metavar='B_NT')
+
+
 def add_still_options(parser, sem_parameter, mean_of, capture):
     """
     Add --max-sem-deg and --max-drift-deg-per-s: the still test of a capture (``still_capture``).

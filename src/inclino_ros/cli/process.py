@@ -68,7 +68,8 @@ from inclino_ros.calibration.model import (
     CalibrationFileError, missing_temperature, MissingTemperature)
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
-    add_sensor_argument, load_calibration, NODE_DEFAULTS, node_option, warn_outside_range)
+    add_bias_instability_arguments, add_sensor_argument, load_calibration, NODE_DEFAULTS,
+    node_option, warn_outside_range)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.mounting import add_axes_map_arguments, settings_maps
 from inclino_ros.cli.options import (
@@ -162,6 +163,7 @@ def register(subparsers):
                                'message [s]; beyond it the azimuth is NaN (default: %(default)s)')
     node_option(magnetic, '--mag-noise-nT', 'magnetometer_noise_std_nT',
                 'magnetometer noise per sample, 1 sigma [nT]')
+    add_bias_instability_arguments(parser, magnetic)
     add_reference_arguments(magnetic)
     parser.set_defaults(func=run)
 
@@ -256,6 +258,7 @@ def _prepare(args, log=None):
             model, args.calibration, '--range-mps2', accelerometer_axes=args.axes,
             gravity_mps2=args.gravity_mps2, accelerometer_range_mps2=args.range_mps2,
             toolface_convention=args.toolface_convention, noise_std_mps2=args.noise_std_mps2,
+            bias_instability_mps2=args.bias_instability_mps2,
             toolface_max_std_deg=args.toolface_max_std_deg,
             g_total_tolerance_mps2=args.g_total_tolerance_mps2,
             two_axis_max_inclination_deg=args.two_axis_max_inclination_deg,
@@ -300,7 +303,8 @@ def _magnetometer(args, model):
         *reference, source = resolve_reference(args, model)
         magnetometer = recorded_magnetometer(args.input, args.mag_topic, args.max_pairing_s,
                                              reference, args.mag_noise_nT,
-                                             args.azimuth_max_std_deg)
+                                             args.azimuth_max_std_deg,
+                                             args.mag_bias_instability_nT)
     except ValueError as err:
         raise CommandError(str(err)) from None
     if model.magnetic is None:

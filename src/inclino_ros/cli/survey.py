@@ -44,7 +44,8 @@ from inclino_ros.calibration.inputs import survey_input, survey_temperatures
 from inclino_ros.calibration.model import CalibrationModel
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
-    load_calibration, NODE_DEFAULTS, node_option, warn_outside_range)
+    add_bias_instability_arguments, load_calibration, NODE_DEFAULTS, node_option,
+    warn_outside_range)
 from inclino_ros.cli.options import (
     add_force_argument, add_reference_temperature_argument, node_parameter)
 from inclino_ros.cli.process import add_limit_arguments, refuse_missing_temperature
@@ -52,7 +53,7 @@ from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core.magnetics import QcLimits
 from inclino_ros.io import tables
 from inclino_ros.io.files import Outputs
-from inclino_ros.pipeline import MagneticSettings, run as run_pipeline, Settings
+from inclino_ros.pipeline import MagneticSettings, run as run_pipeline, Settings, station_counts
 from inclino_ros.stream import OUTSIDE_FIT, outside_fit, survey_columns, survey_table
 import numpy as np
 
@@ -78,6 +79,7 @@ def register(subparsers):
                 dest='noise_std_mps2', metavar='NOISE_MPS2')
     node_option(parser, '--mag-noise-nT', 'magnetometer_noise_std_nT',
                 'magnetometer noise per sample, 1 sigma [nT]')
+    add_bias_instability_arguments(parser, parser)
     add_limit_arguments(parser)
     add_force_argument(parser)
     add_reference_temperature_argument(parser)
@@ -143,6 +145,7 @@ def survey(args, outputs):
                             accelerometer_range_mps2=NODE_DEFAULTS['accelerometer_range_mps2'],
                             toolface_convention=args.toolface_convention,
                             noise_std_mps2=args.noise_std_mps2,
+                            bias_instability_mps2=args.bias_instability_mps2,
                             toolface_max_std_deg=args.toolface_max_std_deg)
     except ValueError as err:
         raise CommandError(str(err)) from None
@@ -153,8 +156,11 @@ def survey(args, outputs):
                                 reference_dip_deg=dip_deg or 0.0,
                                 declination_deg=declination_deg or 0.0, limits=QcLimits(),
                                 noise_std_nT=args.mag_noise_nT,
+                                bias_instability_nT=args.mag_bias_instability_nT,
                                 azimuth_max_std_deg=args.azimuth_max_std_deg)
-    result = run_pipeline(raw, model, settings, temperature_c, field, magnetic, averaged)
+    # Each row's mean with the configured bias instabilities' flicker (stillness.floored_count).
+    result = run_pipeline(raw, model, settings, temperature_c, field, magnetic,
+                          *station_counts(averaged, settings, magnetic))
     columns = survey_columns(result, declination_deg, total_nT is not None,
                              model.toolface_zero)
     outside = outside_fit(model, temperature_c)

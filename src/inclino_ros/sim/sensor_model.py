@@ -151,10 +151,12 @@ Every function is vectorised over N samples.
 """
 
 from dataclasses import dataclass, replace
+import functools
 import math
 
 from inclino_ros.core.constants import STANDARD_GRAVITY_MPS2
 import numpy as np
+from scipy.linalg import toeplitz
 from scipy.signal import lfilter
 from transforms3d.axangles import axangle2mat
 from transforms3d.euler import euler2mat
@@ -407,6 +409,32 @@ class Mount:
         return self.board_from_magnetometer().T @ self.tool_from_board().T
 
 
+def _flicker_amplitude(span):
+    """Return the amplitude of the bins k / span, k >= 1, of flicker of B = 1 (``Triad``)."""
+    frequency = np.fft.rfftfreq(span)[1:]               # cycles per sample, no DC
+    return np.sqrt(1.0 / (math.pi * frequency) * span / 4.0)
+
+
+@functools.lru_cache(maxsize=8)
+def _flicker_factor(count, span):
+    """
+    Return F (count, count), F z of unit Gaussians z the flicker (B = 1) of one record.
+
+    x(t) = irfft(X)(t), X_k = a_k (g + i h) (``Triad._flicker``): cov(tau) =
+    sum_k w_k a_k^2 2 cos(2 pi k tau / span) / span^2 with w_k = 2 but for the
+    Nyquist bin (its real part only, w = 1), i.e. the irfft of Y_k = 2 a_k^2 /
+    span (a_N^2 / span at Nyquist); F = V sqrt(L) of the eigenvectors V and
+    values L of its Toeplitz matrix (F F^T = cov).
+    """
+    amplitude = _flicker_amplitude(span)
+    power = 2.0 * amplitude ** 2 / span
+    if span % 2 == 0:
+        power[-1] = amplitude[-1] ** 2 / span
+    autocovariance = np.fft.irfft(np.concatenate(([0.0], power)), n=span)[:count]
+    values, vectors = np.linalg.eigh(toeplitz(autocovariance))
+    return vectors * np.sqrt(np.clip(values, 0.0, None))
+
+
 @dataclass(frozen=True)
 class Triad:
     """
@@ -420,8 +448,10 @@ class Triad:
     coefficients of ``(T - T_ref)^(k+1)``, shape (3, k), k >= 0.  The noise
     in time (module docstring, "Noise in time"): ``noise_rho`` the AR(1)
     coefficient per sample (0: white), ``bias_instability`` B of the flicker
-    noise [unit], ``lowpass_hz`` the corner of a first-order low-pass filter
-    (0: none) at the output rate ``rate_hz``.
+    noise [unit] synthesised over ``flicker_span`` times the record (slower
+    flicker is a bias a calibration took up: the span is the time since the
+    calibration in records), ``lowpass_hz`` the corner of a first-order
+    low-pass filter (0: none) at the output rate ``rate_hz``.
     """
 
     matrix: tuple = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
@@ -434,6 +464,7 @@ class Triad:
     bias_instability: float = 0.0
     lowpass_hz: float = 0.0
     rate_hz: float = 100.0
+    flicker_span: float = FLICKER_SPAN
 
     def __post_init__(self):
         """Check the shapes and store every array as (nested) tuples of floats."""
@@ -449,9 +480,9 @@ class Triad:
         if not -1.0 < self.noise_rho < 1.0:
             raise ValueError(f'noise_rho must lie in (-1, 1), not {self.noise_rho}')
         if not (0.0 <= self.bias_instability < math.inf and 0.0 <= self.lowpass_hz < math.inf
-                and 0.0 < self.rate_hz < math.inf):
+                and 0.0 < self.rate_hz < math.inf and 1.0 <= self.flicker_span < math.inf):
             raise ValueError('bias_instability and lowpass_hz must be finite and >= 0, '
-                             'rate_hz finite and > 0')
+                             'rate_hz finite and > 0, flicker_span finite and >= 1')
 
     @property
     def lowpass_pole(self):
@@ -469,15 +500,26 @@ class Triad:
         return lfilter([1.0], [1.0, -rho], innovation, axis=0, zi=(rho * before)[None, :])[0]
 
     def _flicker(self, shape, rng):
-        """Return flicker noise of one-sided PSD B^2 / (pi f) (f per sample), synthesised."""
+        """
+        Return flicker noise of one-sided PSD B^2 / (pi f) (f per sample), synthesised.
+
+        ``shape`` (count, 3): one record, by spectral synthesis over
+        ``flicker_span`` times it.  (count, R, 3): R independent records of the
+        same law, drawn from its covariance over the record (the autocovariance
+        of that synthesis at lags 0 .. count - 1, the inverse transform of its
+        power per bin), so that a long span costs one transform, not one per record.
+        """
         count = shape[0]
-        span = max(FLICKER_SPAN * count, 2)
-        frequency = np.fft.rfftfreq(span)[1:]               # cycles per sample, no DC
-        amplitude = np.sqrt(self.bias_instability ** 2 / (math.pi * frequency) * span / 4.0)
-        draws = rng.standard_normal((2, frequency.size) + shape[1:])
-        spectrum = np.zeros((frequency.size + 1,) + shape[1:], dtype=complex)
-        spectrum[1:] = amplitude[:, None] * (draws[0] + 1j * draws[1])
-        return np.fft.irfft(spectrum, n=span, axis=0)[:count]
+        span = max(int(round(self.flicker_span * count)), 2)
+        if len(shape) == 2:
+            amplitude = self.bias_instability * _flicker_amplitude(span)
+            draws = rng.standard_normal((2, amplitude.size) + shape[1:])
+            spectrum = np.zeros((amplitude.size + 1,) + shape[1:], dtype=complex)
+            spectrum[1:] = amplitude[:, None] * (draws[0] + 1j * draws[1])
+            return np.fft.irfft(spectrum, n=span, axis=0)[:count]
+        factor = self.bias_instability * _flicker_factor(count, span)
+        draws = rng.standard_normal((count, int(np.prod(shape[1:]))))
+        return (factor @ draws).reshape(shape)
 
     def _lowpass(self, signal, noise, rng):
         """Return the low-pass filter's output of signal + white noise (module docstring)."""
@@ -504,23 +546,34 @@ class Triad:
         dt = np.atleast_1d(np.asarray(temperature_c, dtype=float)) - self.reference_temperature_c
         return np.array(self.bias) + self._polynomial(self.bias_drift, dt)
 
-    def read(self, x_sensor, temperature_c, rng=None):
+    def read(self, x_sensor, temperature_c, rng=None, records=1):
         """
         Return the readings (N, 3) of vectors ``x_sensor`` (N, 3) at the triad.
 
         ``temperature_c`` is one value or one per sample; ``rng`` a numpy
-        Generator, a seed or None (fresh entropy) for the noise.
+        Generator, a seed or None (fresh entropy) for the noise.  ``records``:
+        the N samples are that many independent records of N / records
+        consecutive samples each (noise, filter and flicker started afresh).
         """
         x = np.asarray(x_sensor, dtype=float).reshape(-1, 3)
         temperature_c = np.broadcast_to(np.asarray(temperature_c, dtype=float), x.shape[:1])
         rng = np.random.default_rng(rng)
-        noise = self._white(x.shape, rng)
+        if records < 1 or x.shape[0] % records:
+            raise ValueError(f'{x.shape[0]} samples do not split into {records} records')
+        # Time along axis 0, the records (if more than one) along axis 1.
+        shape = x.shape if records == 1 else (x.shape[0] // records, records, 3)
+
+        def in_time(values):
+            return values if records == 1 else values.reshape(records, -1, 3).swapaxes(0, 1)
+
+        noise = self._white(shape, rng)
         sensed = x @ np.array(self.matrix).T
-        signal = (1.0 + self.scale_change(temperature_c)) * sensed + self.bias_at(temperature_c)
+        signal = in_time((1.0 + self.scale_change(temperature_c)) * sensed
+                         + self.bias_at(temperature_c))
         reading = self._lowpass(signal, noise, rng) if self.lowpass_hz else signal + noise
         if self.bias_instability:
-            reading = reading + self._flicker(x.shape, rng)
-        return reading
+            reading = reading + self._flicker(shape, rng)
+        return reading if records == 1 else reading.swapaxes(0, 1).reshape(-1, 3)
 
     def truth(self):
         """Return the triad's parameters as a JSON-ready dict."""
@@ -531,7 +584,8 @@ class Triad:
                               else list(self.noise_std)),
                 'reference_temperature_c': self.reference_temperature_c,
                 'noise_rho': self.noise_rho, 'bias_instability': self.bias_instability,
-                'lowpass_hz': self.lowpass_hz, 'rate_hz': self.rate_hz}
+                'lowpass_hz': self.lowpass_hz, 'rate_hz': self.rate_hz,
+                'flicker_span': self.flicker_span}
 
 
 @dataclass(frozen=True)
@@ -585,14 +639,16 @@ class Readings:
 
 
 def read(tool, inclination_deg, toolface_deg, azimuth_deg=0.0, temperature_c=25.0,
-         field=Field(), interference_nT=(0.0, 0.0, 0.0), rng=None):
+         field=Field(), interference_nT=(0.0, 0.0, 0.0), rng=None, records=1):
     """
     Return the Readings of ``tool`` at the given attitudes and temperatures.
 
     Per-sample arguments broadcast to N; ``interference_nT`` is the drill
     string's field in the tool frame, (3,) or (N, 3); ``rng`` a numpy
-    Generator, a seed or None.  The accelerometer's noise is drawn before
-    the magnetometer's from the same generator.  The chain::
+    Generator, a seed or None; ``records``: the N samples are that many
+    independent records of N / records samples (``Triad.read``).  The
+    accelerometer's noise is drawn before the magnetometer's from the same
+    generator.  The chain::
 
         accel = accelerometer.read(R_acc f_tool, T)
         mag = magnetometer.read(S R_mag (B_tool + interference) + h, T)
@@ -612,11 +668,11 @@ def read(tool, inclination_deg, toolface_deg, azimuth_deg=0.0, temperature_c=25.
     else:
         at_accel = f_tool @ tool.mount.accelerometer_from_tool().T
         at_sensor = (b_tool + interference) @ tool.mount.magnetometer_from_tool().T
-    accel = tool.accelerometer.read(at_accel, temp, rng)
+    accel = tool.accelerometer.read(at_accel, temp, rng, records)
     if tool.accelerometer_axes == 2:
         accel[:, 2] = 0.0
     at_sensor = at_sensor @ np.array(tool.soft_iron).T + np.array(tool.hard_iron_nT)
-    mag = tool.magnetometer.read(at_sensor, temp, rng)
+    mag = tool.magnetometer.read(at_sensor, temp, rng, records)
     return Readings(accel_mps2=accel, mag_nT=mag, inclination_deg=incl, toolface_deg=tf,
                     azimuth_deg=az, temperature_c=temp, specific_force_tool_mps2=f_tool,
                     earth_field_tool_nT=b_tool, interference_nT=interference)
