@@ -44,7 +44,7 @@ def section_means(name):
 
 
 def ferraris(means, g=PEER_G):
-    """Return the peer's closed form: (K_a R_a (3, 3), b_a (3,), pair midpoints (3 axes, 3 pairs))."""
+    """Return the peer's closed form: (K_a R_a (3, 3), b_a (3,), pair midpoints (axis, pair))."""
     up = np.column_stack([means[f'{axis}_p'] for axis in 'xyz'])
     down = np.column_stack([means[f'{axis}_a'] for axis in 'xyz'])
     midpoints = (up + down) / 2.0
