@@ -22,6 +22,7 @@ from inclino_ros.calibration.continuous_log import log_segments
 from inclino_ros.calibration.model import load_model
 from inclino_ros.core.attitude import angle_between
 from inclino_ros.core.stand import correct_stand, stand_specific_force
+
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -83,10 +84,10 @@ def main():
     inclino = os.path.join(os.path.dirname(sys.executable), 'inclino')
     lines = ['# Real six-position (Ferraris) sessions: `inclino fit-stand` vs imucal', '',
              'Data: `test/data/imucal_ferraris` (mad-lab-fau/imucal, MIT). Ours: `inclino '
-             'fit-stand` on the six labelled sections at g = 9.81 (the peer\'s). Peer: imucal\'s '
+             "fit-stand` on the six labelled sections at g = 9.81 (the peer's). Peer: imucal's "
              'Ferraris closed form (K_a R_a, b_a). Inclination error against the nominal '
              'attitude [deg] / |G| - g [m/s^2], RMS over the six positions; held out: |G| - g RMS '
-             'over the log\'s still segments outside the six sections.', '',
+             "over the log's still segments outside the six sections.", '',
              '| session | raw | ours | peer | held out: raw / ours / peer | max \\|K - K_peer\\| '
              '| max \\|b - b_peer\\| [m/s^2] |', '|---|---|---|---|---|---|---|']
     for name, what, limit in SESSIONS:
@@ -114,11 +115,11 @@ def main():
         cells += [f'{np.abs(scale - peer_scale).max():.1e}',
                   f'{np.abs(bias - peer_bias).max():.4f}']
         lines.append(f'| {what} | ' + ' | '.join(cells) + ' |')
-    lines += ['', 'K is the peer\'s to float rounding (six positions determine it exactly). The '
-              'bias differs: the least squares takes the mean of the three axis pairs\' '
+    lines += ['', "K is the peer's to float rounding (six positions determine it exactly). The "
+              "bias differs: the least squares takes the mean of the three axis pairs' "
               'midpoints on every axis, the peer each axis from its own pair, whose midpoint '
               'along that axis a tilt of the face moves only to second order; held out, the '
-              'peer\'s |G| is the closer here.', '']
+              "peer's |G| is the closer here.", '']
     path = os.path.join(HERE, 'results', 'real_imucal.md')
     with open(path, 'w') as out:
         out.write('\n'.join(lines))
