@@ -4,7 +4,7 @@ The stand stage from stand positions or free readings: one rule for the node and
 ``~/solve_stand_calibration`` (positions captured one by one,
 ``stand_capture``) and ``inclino fit-stand`` (a recorded run) both end here:
 
-- consecutive readings of one attitude are one position (``group_positions``),
+- consecutive readings of one attitude, without a pause, are one position (``group_positions``),
   each still (``position_noise_deg``); a later visit of an attitude is a
   position of its own (a repeat);
 - without a temperature stage, positions whose readings stood for
@@ -29,7 +29,7 @@ from inclino_ros.calibration.still_capture import CaptureRefused, require_still_
 from inclino_ros.core.stand import (
     attitude_numbers, fit_sphere, fit_stand, fit_stand_plateaus, MIN_POSITIONS, plateau_numbers,
     plateau_stand_fit, stand_specific_force, StandFitRefused)
-from inclino_ros.core.stillness import MIN_SAMPLES
+from inclino_ros.core.stillness import MIN_SAMPLES, SegmentLimits
 import numpy as np
 
 
@@ -77,7 +77,7 @@ def position_stood_c(stage, temperature_c, position, counts):
         readings_temperature_c(stage, temperature_c), np.shape(position))) / counts
 
 
-def group_positions(readings, attitude_deg):
+def group_positions(readings, attitude_deg, times_s=None):
     """
     Return the positions: (attitudes (P, k), mean readings (P, 3), samples, position (N,)).
 
@@ -85,9 +85,16 @@ def group_positions(readings, attitude_deg):
     form one position (one visit of the stand: a later visit of the same
     attitude is a position of its own, a repeat ``stand.fit_stand`` weighs
     and reports); ``position`` is the number of each sample's position.
+    With ``times_s`` (N,), a pause between two samples longer than the still
+    test's window (``SegmentLimits.window_s``) begins a new visit as well:
+    the tool was taken away and set down again (a log's still segments with
+    the motion between them cut out; the time the samples stood tells what
+    their order alone does not).
     """
     attitude_deg = np.asarray(attitude_deg, dtype=float)
     changed = np.any(attitude_deg[1:] != attitude_deg[:-1], axis=1)
+    if times_s is not None:
+        changed |= np.diff(np.asarray(times_s, dtype=float)) > SegmentLimits.window_s
     position = np.concatenate([[0], np.cumsum(changed)]).astype(int)
     counts = np.bincount(position)
     means = np.stack([np.bincount(position, weights=readings[:, axis]) for axis in range(3)],
@@ -223,7 +230,7 @@ def solve_sample_positions(readings, attitude_deg, times_s, stood_c, still, grav
     ``solve_stand`` (as ``stand_capture.solve_positions`` fits the node's
     positions), StandFitRefused as it refuses.
     """
-    attitudes, means, counts, position = group_positions(readings, attitude_deg)
+    attitudes, means, counts, position = group_positions(readings, attitude_deg, times_s)
     temperatures_c = (None if stood_c is None else
                       np.bincount(position, weights=stood_c) / counts)
     noise_deg = position_noise_deg(readings, times_s, position, len(means), still)
