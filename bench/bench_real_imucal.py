@@ -79,6 +79,32 @@ def held_out(scale, bias):
     return len(means), rms(np.linalg.norm(corrected, axis=1) - G)
 
 
+def visits(inclino):
+    """Return the line of fit-stand over the log's still segments, each labelled with its face."""
+    log = columns(os.path.join(DATA, 'ferraris_log.csv'))
+    accel = np.column_stack([log['ax'], log['ay'], log['az']])
+    found = log_segments(log['time_s'], accel, np.column_stack([log['wx'], log['wy'], log['wz']]))
+    faces = {(0, 1): 'x_p', (0, -1): 'x_a', (1, 1): 'y_p', (1, -1): 'y_a', (2, 1): 'z_p',
+             (2, -1): 'z_a'}
+    rows = []
+    for start, end in found.ranges:
+        mean = accel[start:end].mean(axis=0)
+        axis = int(np.argmax(np.abs(mean)))
+        face = ATTITUDES[faces[axis, int(np.sign(mean[axis]))]]
+        rows += [(log['time_s'][k], *face, *accel[k]) for k in range(start, end)]
+    with tempfile.TemporaryDirectory() as work:
+        path = os.path.join(work, 'visits.csv')
+        np.savetxt(path, np.array(rows), delimiter=',', fmt='%.6f', comments='',
+                   header='time_s,inclination_deg,toolface_deg,ax,ay,az')
+        done = subprocess.run([inclino, 'fit-stand', path, '--calibration',
+                               os.path.join(work, 'cal.json'), '--gravity-mps2', str(G),
+                               '--max-rms-deg', '0.2'], capture_output=True, text=True)
+    found_line = [line for line in done.stdout.splitlines() if 'distinct attitudes' in line]
+    return (f"The example log's {len(found.ranges)} still segments (`core.stillness`), each "
+            f'labelled with its face, through `inclino fit-stand`: '
+            + (found_line[0] if found_line else f'refused: {done.stderr.strip()}') + '.')
+
+
 def main():
     """Fit both sessions and write the table."""
     inclino = os.path.join(os.path.dirname(sys.executable), 'inclino')
@@ -115,6 +141,7 @@ def main():
         cells += [f'{np.abs(scale - peer_scale).max():.1e}',
                   f'{np.abs(bias - peer_bias).max():.4f}']
         lines.append(f'| {what} | ' + ' | '.join(cells) + ' |')
+    lines += ['', visits(inclino)]
     lines += ['', "K is the peer's to float rounding (six positions determine it exactly). The "
               "bias differs: the least squares takes the mean of the three axis pairs' "
               'midpoints on every axis, the peer each axis from its own pair, whose midpoint '
