@@ -154,7 +154,7 @@ def test_each_placement_of_the_log_is_a_visit(tmp_path):
     position (9 positions, the repeat of a face unseen); a pause longer than the still test's
     window now begins a new visit.  The repeatability fit-stand reports is the sample standard
     deviation of each face's visits' errors (unit corrected reading minus unit nominal), pooled:
-    computed here from the fitted K and b and the segments' means (0.13-0.15 deg: the faces).
+    computed here from the fitted K and b and the segments' means (0.125 deg: the faces).
     """
     log = read_table(os.path.join(DATA, 'ferraris_log.csv'))
     accel = np.column_stack([log['ax'], log['ay'], log['az']])
