@@ -168,7 +168,8 @@ def stand_stage(result, method, rms_inclination_deg, positions, temperature_c):
 
 def solve_stand(readings, attitudes_deg, gravity_mps2, max_rms_deg, temperatures_c=None,
                 max_temperature_difference_c=None,
-                names=('stand.max_rms_deg', 'temperature.max_stage_difference_c')):
+                names=('stand.max_rms_deg', 'temperature.max_stage_difference_c'),
+                attitude_sigma_deg=0.0, mean_noise_mps2=None):
     """
     Return the StandSolution of stand positions (seed 001 Eq. 10 with a bias).
 
@@ -183,7 +184,9 @@ def solve_stand(readings, attitudes_deg, gravity_mps2, max_rms_deg, temperatures
     fit whose inclination residual RMS over its own positions exceeds
     ``max_rms_deg`` (a position mislabelled, the tool moved or not seated the
     same way) comes back with its ``refusal``.  ``names``: how the reasons
-    name the two limits.
+    name the two limits.  ``attitude_sigma_deg``, ``mean_noise_mps2``: the
+    positions' attitudes known only to that, the noise of each mean
+    (``stand.fit_stand``: a tool set on its faces by hand).
     """
     rms_name, temperature_name = names
     readings = np.asarray(readings, dtype=float).reshape(-1, 3)
@@ -197,7 +200,8 @@ def solve_stand(readings, attitudes_deg, gravity_mps2, max_rms_deg, temperatures
         if max_temperature_difference_c is not None:
             check_temperature_span(temperatures_c, max_temperature_difference_c,
                                    temperature_name)
-        fit = fit_stand(readings, truth)
+        fit = fit_stand(readings, truth, attitude_sigma_deg=attitude_sigma_deg,
+                        mean_noise_mps2=mean_noise_mps2)
     refusal = None
     if fit.rms_inclination_deg > max_rms_deg:
         worst = int(np.argmax(np.abs(fit.inclination_residual_deg)))
@@ -219,7 +223,8 @@ def solve_stand(readings, attitudes_deg, gravity_mps2, max_rms_deg, temperatures
 
 
 def solve_sample_positions(readings, attitude_deg, times_s, stood_c, still, gravity_mps2,
-                           max_rms_deg, max_temperature_difference_c, names):
+                           max_rms_deg, max_temperature_difference_c, names,
+                           attitude_sigma_deg=0.0):
     """
     Return (StandSolution, attitudes, samples, noise_deg) per position of stand samples.
 
@@ -228,14 +233,18 @@ def solve_sample_positions(readings, attitude_deg, times_s, stood_c, still, grav
     limits (``position_noise_deg``: CaptureRefused) and the temperature it
     stood for is the mean of its samples' ``stood_c`` (None: unknown); then
     ``solve_stand`` (as ``stand_capture.solve_positions`` fits the node's
-    positions), StandFitRefused as it refuses.
+    positions), StandFitRefused as it refuses.  ``attitude_sigma_deg`` > 0:
+    the attitudes are known only to that (``stand.fit_stand``), each mean's
+    noise its samples' spread over the square root of their count.
     """
     attitudes, means, counts, position = group_positions(readings, attitude_deg, times_s)
     temperatures_c = (None if stood_c is None else
                       np.bincount(position, weights=stood_c) / counts)
     noise_deg = position_noise_deg(readings, times_s, position, len(means), still)
+    mean_noise_mps2 = gravity_mps2 * np.radians(noise_deg) / np.sqrt(counts)
     return (solve_stand(means, attitudes, gravity_mps2, max_rms_deg, temperatures_c,
-                        max_temperature_difference_c, names), attitudes, counts, noise_deg)
+                        max_temperature_difference_c, names, attitude_sigma_deg,
+                        mean_noise_mps2), attitudes, counts, noise_deg)
 
 
 def temperature_plateaus(readings, truth, temperatures_c):
