@@ -59,6 +59,23 @@ def fit(tmp_path, name, *options):
     return code, out, err, (load_model(target).stand if code == 0 else None)
 
 
+def log_segments_held_out():
+    """
+    Return (accel (N, 3), still segments, held out) of the example log.
+
+    Its still segments (``core.stillness``, the gyro too) and those outside the six annotated
+    sections: the board set on a face again around each 360 deg turn.
+    """
+    log = read_table(os.path.join(DATA, 'ferraris_log.csv'))
+    accel = np.column_stack([log['ax'], log['ay'], log['az']])
+    found = log_segments(log['time_s'], accel, np.column_stack([log['wx'], log['wy'], log['wz']]))
+    with open(os.path.join(DATA, 'example_ferraris_session_list.json')) as stream:
+        sections = json.load(stream).values()
+    held_out = [(start, end) for start, end in found.ranges
+                if not any(start < s['end'] and end > s['start'] for s in sections)]
+    return accel, found, held_out
+
+
 def test_the_closed_form_reproduces_the_peers_published_output():
     """The independent computation is the peer's: its 50 published calibrated rows to 2e-6."""
     scale, bias, _ = ferraris(section_means('ferraris_positions.csv'))
@@ -126,13 +143,7 @@ def test_the_log_alone_and_survey_on_it(tmp_path):
     assert code == 0, err
     with open(tmp_path / 'survey.csv', newline='') as stream:
         g_total = np.array([float(row['g_total_mps2']) for row in csv.DictReader(stream)])
-    log = read_table(log_path)
-    accel = np.column_stack([log['ax'], log['ay'], log['az']])
-    found = log_segments(log['time_s'], accel, np.column_stack([log['wx'], log['wy'], log['wz']]))
-    with open(os.path.join(DATA, 'example_ferraris_session_list.json')) as stream:
-        sections = json.load(stream)
-    held_out = [(start, end) for start, end in found.ranges
-                if not any(start < s['end'] and end > s['start'] for s in sections.values())]
+    accel, _, held_out = log_segments_held_out()
     assert len(held_out) == 5
     scale, bias = np.array(stand.scale_matrix), np.array(stand.bias_mps2)
     raw, ours = [], []
@@ -157,8 +168,7 @@ def test_each_placement_of_the_log_is_a_visit(tmp_path):
     computed here from the fitted K and b and the segments' means (0.125 deg: the faces).
     """
     log = read_table(os.path.join(DATA, 'ferraris_log.csv'))
-    accel = np.column_stack([log['ax'], log['ay'], log['az']])
-    found = log_segments(log['time_s'], accel, np.column_stack([log['wx'], log['wy'], log['wz']]))
+    accel, found, _ = log_segments_held_out()
     faces = {(0, 1): (90, 0), (0, -1): (90, 180), (1, 1): (90, 90), (1, -1): (90, 270),
              (2, 1): (0, 0), (2, -1): (180, 0)}
     labels = []
@@ -211,13 +221,8 @@ def test_faces_set_by_hand_take_the_bias_along_gravity(tmp_path):
         assert code == 0, err
         assert np.abs(np.array(stand.scale_matrix) - scale).max() < 1e-5
         assert np.abs(np.array(stand.bias_mps2) - peer_bias).max() < 5e-4
-    log = read_table(os.path.join(DATA, 'ferraris_log.csv'))
-    accel = np.column_stack([log['ax'], log['ay'], log['az']])
-    found = log_segments(log['time_s'], accel, np.column_stack([log['wx'], log['wy'], log['wz']]))
-    with open(os.path.join(DATA, 'example_ferraris_session_list.json')) as stream:
-        sections = json.load(stream).values()
-    held_out = np.array([accel[a:b].mean(axis=0) for a, b in found.ranges
-                         if not any(a < s['end'] and b > s['start'] for s in sections)])
+    accel, _, ranges = log_segments_held_out()
+    held_out = np.array([accel[start:end].mean(axis=0) for start, end in ranges])
     stand = load_model(tmp_path / 'ferraris_positions.csv.json').stand
     corrected = np.linalg.solve(np.array(stand.scale_matrix),
                                 (held_out - np.array(stand.bias_mps2)).T).T
