@@ -86,15 +86,17 @@ def group_positions(readings, attitude_deg, times_s=None):
     attitude is a position of its own, a repeat ``stand.fit_stand`` weighs
     and reports); ``position`` is the number of each sample's position.
     With ``times_s`` (N,), a pause between two samples longer than the still
-    test's window (``SegmentLimits.window_s``) begins a new visit as well:
-    the tool was taken away and set down again (a log's still segments with
-    the motion between them cut out; the time the samples stood tells what
-    their order alone does not).
+    test's window (``SegmentLimits.window_s``) and than ten of the stream's
+    median intervals (a slow sensor's own pace is no pause) begins a new
+    visit as well: the tool was taken away and set down again (a log's still
+    segments with the motion between them cut out; the time the samples
+    stood tells what their order alone does not).
     """
     attitude_deg = np.asarray(attitude_deg, dtype=float)
     changed = np.any(attitude_deg[1:] != attitude_deg[:-1], axis=1)
-    if times_s is not None:
-        changed |= np.diff(np.asarray(times_s, dtype=float)) > SegmentLimits.window_s
+    if times_s is not None and len(times_s) > 1:
+        step = np.diff(np.asarray(times_s, dtype=float))
+        changed |= step > max(SegmentLimits.window_s, 10.0 * float(np.median(step)))
     position = np.concatenate([[0], np.cumsum(changed)]).astype(int)
     counts = np.bincount(position)
     means = np.stack([np.bincount(position, weights=readings[:, axis]) for axis in range(3)],
