@@ -146,8 +146,8 @@ def detrended_shape(size, lags):
         backward = lfilter([1.0], [1.0, -rho], basis[::-1], axis=0)[::-1]
         g = forward + backward - basis
         m = basis.T @ g
-        diagonal = 1.0 - 2.0 * np.sum(basis * g, axis=1) + np.einsum('ak,kl,al->a', basis, m,
-                                                                       basis)
+        diagonal = (1.0 - 2.0 * np.sum(basis * g, axis=1)
+                    + np.einsum('ak,kl,al->a', basis, m, basis))
         for column, lag in enumerate(lags):
             a, b = basis[:-lag], basis[lag:]
             cross = (rho ** lag - np.sum(a * g[lag:], axis=1) - np.sum(g[:-lag] * b, axis=1)
