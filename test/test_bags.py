@@ -504,3 +504,31 @@ def test_process_averages_every_n_samples(tmp_path, run_3axis):
     variance = imu.linear_acceleration_covariance[:, [0, 4, 8]]
     assert np.all(variance >= NOISE_MPS2 ** 2 / 70 * (1.0 - 1e-12))
     assert np.all(variance[still] <= 1.5 * NOISE_MPS2 ** 2 / 70)
+
+
+def test_process_bias_instability_adds_its_flicker_to_each_window(tmp_path, run_3axis):
+    """
+    ``--bias-instability-mps2 B`` (the node's accelerometer_bias_instability_mps2) in process.
+
+    Each averaged window's mean variance grows by the flicker ``(c B)^2``
+    (``stillness.floored_count``: 1 / count + (c B / noise)^2, c =
+    ``flicker_mean_factor()``), so every /imu/data acceleration variance is the
+    one without B plus (c B)^2 (the level calibration's matrix is within 1 % of
+    the identity: tolerance 3 %).  Without the option (main: no such option) the
+    variances stay those of the white noise.
+    """
+    from inclino_ros.core.correlated_noise import flicker_mean_factor
+    b_mps2 = NOISE_MPS2 / math.sqrt(70.0)
+    variances = []
+    for extra in ([], ['--bias-instability-mps2', str(b_mps2)]):
+        out_bag = str(tmp_path / f'avg{len(extra)}')
+        code, _, stderr = quiet(['process', run_3axis['sim'], out_bag,
+                                 '--calibration', run_3axis['calibration'],
+                                 '--noise-mps2', str(NOISE_MPS2), '--average-samples', '70']
+                                + extra)
+        assert code == 0, stderr
+        imu = bag.concatenate(bag.read(out_bag, '/imu/data'))
+        variances.append(imu.linear_acceleration_covariance[:, [0, 4, 8]])
+    assert variances[0].shape == variances[1].shape and variances[0].size
+    np.testing.assert_allclose(variances[1] - variances[0],
+                               (flicker_mean_factor() * b_mps2) ** 2, rtol=0.03)
