@@ -232,8 +232,9 @@ def flicker_mean_factor(band_ratio=FLICKER_BAND_RATIO):
     flicker synthesised in bins k / (L T), k >= 1, over FLICKER_SPAN times the
     record of L captures) is the integral from ``f_lo e^-gamma`` (the harmonic
     sum's gamma): a capture read alone (L = 16 records of itself, R = 16 e^gamma
-    = 28.5) is off by 0.88 B (measured, 3000 captures), one of 200 consecutive
-    captures (bench_coverage, R = 5700) by c = 1.56 B.  Its Allan floor
+    = 28.5) is off by 0.88 B (measured, 3000 captures); bench_coverage gives
+    each capture its own record over ``flicker_span`` = R e^-gamma records, R =
+    FLICKER_BAND_RATIO (the band this c assumes).  Its Allan floor
     ``0.664 B`` is what the capture itself shows; the rest (periods beyond the
     capture) only a configured B can say.
     """
