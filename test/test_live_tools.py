@@ -66,9 +66,12 @@ def bench(tmp_path):
     return tmp_path
 
 
-def test_level_calibration_with_play_calibrate_monitor_param(start_node, bench):
+def test_level_calibration_with_play_calibrate_monitor_param(start_node, probe, bench):
     """The README walkthrough: loop the level segment, calibrate, stop play, look, process."""
     start_node(**{'level_capture.samples': 600})
+    # As a user does, who starts play once the node is up: play waits --wait-s (10 s) for
+    # a subscriber of any node, which a node still starting on a loaded machine may pass.
+    probe.wait_for_node()
     player = start('play', 'bench_bag', '--end-s', 3, '--loop', cwd=bench)
     read_until(player, 'playing 600 messages of /imu/data_raw')
     code, out, err = inclino('calibrate', cwd=bench)
