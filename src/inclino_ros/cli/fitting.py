@@ -53,6 +53,19 @@ def add_file_arguments(parser, csv_help='CSV file with a header row'):
     add_sensor_argument(parser)
     parser.add_argument('--report-dir', metavar='DIR',
                         help='folder of the PNG and text report (default: that of FILE)')
+    add_history_option(parser)
+
+
+def add_history_option(parser):
+    """Add --history-keep: how many versions the calibration file's history keeps."""
+    node_option(parser, '--history-keep', 'calibration.history_keep',
+                'versions kept in the history of the calibration file (FILE.history); a write '
+                'removes the older ones and says which, never the one in use', metavar='N')
+
+
+def history_report(command):
+    """Return the ``report`` of ``model.save_model``: its line on stderr, a note of ``command``."""
+    return lambda line: print(f'{command}: note: {line}', file=sys.stderr)
 
 
 def add_common_arguments(parser):
@@ -96,7 +109,7 @@ def read_csv(path, required, optional=(), text=(), max_rows=tables.MAX_ROWS):
 
 
 def node_option(parser, flag, parameter, help_text, **kwargs):
-    """Add the float option ``flag`` defaulting to the node's ``parameter`` (said in its help)."""
+    """Add the option ``flag`` of the type, range and default of the node's ``parameter``."""
     parser.add_argument(flag, type=node_parameter(parameter), default=NODE_DEFAULTS[parameter],
                         help=f'{help_text} (default: %(default)s, as {parameter})', **kwargs)
 
@@ -175,7 +188,8 @@ def save(args, model, outputs):
     CommandError when the file cannot be written.
     """
     try:
-        save_model(args.calibration, model, args.writer, outputs, args.calibration_sha256)
+        save_model(args.calibration, model, args.writer, outputs, args.calibration_sha256,
+                   args.history_keep, history_report(args.writer))
     except ValueError as err:
         raise Refused(f'the result is not a plausible calibration: {err}') from None
     except OSError as err:

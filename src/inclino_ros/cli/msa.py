@@ -70,7 +70,8 @@ from inclino_ros.calibration.stations import (
     raw_survey_inputs, solve_interference, with_interference)
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
-    add_sensor_argument, begin_update, load_existing, read_csv, Refused, save, write_certificate)
+    add_history_option, add_sensor_argument, begin_update, load_existing, read_csv, Refused, save,
+    write_certificate)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.options import add_force_argument, between, non_negative, report_path
 from inclino_ros.cli.process import add_limit_arguments
@@ -122,6 +123,7 @@ def register(subparsers):
                         help='calibration file: its cross-axial correction is applied first, '
                              'the solved interference stored in its magnetic stage')
     add_sensor_argument(parser)
+    add_history_option(parser)
     parser.add_argument('--method', choices=METHODS, default='improved',
                         help='correction method (default: %(default)s)')
     parser.add_argument('--cross-axial-nT', nargs=2, metavar=('EX', 'EY'),

@@ -11,6 +11,7 @@ its ParameterDescriptor (``inclinometer_node.descriptor``).
 from dataclasses import dataclass
 import math
 
+from inclino_ros.calibration.history import DEFAULT_KEEP
 from inclino_ros.calibration.plausibility import EARTH_FIELD_NT
 from inclino_ros.core.averaging import MIN_OUTPUT_RATE_HZ
 from inclino_ros.core.constants import STANDARD_GRAVITY_MPS2
@@ -48,6 +49,10 @@ PARAMETERS = (
     Parameter('calibration.max_age_days', 180.0,
               'Diagnostics WARN when a calibration stage is older than this [days].',
               0.01, 36500.0, read_only=False),
+    Parameter('calibration.history_keep', DEFAULT_KEEP,
+              'Versions of the calibration file kept in its history (FILE.history): at each '
+              'write the older ones are removed (and logged); never the newest, nor the one '
+              'in use.', 1, 1_000_000, read_only=False),
     Parameter('accelerometer_axes', 3,
               'Accelerometer axes: 3, or 2 for a two-axis sensor (z completed from '
               'gravity_mps2, tool upright).', 2, 3),
