@@ -42,16 +42,22 @@ class LogSegments:
                 f'({min(duration)}..{max(duration)} samples a segment)']
 
 
-def segment_limits(max_drift_deg_per_s, max_sem_deg, sem_name='--max-sem-deg', **segment):
+def segment_limits(max_drift_deg_per_s, max_sem_deg, sem_name='--max-sem-deg',
+                   max_motion_deg=None, motion_name='--max-motion-deg', **segment):
     """
     Return the SegmentLimits of a command's still options (the capture's own limits).
 
     ``sem_name``: the option of ``max_sem_deg`` as the messages name it;
+    ``max_motion_deg`` (``StillLimits``), named ``motion_name``; None:
+    ``max_sem_deg`` under ``sem_name`` (a segment's one tolerance);
     ``segment``: other SegmentLimits fields (``window_s``, ``min_s``,
     ``max_rate_deg_per_s``), their defaults otherwise.
     """
+    if max_motion_deg is None:
+        max_motion_deg, motion_name = max_sem_deg, sem_name
     still = StillLimits(max_drift_deg_per_s=max_drift_deg_per_s, max_sem_deg=max_sem_deg,
-                        drift_name='--max-drift-deg-per-s', sem_name=sem_name)
+                        max_motion_deg=max_motion_deg, drift_name='--max-drift-deg-per-s',
+                        sem_name=sem_name, motion_name=motion_name)
     return SegmentLimits(still=still, **segment)
 
 

@@ -37,7 +37,7 @@ TRIAD_COLUMNS = {'accelerometer': (AXIS_COLUMNS, ('ref_ax', 'ref_ay', 'ref_az'))
 #: not a whole segment, and a window moves only beyond 0.1 deg/s or 0.5 deg within it (a
 #: hand turning the tool moves it by degrees).
 HEATING_SEGMENTS = SegmentLimits(window_s=5.0, min_s=10.0, whole=False, still=StillLimits(
-    max_drift_deg_per_s=0.1, max_sem_deg=0.5))
+    max_drift_deg_per_s=0.1, max_sem_deg=0.5, max_motion_deg=0.5))
 
 
 @dataclass(frozen=True)

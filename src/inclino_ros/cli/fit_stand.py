@@ -164,7 +164,8 @@ def still_samples(args, readings, gyro, temperature_c, times_s, lines):
     """
     try:
         found = log_segments(times_s, readings, gyro, temperature_c,
-                             segment_limits(args.max_drift_deg_per_s, args.max_sem_deg))
+                             segment_limits(args.max_drift_deg_per_s, args.max_sem_deg,
+                                            max_motion_deg=args.max_motion_deg))
     except ValueError as err:
         raise CommandError(f'{args.input}: {err}') from None
     lines.extend(found.lines(f'log {args.input}'))
@@ -180,7 +181,8 @@ def still_samples(args, readings, gyro, temperature_c, times_s, lines):
 
 def still_limits(args):
     """Return the still test of a position from --max-drift-deg-per-s and --max-sem-deg."""
-    return segment_limits(args.max_drift_deg_per_s, args.max_sem_deg).still
+    return segment_limits(args.max_drift_deg_per_s, args.max_sem_deg,
+                          max_motion_deg=args.max_motion_deg).still
 
 
 def fit_positions(args, readings, attitude_deg, times_s, stood_c, lines):
