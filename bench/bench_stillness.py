@@ -111,8 +111,8 @@ def slow_turns(draws, rng):
         for duration_s in DURATIONS_S:
             sem_deg = noise_deg / math.sqrt(duration_s * RATE_HZ)
             for motion in MOTIONS:
-                accepted, moving, one, two, stated = motion_rates(noise_deg, duration_s, motion,
-                                                          draws, rng)
+                accepted, moving, one, two, stated = motion_rates(
+                    noise_deg, duration_s, motion, draws, rng)
                 share = (f'{one / accepted:.2f} | {two / accepted:.2f}' if accepted else '- | -')
                 print(f'| {sensor} | {duration_s:g} | {motion[0]} | {accepted / draws:.3f} | '
                       f'{moving / draws:.3f} | {share} | {stated:.4f} | {sem_deg:.4f} |')

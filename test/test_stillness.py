@@ -389,7 +389,7 @@ def test_slow_turn_is_refused_or_in_the_stated_sigma():
 
 def test_still_correlated_capture_is_accepted_with_its_sigma():
     """
-    Still captures of AR(1) noise (rho 0.5, 0.9: a low-pass filter) are accepted, their 2 sigma honest.
+    Still AR(1) captures (rho 0.5, 0.9: a low-pass filter) are accepted, their 2 sigma honest.
 
     Quartz-grade noise (1e-4 g) so that precision passes: none of 40 is
     refused (the drift test takes the correlation; the motion in the stated
@@ -413,3 +413,30 @@ def test_still_correlated_capture_is_accepted_with_its_sigma():
             error_deg = np.degrees(angle_between(truth, np.array(position.reading_mps2)))
             covered += error_deg.max() <= 2.0 * position.std_deg / math.sqrt(SAMPLES)
     assert covered >= 30, covered
+
+
+def test_slow_turn_rule_is_one_for_timed_and_untimed_captures():
+    """
+    Evenly sampled, a capture with times and one without state the same turn and sigma.
+
+    The motion at the ends is the slope times the half-span, in seconds or in
+    samples: the same number (``turn_deg``, its standard error, the stated
+    sigma), and the same verdict on a turn the capture cannot tell (MEMS,
+    0.015 deg/s over 5 s: accepted) and on one it can (quartz-grade noise:
+    refused, its ends beyond max_motion_deg).
+    """
+    for noise_mps2, verdict in ((DEFAULT_NOISE_MPS2, None), (1e-4 * G, 'tool is moving')):
+        readings, times_s = capture(noise_mps2, 30.0, 45.0, seed=4, turn_deg_per_s=0.015)
+        angles = tangent_angles(readings)
+        timed, untimed = assess(angles, times_s), assess(angles, None)
+        assert untimed.turn_deg == pytest.approx(timed.turn_deg, rel=1e-9)
+        assert untimed.turn_sigma_deg == pytest.approx(timed.turn_sigma_deg, rel=1e-9)
+        assert untimed.stated_sem_deg == pytest.approx(timed.stated_sem_deg, rel=1e-9)
+        # The fitted turn estimates the true one, 0.015 deg/s * 2.495 s, within 4 sigma.
+        assert timed.turn_deg == pytest.approx(0.015 * times_s[-1] / 2,
+                                               abs=4 * math.sqrt(2) * timed.turn_sigma_deg)
+        for result in (timed, untimed):
+            reason = judge(result, StillLimits())
+            assert (reason if reason is None else reason[:14]) == verdict, reason
+            if verdict:
+                assert 'its ends' in reason and 'max_motion_deg 0.01 deg' in reason

@@ -103,10 +103,11 @@ def node_option(parser, flag, parameter, help_text, **kwargs):
 
 def add_still_options(parser, sem_parameter, mean_of, capture):
     """
-    Add --max-sem-deg, --max-drift-deg-per-s, --max-motion-deg: a capture's still test (``still_capture``).
+    Add --max-sem-deg, --max-drift-deg-per-s, --max-motion-deg: a capture's still test.
 
-    ``sem_parameter``: the node parameter of the precision limit; ``mean_of``
-    and ``capture`` name what is averaged and what may move in the help texts.
+    The test is ``still_capture``'s; ``sem_parameter``: the node parameter of
+    the precision limit; ``mean_of`` and ``capture`` name what is averaged
+    and what may move in the help texts.
     """
     node_option(parser, '--max-sem-deg', sem_parameter,
                 f'largest standard error of the mean {mean_of} [deg]')

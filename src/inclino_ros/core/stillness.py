@@ -58,13 +58,19 @@ cannot be refused without refusing still captures, so:
   ``StillLimits.max_motion_deg`` (or faster than ``max_drift_deg_per_s``),
   or significantly unsteady block means one of which lies beyond it;
 * accepted otherwise, with the stated precision ``stated_sem_deg =
-  sqrt(sem^2 + turn_deg^2)``, the 1 sigma every stage downstream takes
-  (``white_noise_deg``).  The fitted ``turn_deg^2`` estimates ``h^2 + k
-  sigma_h^2`` (k components): the drift's size and its uncertainty over the
-  capture, the motion the data cannot exclude.  A still capture pays for
-  that uncertainty (its stated sigma about 2.6 times the mean's standard
-  error for k = 2); the precision target ``max_sem_deg`` is on the noise
-  alone, so no still capture is refused for it.  Measured in
+  sqrt(sem^2 + max(0, turn_deg^2 - c k sigma_h^2))`` (c =
+  MOTION_NOISE_FACTOR = 1; k components), the 1 sigma the level and stand
+  captures write (``white_noise_deg``).  The fitted ``turn_deg^2``
+  estimates ``h^2 + k sigma_h^2``: less the noise's share it is the
+  unbiased estimate of the motion's square, so a still capture keeps its
+  noise's sigma in 63 % of draws (k = 2) and a turn 2-4 sigma_h at its
+  ends is covered at 2 sigma in 0.92-1.00 of the accepted; a turn nearer
+  the noise is partly covered (a still capture's fitted ends move as far as
+  often: only more samples or a longer capture tell them apart).  The
+  precision target ``max_sem_deg`` is on the noise alone, so no capture is
+  refused as too noisy for motion it may not have.  Averaged windows of a
+  stream (``own_noise``) are not captures judged still: their 1 sigma is the
+  noise's.  Measured in
   bench/bench_stillness.py (bench/results/stillness.md).
 """
 
@@ -145,7 +151,8 @@ class Stillness:
         noise of the mean and the motion at the capture's ends beyond what
         its noise alone would fit (module docstring, "Slow turns").
         """
-        excess = self.turn_deg ** 2 - MOTION_NOISE_FACTOR * self.components * self.turn_sigma_deg ** 2
+        noise_share = MOTION_NOISE_FACTOR * self.components * self.turn_sigma_deg ** 2
+        excess = self.turn_deg ** 2 - noise_share
         return math.sqrt(self.sem_deg ** 2 + max(excess, 0.0))
 
     @property
