@@ -50,7 +50,7 @@ import sys
 
 from inclino_ros.calibration.continuous_log import segment_limits
 from inclino_ros.calibration.inputs import bag_shots
-from inclino_ros.calibration.magnetometer import calibrate_from_shots
+from inclino_ros.calibration.magnetometer import calibrate_from_shots, NONLINEAR_CHOICES
 from inclino_ros.calibration.plausibility import check_field_unit, Implausible
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
@@ -97,6 +97,11 @@ def register(subparsers):
                         default=ShotLimits.max_b_rms_fraction,
                         help='largest RMS of |B| the fit may leave, a fraction of the field '
                              '(default: %(default)s)')
+    parser.add_argument('--non-linear', choices=NONLINEAR_CHOICES, default='auto',
+                        help='the smooth non-linear stage fitted from the roll sets: auto (kept '
+                        'only when it improves the azimuth agreement of roll sets held out of '
+                        'its fit, each in turn, by more than 2 sigma), off, or on (kept '
+                        'whatever that judgement says)')
     bag = parser.add_argument_group('bag input')
     bag.add_argument('--raw-topic', default='/imu/data_raw',
                      help='sensor_msgs/Imu topic (default: %(default)s)')
@@ -167,7 +172,7 @@ def fit(args, lines, outputs):
                      max_g_rms_fraction=args.max_g_rms_fraction)
     try:
         result = calibrate_from_shots(existing, accel, field, labels, temperature_c,
-                                      args.gravity_mps2, total_nT, limits)
+                                      args.gravity_mps2, total_nT, limits, args.non_linear)
     except ShotFitRefused as err:
         if err.fit is not None:
             # A refused fit reports beside, not over, the report of the fit in the file.
@@ -179,6 +184,8 @@ def fit(args, lines, outputs):
     for note in result.notes:
         if note.startswith('WARNING'):
             print(f'inclino fit-magnetometer: {note}', file=sys.stderr)
+        elif note.startswith('non-linear stage'):
+            print(f'inclino fit-magnetometer: {note}')
     before, after = (magnetics.survey_of(model.apply(accel, temperature_c),
                                          model.apply_magnetic(field, before='magnetic'))
                      for model in (existing, result.model))
@@ -192,7 +199,8 @@ def fit(args, lines, outputs):
     model = save(args, result.model, outputs)
     written = ['magnetometer', 'magnetometer_alignment'] + (
         ['tool_axis'] if result.fit.tool_axis is not None else []) + (
-        ['stand (method sphere)'] if result.fit.accel_matrix is not None else [])
+        ['stand (method sphere)'] if result.fit.accel_matrix is not None else []) + (
+        ['magnetometer_nonlinear'] if result.model.magnetometer_nonlinear is not None else [])
     lines += [f'wrote the stages {", ".join(written)} to {args.calibration}',
               f'report: {txt}' + (f', {png}' if args.plot else '')]
     write_text(outputs.path(txt), lines)
