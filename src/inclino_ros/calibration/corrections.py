@@ -53,9 +53,8 @@ STAGES = ('temperature', 'stand', 'installation', 'tool_axis')
 #: The stages both triads share: the mount.
 MOUNT_STAGES = ('installation', 'tool_axis')
 #: The magnetometer's stages, in the order they are applied (the mount included).
-MAGNETOMETER_STAGES = ('magnetometer_temperature', 'magnetometer',
-                       'magnetometer_alignment') + MOUNT_STAGES + ('magnetometer_nonlinear',
-                                                                    'magnetic')
+MAGNETOMETER_STAGES = (('magnetometer_temperature', 'magnetometer', 'magnetometer_alignment')
+                       + MOUNT_STAGES + ('magnetometer_nonlinear', 'magnetic'))
 
 
 @dataclass(frozen=True)

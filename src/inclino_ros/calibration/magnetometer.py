@@ -248,13 +248,14 @@ def nonlinear_stage(model, accel_mps2, field_nT, roll_sets, temperature_c, choic
     keep = verdict.enabled or (choice == 'on' and len(roll_sets) >= 1)
     if not keep:
         return None, verdict, f'non-linear stage: OFF (linear kept): {verdict.reason}'
-    correction = fit_correction(gravity, fields, roll_sets)
+    correction = fit_correction(gravity, fields, roll_sets, verdict.centres, verdict.ridge)
     stage = MagnetometerNonlinear(
         weights=_matrix(correction.weights), scale_nT=correction.scale_nT,
         rms_residual_nT=correction.rms_residual_nT, roll_sets=len(roll_sets),
         shots=int(sum(len(s) for s in roll_sets)),
-        held_out_before_deg=verdict.before_deg, held_out_after_deg=verdict.after_deg,
-        held_out_noise_deg=verdict.noise_deg, fitted_at=fitted_at,
+        **{f'held_out_{key}_deg': None if math.isnan(value) else value for key, value in (
+            ('before', verdict.before_deg), ('after', verdict.after_deg),
+            ('noise', verdict.noise_deg))}, fitted_at=fitted_at,
         parameter_covariance=_matrix(correction.covariance),
         temperature_c=temperature_of_fields_c)
     forced = '' if verdict.enabled else ' (forced: --non-linear on)'

@@ -379,8 +379,9 @@ STAGE_FIELDS = {
         plausibility.check_magnetometer_alignment),
     'magnetometer_nonlinear': (MagnetometerNonlinear, {
         'weights': _nonlinear_weights, 'scale_nT': _number, 'rms_residual_nT': _number,
-        'roll_sets': _count, 'shots': _count, 'held_out_before_deg': _number,
-        'held_out_after_deg': _number, 'held_out_noise_deg': _number, 'fitted_at': _time,
+        'roll_sets': _count, 'shots': _count, 'held_out_before_deg': _optional(_number),
+        'held_out_after_deg': _optional(_number), 'held_out_noise_deg': _optional(_number),
+        'fitted_at': _time,
         'parameter_covariance': _nonlinear_covariance, 'temperature_c': _temperature}, (),
         plausibility.check_magnetometer_nonlinear),
     'temperature': (Temperature, _temperature_fields('mps2'), (_temperature_range,),
