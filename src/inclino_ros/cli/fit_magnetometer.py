@@ -186,8 +186,6 @@ def fit(args, lines, outputs):
     for note in result.notes:
         if note.startswith('WARNING'):
             print(f'inclino fit-magnetometer: {note}', file=sys.stderr)
-        elif note.startswith('non-linear stage'):
-            print(f'inclino fit-magnetometer: {note}')
     before, after = (magnetics.survey_of(model.apply(accel, temperature_c),
                                          model.apply_magnetic(field, before='magnetic'))
                      for model in (existing, result.model))
