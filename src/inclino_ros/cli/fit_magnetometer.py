@@ -23,8 +23,9 @@ file gets the stages ``magnetometer``, ``magnetometer_alignment``,
 ``tool_axis`` (with roll groups) and ``stand`` (method sphere, when fitted),
 and ``magnetometer_nonlinear`` when the roll sets support it
 (``magnetometer.nonlinear_stage``: ``--non-linear``, the held-out gate's
-figures and decision in the report and on stdout); its other stages are kept; the installation (level bench) too, carried
-into a new accelerometer frame, unless roll groups measure the tool axis.
+figures and decision in the report and on stdout); its other stages are
+kept; the installation (level bench) too, carried into a new accelerometer
+frame, unless roll groups measure the tool axis.
 Nothing measuring the mount (a bag has no roll groups) is said loudly, on
 stderr too.  The field is scaled to
 ``--reference-total-nT`` (or ``--site``) if given, else to the sensor's own
