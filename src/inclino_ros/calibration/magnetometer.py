@@ -253,7 +253,7 @@ def nonlinear_stage(model, accel_mps2, field_nT, roll_sets, temperature_c, choic
         weights=_matrix(correction.weights), scale_nT=correction.scale_nT,
         rms_residual_nT=correction.rms_residual_nT, roll_sets=len(roll_sets),
         shots=int(sum(len(s) for s in roll_sets)),
-        **{f'held_out_{key}_deg': None if math.isnan(value) else value for key, value in (
+        **{f'held_out_{key}_deg': value if math.isfinite(value) else None for key, value in (
             ('before', verdict.before_deg), ('after', verdict.after_deg),
             ('noise', verdict.noise_deg))}, fitted_at=fitted_at,
         parameter_covariance=_matrix(correction.covariance),

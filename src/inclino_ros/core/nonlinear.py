@@ -196,8 +196,9 @@ def gate(gravity, field, roll_sets, candidates=CANDIDATES, sigmas=GATE_SIGMAS):
     before, after = before ** 2, after ** 2
     rms_before, rms_after = math.sqrt(before.mean()), math.sqrt(after.mean())
     # The difference of the mean squares, its standard error over the held-out shots, in deg.
-    noise = float(np.std(before - after, ddof=1) / math.sqrt(before.size)
-                  / (rms_before + rms_after))
+    total = rms_before + rms_after
+    noise = (float(np.std(before - after, ddof=1) / math.sqrt(before.size) / total)
+             if total > 0.0 and before.size > 1 else math.inf)
     enabled = rms_before - rms_after > sigmas * noise
     reason = (f'held-out roll-set azimuth RMS {rms_before:.3f} -> {rms_after:.3f} deg '
               f'(1 sigma of the difference {noise:.3f} deg, {len(roll_sets)} roll sets each '
