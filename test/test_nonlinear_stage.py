@@ -209,3 +209,35 @@ def test_the_stage_is_stored_validated_and_in_the_sigma(tmp_path):
     first = stage.scale_nT * np.exp(-((inputs[:, 0] / stage.scale_nT + 1.0)
                                       / (1.5 / centres)) ** 2)
     np.testing.assert_allclose(j_b[:, 0, 0], first, rtol=1e-12)
+
+
+def test_survey_applies_the_stage(tmp_path):
+    """
+    ``inclino survey`` with a file holding the stage: its azimuths are the stage's, not linear.
+
+    The correction written out here from the stored weights (x, y += s sum w_k
+    exp(-((b / s - c_k) / h)^2)) on the linear chain's field, the azimuth from it by seed 002.
+    """
+    model, _ = fit_real(tmp_path, 'mag_cal_cal_data', 'ab')
+    code, _, err = quiet(['survey', DATA / 'mag_cal_cal_data' / 'ab.csv', '--calibration',
+                          tmp_path / 'ab.json', '-o', tmp_path / 'survey.csv'])
+    assert code == 0, err
+    table = np.genfromtxt(tmp_path / 'survey.csv', delimiter=',', names=True, dtype=None,
+                          encoding='utf-8')
+    accel, field = read(DATA / 'mag_cal_cal_data' / 'ab.csv')
+    stage = model.magnetometer_nonlinear
+    linear = replace(model, magnetometer_nonlinear=None).apply_magnetic(field, before='magnetic')
+    weights, scale = np.array(stage.weights), stage.scale_nT
+    centres = np.linspace(-1.0, 1.0, weights.shape[1])
+    corrected = linear.copy()
+    for axis in (0, 1):
+        bumps = np.exp(-((linear[:, axis, None] / scale - centres) / (1.5 / len(centres))) ** 2)
+        corrected[:, axis] += scale * bumps @ weights[axis]
+    gravity = model.apply(accel)
+    expected = magnetics.survey_of(gravity, corrected)['azimuth_deg']
+    before = magnetics.survey_of(gravity, linear)['azimuth_deg']
+    shown = np.isfinite(table['azimuth_deg'])
+    assert shown.sum() >= 20
+    np.testing.assert_allclose(angle_error_deg(table['azimuth_deg'][shown], expected[shown]),
+                               0.0, atol=1e-6)
+    assert np.max(np.abs(angle_error_deg(expected, before))) > 0.1
