@@ -241,15 +241,24 @@ def held_shots(tool, incl, tf, azim, rng):
     return np.arange(attitude.shape[1], dtype=np.int64) * (10 ** 9 // rate_hz), readings
 
 
-def write_shots_bag(path, tool, incl, tf, azim, rng):
-    """Write a bag of the tool held at each attitude in turn (``held_shots``)."""
+def write_shots_bag(path, tool, incl, tf, azim, rng, temperature_c=None):
+    """
+    Write a bag of the tool held at each attitude in turn (``held_shots``).
+
+    ``temperature_c``: a function of the stamps [ns] giving /imu/temperature, or None.
+    """
     stamps, readings = held_shots(tool, incl, tf, azim, rng)
+    series = {'/imu/data_raw': bag.raw_imu(stamps, 'tool', readings.accel_mps2, 1e-3),
+              '/imu/mag': bag.magnetometer(stamps, 'tool', readings.mag_nT, 5.0)}
+    if temperature_c is not None:
+        series['/imu/temperature'] = bag.TemperatureSeries(
+            stamps, np.full(stamps.size, 'tool'), temperature_c(stamps), np.zeros(stamps.size))
     with bag.BagWriter(path, 'mcap') as out:
         out.add_topic('/imu/data_raw', bag.IMU)
         out.add_topic('/imu/mag', bag.MAGNETIC_FIELD)
-        out.write_series({
-            '/imu/data_raw': bag.raw_imu(stamps, 'tool', readings.accel_mps2, 1e-3),
-            '/imu/mag': bag.magnetometer(stamps, 'tool', readings.mag_nT, 5.0)})
+        if temperature_c is not None:
+            out.add_topic('/imu/temperature', bag.TEMPERATURE)
+        out.write_series(series)
     return path
 
 

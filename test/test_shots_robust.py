@@ -248,6 +248,27 @@ def test_roll_sets_are_found_in_a_bag(tmp_path):
     assert np.max(np.abs(inclination - incl)) < 0.05
 
 
+def test_a_bag_with_a_temperature_topic_records_what_its_shots_stood_for(tmp_path):
+    """
+    ``--temperature-topic`` of a bag is read: the stages record the shots' mean temperature.
+
+    The tool warms 30 -> 40 C over the run (linear in time): the segments' mean
+    temperature is 35 C within the still parts' asymmetry (< 0.5 C).  Main read no
+    temperature from a bag (the stages stood for an unknown one; failed first).
+    """
+    rng = np.random.default_rng(21)
+    tool = shots_sim.tool(sensor_model.QUARTZ_FLUXGATE)
+    incl, tf, azim, _ = shots_sim.shot_attitudes(rng)
+    path = write_shots_bag(str(tmp_path / 'shots_bag'), tool, incl, tf, azim, rng,
+                           lambda stamps: 30.0 + 10.0 * stamps / stamps[-1])
+    calibration = tmp_path / 'cal.json'
+    code, out, err = quiet(['fit-magnetometer', path, '--calibration', calibration])
+    assert code == 0, err
+    model = load_model(calibration)
+    assert model.magnetometer.temperature_c == pytest.approx(35.0, abs=0.5)
+    assert model.stand.temperature_c == pytest.approx(model.magnetometer.temperature_c)
+
+
 def test_a_continuous_log_gives_its_still_segments_as_shots(tmp_path):
     """
     A CSV log (``time_s``, ax..bz) of the bag's run: its still segments are the shots, as a bag's.

@@ -294,20 +294,26 @@ def rotation_input(source):
 
 def bag_shots(source, max_pairing_s, pairing_tolerance_nT, limits):
     """
-    Return (accel (S, 3), field (S, 3), paired samples) of a bag's shots (fit-magnetometer).
+    Return (accel (S, 3), field (S, 3), temperature_c (S,) or None, paired samples).
 
-    Each Imu sample of ``raw_topic`` is paired with a ``mag_topic`` reading
-    (``timing.pair_nearest`` within ``max_pairing_s`` and
-    ``pairing_tolerance_nT``); the still segments of the paired stream, both
-    triads still (``stillness.find_still_segments`` with ``limits``, a
-    SegmentLimits), are the shots, each the mean of its segment.  Refused
-    with fewer than two paired samples or more segments than a fit takes
-    (``tables.MAX_SHOTS``).
+    Of a bag's shots (fit-magnetometer).  Each Imu sample of ``raw_topic`` is
+    paired with a ``mag_topic`` reading (``timing.pair_nearest`` within
+    ``max_pairing_s`` and ``pairing_tolerance_nT``); the still segments of the
+    paired stream, both triads still (``stillness.find_still_segments`` with
+    ``limits``, a SegmentLimits), are the shots, each the mean of its
+    segment, and its mean ``temperature_topic`` reading when the bag has that
+    topic (``sample_temperatures``; None when a segment lies outside its time
+    span).  Refused with fewer than two paired samples or more segments than
+    a fit takes (``tables.MAX_SHOTS``).
     """
     imu = read_topic(source.path, source.raw_topic)
     mag = read_topic(source.path, source.mag_topic)
     field, paired = pair_nearest(imu.stamps_ns, mag.stamps_ns, mag.field_nT,
                                  round(max_pairing_s * 1e9), pairing_tolerance_nT)
+    temperature_c = None
+    if has_topic(source.path, source.temperature_topic):
+        temperature_c, inside = sample_temperatures(imu, source.path, source.temperature_topic)
+        temperature_c = np.where(inside, temperature_c, np.nan)
     order = np.argsort(imu.stamps_ns[paired], kind='stable')
     stamps = imu.stamps_ns[paired][order]
     accel = imu.linear_acceleration_mps2[paired][order]
@@ -318,9 +324,14 @@ def bag_shots(source, max_pairing_s, pairing_tolerance_nT, limits):
     segments = find_still_segments((stamps - stamps[0]) * 1e-9, accel, limits=limits,
                                    fields=field)
     _check_shot_count(len(segments))
+    if temperature_c is not None:
+        temperature_c = np.array([np.mean(temperature_c[paired][order][a:b])
+                                  for a, b in segments])
+        if not np.all(np.isfinite(temperature_c)):
+            temperature_c = None
     return (np.array([accel[a:b].mean(axis=0) for a, b in segments]).reshape(-1, 3),
             np.array([field[a:b].mean(axis=0) for a, b in segments]).reshape(-1, 3),
-            stamps.size)
+            temperature_c, stamps.size)
 
 
 def _check_shot_count(segments):

@@ -139,11 +139,11 @@ def still_limits(args):
 
 def read_bag_shots(args, lines):
     """Return the shots of a bag's still segments (``inputs.bag_shots``; roll groups: none)."""
-    accel, field, paired = bag_shots(source_of(args), args.max_pairing_s,
-                                     MAG_PAIRING_TOLERANCE_NT, still_limits(args))
+    accel, field, temperature_c, paired = bag_shots(
+        source_of(args), args.max_pairing_s, MAG_PAIRING_TOLERANCE_NT, still_limits(args))
     lines.append(f'{accel.shape[0]} still segment(s) found in {args.input} '
                  f'({paired} paired samples)')
-    return accel, field, None, None
+    return accel, field, None, temperature_c
 
 
 def fit(args, lines, outputs):
