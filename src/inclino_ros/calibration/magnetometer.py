@@ -162,11 +162,11 @@ def fit_field_positions(existing, fields_nT, attitude_deg, times_s, temperature_
     paired = np.isfinite(fields_nT).all(axis=1)
     temperature_c = None if temperature_c is None else temperature_c[paired]
     fields_nT = existing.apply_magnetic(fields_nT[paired], temperature_c, before='magnetometer')
-    positions, means, counts, position = group_positions(fields_nT, attitude_deg[paired])
+    times_s = None if times_s is None else times_s[paired]
+    positions, means, counts, position = group_positions(fields_nT, attitude_deg[paired], times_s)
     stood_c = position_stood_c(existing.magnetometer_temperature, temperature_c, position,
                                counts)
-    position_noise_deg(fields_nT, None if times_s is None else times_s[paired], position,
-                       len(means), still, ' (magnetometer)')
+    position_noise_deg(fields_nT, times_s, position, len(means), still, ' (magnetometer)')
     return fit_field_stand(means, positions, *reference, stand, max_rms_deg, stood_c), len(means)
 
 
