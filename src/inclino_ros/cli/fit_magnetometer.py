@@ -5,9 +5,11 @@ Input: a CSV with the columns ``ax, ay, az`` (m/s^2, REP 145 specific
 force, tool frame, z along the tool axis), ``bx, by, bz`` (nT, same frame)
 and optionally ``roll_group`` (rows with the same non-empty value were
 taken with the tool axis held in one direction and the tool turned about
-it) and ``temperature_c``; one row per still shot.  Or a bag: the still
-segments of ``--raw-topic`` and ``--mag-topic`` are found by the one still
-rule of every stream (``stillness.find_still_segments``, as for a
+it) and ``temperature_c``; one row per still shot.  Or a continuous log (a
+CSV with a ``time_s`` column [s] and no ``roll_group``; the gyro ``wx, wy,
+wz`` [rad/s] optional), or a bag: the still segments of the log, or of
+``--raw-topic`` and ``--mag-topic``, are found by the one still rule of every
+stream (``stillness.find_still_segments``, as for a
 continuous log: windows of ``--still-window-s`` in which neither triad's
 direction moves, significantly and by more than ``--max-still-deg`` or
 faster than ``--max-drift-deg-per-s``, joined while neighbours agree, the
@@ -52,7 +54,7 @@ from dataclasses import replace
 import sys
 
 from inclino_ros.calibration.continuous_log import segment_limits
-from inclino_ros.calibration.inputs import bag_shots
+from inclino_ros.calibration.inputs import bag_shots, shots_input
 from inclino_ros.calibration.magnetometer import calibrate_from_shots, NONLINEAR_CHOICES
 from inclino_ros.calibration.plausibility import check_field_unit, Implausible
 from inclino_ros.cli.errors import CommandError
@@ -71,8 +73,6 @@ from inclino_ros.report.magnetometer import (
     fit_table_lines, plot_report, robust_lines, shot_residuals, summary_lines)
 
 REPORT_NAME = 'fit_magnetometer'
-ACCEL_COLUMNS = ('ax', 'ay', 'az')
-FIELD_COLUMNS = ('bx', 'by', 'bz')
 GROUP_COLUMN = 'roll_group'
 
 
@@ -82,7 +82,8 @@ def register(subparsers):
         'fit-magnetometer',
         help='calibrate magnetometer and accelerometer from shots in many orientations '
              '(no stand, no reference)', description=__doc__.split('\n\n', 1)[1])
-    add_file_arguments(parser, 'CSV file (ax, ay, az, bx, by, bz [, roll_group])')
+    add_file_arguments(parser, 'CSV file (ax, ay, az, bx, by, bz [, roll_group]; with time_s: '
+                               'a log)')
     parser.add_argument('--gravity-mps2', type=node_parameter('gravity_mps2'),
                         default=NODE_DEFAULTS['gravity_mps2'],
                         help='local gravity [m/s^2] (default: %(default)s)')
@@ -138,16 +139,19 @@ def run(args):
     return run_fit('fit-magnetometer', args, fit)
 
 
+def still_limits(args):
+    """Return the SegmentLimits of the command's still options (a bag's, a log's)."""
+    return segment_limits(args.max_drift_deg_per_s, args.max_still_deg, '--max-still-deg',
+                          window_s=args.still_window_s, min_s=args.min_still_s)
+
+
 def read_bag_shots(args, lines):
     """Return the shots of a bag's still segments (``inputs.bag_shots``; roll groups: none)."""
-    accel, field, paired = bag_shots(source_of(args), args.max_pairing_s,
-                                     MAG_PAIRING_TOLERANCE_NT, segment_limits(
-                                         args.max_drift_deg_per_s, args.max_still_deg,
-                                         '--max-still-deg', window_s=args.still_window_s,
-                                         min_s=args.min_still_s))
+    accel, field, temperature_c, paired = bag_shots(
+        source_of(args), args.max_pairing_s, MAG_PAIRING_TOLERANCE_NT, still_limits(args))
     lines.append(f'{accel.shape[0]} still segment(s) found in {args.input} '
                  f'({paired} paired samples)')
-    return accel, field, None, None
+    return accel, field, None, temperature_c
 
 
 def fit(args, lines, outputs):
@@ -161,10 +165,11 @@ def fit(args, lines, outputs):
         accel, field, labels, temperature_c = read_bag_shots(args, lines)
     else:
         try:
-            accel, field, labels, temperature_c = tables.read_shots(
-                args.input, ACCEL_COLUMNS, FIELD_COLUMNS, GROUP_COLUMN)
+            accel, field, labels, temperature_c, found = shots_input(
+                args.input, still_limits(args), GROUP_COLUMN)
         except tables.TableError as err:
             raise Refused(str(err)) from None
+        lines += found
     if accel.shape[0]:
         try:
             check_field_unit(field, 'bx, by, bz')
