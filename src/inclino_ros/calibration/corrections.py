@@ -29,7 +29,10 @@ accelerometer frame, then the same mount, then seed 002's corrections:
    (``Stand.rotation``), so that a new accelerometer calibration carries
    the magnetometer along;
 4. ``installation``, ``tool_axis``: the shared mount, as above;
-5. ``magnetic``: seed 002's cross-axial correction and interference.
+5. ``magnetometer_nonlinear``: a smooth per-axis correction of the tool-frame
+   x, y fitted from roll sets (``core.nonlinear``), kept only where held-out
+   roll sets showed it helps;
+6. ``magnetic``: seed 002's cross-axial correction and interference.
 """
 
 from dataclasses import dataclass
@@ -37,10 +40,11 @@ from functools import cached_property
 import math
 
 from inclino_ros.calibration.stages import (
-    Installation, Magnetic, Magnetometer, MagnetometerAlignment, MagnetometerTemperature, Stand,
-    Temperature, ToolAxis)
+    Installation, Magnetic, Magnetometer, MagnetometerAlignment, MagnetometerNonlinear,
+    MagnetometerTemperature, Stand, Temperature, ToolAxis)
 from inclino_ros.core.constants import STANDARD_GRAVITY_MPS2
 from inclino_ros.core.installation import to_tool_frame
+from inclino_ros.core.nonlinear import correction_jacobian
 from inclino_ros.core.uncertainty import affine_jacobian, tilt_jacobian
 import numpy as np
 
@@ -49,8 +53,8 @@ STAGES = ('temperature', 'stand', 'installation', 'tool_axis')
 #: The stages both triads share: the mount.
 MOUNT_STAGES = ('installation', 'tool_axis')
 #: The magnetometer's stages, in the order they are applied (the mount included).
-MAGNETOMETER_STAGES = ('magnetometer_temperature', 'magnetometer',
-                       'magnetometer_alignment') + MOUNT_STAGES + ('magnetic',)
+MAGNETOMETER_STAGES = (('magnetometer_temperature', 'magnetometer', 'magnetometer_alignment')
+                       + MOUNT_STAGES + ('magnetometer_nonlinear', 'magnetic'))
 
 
 @dataclass(frozen=True)
@@ -66,6 +70,7 @@ class CalibrationModel:
     magnetometer: Magnetometer = None
     magnetometer_alignment: MagnetometerAlignment = None
     magnetometer_temperature: MagnetometerTemperature = None
+    magnetometer_nonlinear: MagnetometerNonlinear = None
     sensor_id: str = None     # the sensor this calibration belongs to; None: not named
     # The axes maps (core.mounting) its readings were turned by before the fits:
     # (accelerometer, magnetometer); None: not recorded (older files, or no map known).
@@ -318,6 +323,7 @@ class CalibrationModel:
         None: the block does not move that vector).  Blocks: the accelerometer
         stand fit's (``Stand.parameter_covariance``, when the magnetometer's
         does not cover it), the magnetometer fit's (``covariance_stages``), the
+        non-linear stage's weights (``core.nonlinear.correction_jacobian``), the
         rotation fit's (seed 002 §2.1).
         """
         layout = self._fit_layout
@@ -349,6 +355,11 @@ class CalibrationModel:
                             field_nT, temperature_c, before='tool_axis'), *layout['angles']))
             blocks.append((layout['covariance'], np.concatenate(j_f, axis=2),
                            np.concatenate(j_b, axis=2) if field_nT is not None else None))
+        stage = self.magnetometer_nonlinear
+        if field_nT is not None and stage is not None and stage.parameter_covariance is not None:
+            inputs = self.apply_magnetic(field_nT, temperature_c, before='magnetometer_nonlinear')
+            blocks.append((np.array(stage.parameter_covariance), None, soft_iron @
+                           correction_jacobian(inputs, stage.arrays, stage.scale_nT)))
         if field_nT is not None and layout['rotation'] is not None:
             stage = self.magnetic
             inputs = (self.apply_magnetic(field_nT, temperature_c, before='magnetic')[:, :2]

@@ -31,6 +31,7 @@ STAGE_TIMES = (('temperature', 'fitted_at', 'calibration'),
                ('magnetometer_temperature', 'fitted_at', 'calibration'),
                ('magnetometer', 'fitted_at', 'calibration'),
                ('magnetometer_alignment', 'fitted_at', 'calibration'),
+               ('magnetometer_nonlinear', 'fitted_at', 'calibration'),
                ('magnetic', 'rotation_fitted_at', 'calibration'),
                ('magnetic', 'msa_fitted_at', 'interference'))
 

@@ -14,6 +14,7 @@ from inclino_ros.core.cross_axial import apply_cross_axial
 from inclino_ros.core.installation import (
     inverse_installation_matrix, pseudo_inclination, to_tool_frame)
 from inclino_ros.core.mounting import axes_map_matrix, to_sensor_axes, to_tool_axes
+from inclino_ros.core.nonlinear import apply_correction
 from inclino_ros.core.stand import correct_stand, rotation_part
 from inclino_ros.core.temperature import (
     compensate_temperature, in_range, normalised_temperature, TemperatureFit,
@@ -274,6 +275,41 @@ class MagnetometerAlignment:
         """Return the angle of the rotation [deg]."""
         return math.degrees(math.acos(float(np.clip((np.trace(self.matrix) - 1.0) / 2.0,
                                                     -1.0, 1.0))))
+
+
+@dataclass(frozen=True)
+class MagnetometerNonlinear:
+    """
+    A smooth non-linear correction of the tool-frame field's x, y (``core.nonlinear``).
+
+    Fitted from roll sets by ``inclino fit-magnetometer`` on top of its linear
+    stages and kept only when it improved the roll sets' azimuth agreement on
+    sets it was not fitted on (the gate): ``held_out_before_deg``,
+    ``held_out_after_deg`` and ``held_out_noise_deg`` are that judgement.
+    ``weights``: 2 rows (x, y) of Gaussian RBF weights, normalised by
+    ``scale_nT``; ``parameter_covariance``: of the weights, x then y.
+    """
+
+    weights: tuple
+    scale_nT: float
+    rms_residual_nT: float
+    roll_sets: int
+    shots: int
+    held_out_before_deg: float
+    held_out_after_deg: float
+    held_out_noise_deg: float
+    fitted_at: str
+    parameter_covariance: tuple = None
+    temperature_c: float = None  # what the fitted readings stood for; None: unknown
+
+    @cached_property
+    def arrays(self):
+        """Return the weights (2, centres) as an array, built once."""
+        return np.array(self.weights)
+
+    def apply(self, b_nT):
+        """Return tool-frame fields (..., 3) [nT] with x, y corrected."""
+        return apply_correction(b_nT, self.arrays, self.scale_nT)
 
 
 class _TemperatureStage:

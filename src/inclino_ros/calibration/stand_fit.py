@@ -4,7 +4,7 @@ The stand stage from stand positions or free readings: one rule for the node and
 ``~/solve_stand_calibration`` (positions captured one by one,
 ``stand_capture``) and ``inclino fit-stand`` (a recorded run) both end here:
 
-- consecutive readings of one attitude are one position (``group_positions``),
+- consecutive readings of one attitude, without a pause, are one position (``group_positions``),
   each still (``position_noise_deg``); a later visit of an attitude is a
   position of its own (a repeat);
 - without a temperature stage, positions whose readings stood for
@@ -29,7 +29,7 @@ from inclino_ros.calibration.still_capture import CaptureRefused, require_still_
 from inclino_ros.core.stand import (
     attitude_numbers, fit_sphere, fit_stand, fit_stand_plateaus, MIN_POSITIONS, plateau_numbers,
     plateau_stand_fit, stand_specific_force, StandFitRefused)
-from inclino_ros.core.stillness import MIN_SAMPLES
+from inclino_ros.core.stillness import MIN_SAMPLES, SegmentLimits
 import numpy as np
 
 
@@ -77,7 +77,7 @@ def position_stood_c(stage, temperature_c, position, counts):
         readings_temperature_c(stage, temperature_c), np.shape(position))) / counts
 
 
-def group_positions(readings, attitude_deg):
+def group_positions(readings, attitude_deg, times_s=None):
     """
     Return the positions: (attitudes (P, k), mean readings (P, 3), samples, position (N,)).
 
@@ -85,9 +85,18 @@ def group_positions(readings, attitude_deg):
     form one position (one visit of the stand: a later visit of the same
     attitude is a position of its own, a repeat ``stand.fit_stand`` weighs
     and reports); ``position`` is the number of each sample's position.
+    With ``times_s`` (N,), a pause between two samples longer than the still
+    test's window (``SegmentLimits.window_s``) and than ten of the stream's
+    median intervals (a slow sensor's own pace is no pause) begins a new
+    visit as well: the tool was taken away and set down again (a log's still
+    segments with the motion between them cut out; the time the samples
+    stood tells what their order alone does not).
     """
     attitude_deg = np.asarray(attitude_deg, dtype=float)
     changed = np.any(attitude_deg[1:] != attitude_deg[:-1], axis=1)
+    if times_s is not None and len(times_s) > 1:
+        step = np.diff(np.asarray(times_s, dtype=float))
+        changed |= step > max(SegmentLimits.window_s, 10.0 * float(np.median(step)))
     position = np.concatenate([[0], np.cumsum(changed)]).astype(int)
     counts = np.bincount(position)
     means = np.stack([np.bincount(position, weights=readings[:, axis]) for axis in range(3)],
@@ -161,7 +170,8 @@ def stand_stage(result, method, rms_inclination_deg, positions, temperature_c):
 
 def solve_stand(readings, attitudes_deg, gravity_mps2, max_rms_deg, temperatures_c=None,
                 max_temperature_difference_c=None,
-                names=('stand.max_rms_deg', 'temperature.max_stage_difference_c')):
+                names=('stand.max_rms_deg', 'temperature.max_stage_difference_c'),
+                attitude_sigma_deg=0.0, mean_noise_mps2=None):
     """
     Return the StandSolution of stand positions (seed 001 Eq. 10 with a bias).
 
@@ -176,7 +186,9 @@ def solve_stand(readings, attitudes_deg, gravity_mps2, max_rms_deg, temperatures
     fit whose inclination residual RMS over its own positions exceeds
     ``max_rms_deg`` (a position mislabelled, the tool moved or not seated the
     same way) comes back with its ``refusal``.  ``names``: how the reasons
-    name the two limits.
+    name the two limits.  ``attitude_sigma_deg``, ``mean_noise_mps2``: the
+    positions' attitudes known only to that, the noise of each mean
+    (``stand.fit_stand``: a tool set on its faces by hand).
     """
     rms_name, temperature_name = names
     readings = np.asarray(readings, dtype=float).reshape(-1, 3)
@@ -190,7 +202,8 @@ def solve_stand(readings, attitudes_deg, gravity_mps2, max_rms_deg, temperatures
         if max_temperature_difference_c is not None:
             check_temperature_span(temperatures_c, max_temperature_difference_c,
                                    temperature_name)
-        fit = fit_stand(readings, truth)
+        fit = fit_stand(readings, truth, attitude_sigma_deg=attitude_sigma_deg,
+                        mean_noise_mps2=mean_noise_mps2)
     refusal = None
     if fit.rms_inclination_deg > max_rms_deg:
         worst = int(np.argmax(np.abs(fit.inclination_residual_deg)))
@@ -212,7 +225,8 @@ def solve_stand(readings, attitudes_deg, gravity_mps2, max_rms_deg, temperatures
 
 
 def solve_sample_positions(readings, attitude_deg, times_s, stood_c, still, gravity_mps2,
-                           max_rms_deg, max_temperature_difference_c, names):
+                           max_rms_deg, max_temperature_difference_c, names,
+                           attitude_sigma_deg=0.0):
     """
     Return (StandSolution, attitudes, samples, noise_deg) per position of stand samples.
 
@@ -221,14 +235,18 @@ def solve_sample_positions(readings, attitude_deg, times_s, stood_c, still, grav
     limits (``position_noise_deg``: CaptureRefused) and the temperature it
     stood for is the mean of its samples' ``stood_c`` (None: unknown); then
     ``solve_stand`` (as ``stand_capture.solve_positions`` fits the node's
-    positions), StandFitRefused as it refuses.
+    positions), StandFitRefused as it refuses.  ``attitude_sigma_deg`` > 0:
+    the attitudes are known only to that (``stand.fit_stand``), each mean's
+    noise its samples' spread over the square root of their count.
     """
-    attitudes, means, counts, position = group_positions(readings, attitude_deg)
+    attitudes, means, counts, position = group_positions(readings, attitude_deg, times_s)
     temperatures_c = (None if stood_c is None else
                       np.bincount(position, weights=stood_c) / counts)
     noise_deg = position_noise_deg(readings, times_s, position, len(means), still)
+    mean_noise_mps2 = gravity_mps2 * np.radians(noise_deg) / np.sqrt(counts)
     return (solve_stand(means, attitudes, gravity_mps2, max_rms_deg, temperatures_c,
-                        max_temperature_difference_c, names), attitudes, counts, noise_deg)
+                        max_temperature_difference_c, names, attitude_sigma_deg,
+                        mean_noise_mps2), attitudes, counts, noise_deg)
 
 
 def temperature_plateaus(readings, truth, temperatures_c):
@@ -287,10 +305,13 @@ def with_stand(model, stand, field=None):
     The installation and tool-axis stages are dropped: a stand K, fitted
     against the tool's attitude, already holds the mounting misalignment (a
     kept gamma/beta would count it twice), and after a sphere fit the level
-    bench must be measured again on the stand-corrected readings.  ``field``:
+    bench must be measured again on the stand-corrected readings.  The
+    magnetometer's non-linear stage, fitted in the tool frame of the previous
+    chain, is dropped too (``inclino fit-magnetometer`` fits it again).  ``field``:
     a ``magnetometer.FieldStandFit`` or None.
     """
-    model = replace(model, stand=stand, installation=None, tool_axis=None)
+    model = replace(model, stand=stand, installation=None, tool_axis=None,
+                    magnetometer_nonlinear=None)
     if field is not None:
         model = replace(model, magnetometer=field.magnetometer,
                         magnetometer_alignment=field.alignment)

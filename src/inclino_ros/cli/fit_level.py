@@ -88,7 +88,7 @@ def fit(args, lines, outputs):
                              maps=axes_maps(args))
     axes = args.axes or existing.accelerometer_axes
     readings, temperature_c, times_s, note = level_input(source_of(args), segment_limits(
-        args.max_drift_deg_per_s, args.max_sem_deg))
+        args.max_drift_deg_per_s, args.max_sem_deg, max_motion_deg=args.max_motion_deg))
     if note:
         print(f'inclino fit-level: {note}', file=sys.stderr)
     readings = tool_axes(args, readings)
@@ -99,7 +99,8 @@ def fit(args, lines, outputs):
     limits = LevelLimits(
         max_tilt_deg=args.max_tilt_deg, gravity_mps2=args.gravity_mps2,
         g_total_tolerance_mps2=args.g_total_tolerance_mps2,
-        still=segment_limits(args.max_drift_deg_per_s, args.max_sem_deg).still)
+        still=segment_limits(args.max_drift_deg_per_s, args.max_sem_deg,
+                             max_motion_deg=args.max_motion_deg).still)
     stood_for_c = readings_temperature_c(
         existing.temperature, None if temperature_c is None else float(np.mean(temperature_c)))
     reason = temperature_conflict(existing, stood_for_c, args.max_temperature_difference_c,

@@ -77,6 +77,13 @@ def register(subparsers):
     parser.add_argument('--max-rms-deg', type=between(1e-6, 90.0), default=0.05,
                         help='largest RMS inclination residual accepted [deg] (default: '
                              '%(default)s)')
+    parser.add_argument('--attitude-sigma-deg', type=between(0.0, 10.0), default=0.0,
+                        help="the positions' attitudes are known only to this [deg, 1 sigma "
+                             'per tilt axis]: a tool set on its faces by hand, not a stand. Each '
+                             "position's reading across gravity, which a tilt moves, is weighed "
+                             "by it and the mean's noise; along gravity a tilt moves it only to "
+                             'second order (default: %(default)s, a stand that sets its '
+                             'attitudes)')
     add_still_options(parser, 'stand.max_sem_deg', 'direction of one position', 'a position')
     node_option(parser, '--max-temperature-difference-c', 'temperature.max_stage_difference_c',
                 'without a temperature stage, positions further apart in temperature [deg C] '
@@ -164,7 +171,8 @@ def still_samples(args, readings, gyro, temperature_c, times_s, lines):
     """
     try:
         found = log_segments(times_s, readings, gyro, temperature_c,
-                             segment_limits(args.max_drift_deg_per_s, args.max_sem_deg))
+                             segment_limits(args.max_drift_deg_per_s, args.max_sem_deg,
+                                            max_motion_deg=args.max_motion_deg))
     except ValueError as err:
         raise CommandError(f'{args.input}: {err}') from None
     lines.extend(found.lines(f'log {args.input}'))
@@ -180,7 +188,8 @@ def still_samples(args, readings, gyro, temperature_c, times_s, lines):
 
 def still_limits(args):
     """Return the still test of a position from --max-drift-deg-per-s and --max-sem-deg."""
-    return segment_limits(args.max_drift_deg_per_s, args.max_sem_deg).still
+    return segment_limits(args.max_drift_deg_per_s, args.max_sem_deg,
+                          max_motion_deg=args.max_motion_deg).still
 
 
 def fit_positions(args, readings, attitude_deg, times_s, stood_c, lines):
@@ -195,7 +204,7 @@ def fit_positions(args, readings, attitude_deg, times_s, stood_c, lines):
         solution, attitudes, counts, spread_deg = solve_sample_positions(
             readings, attitude_deg, times_s, stood_c, still_limits(args), args.gravity_mps2,
             args.max_rms_deg, args.max_temperature_difference_c,
-            ('--max-rms-deg', '--max-temperature-difference-c'))
+            ('--max-rms-deg', '--max-temperature-difference-c'), args.attitude_sigma_deg)
     except (CaptureRefused, StandFitRefused) as err:
         raise Refused(str(err)) from None
     report, rows, draw = position_report(solution, attitudes, counts, spread_deg,

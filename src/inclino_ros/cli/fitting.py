@@ -116,15 +116,19 @@ def node_option(parser, flag, parameter, help_text, **kwargs):
 
 def add_still_options(parser, sem_parameter, mean_of, capture):
     """
-    Add --max-sem-deg and --max-drift-deg-per-s: the still test of a capture (``still_capture``).
+    Add --max-sem-deg, --max-drift-deg-per-s, --max-motion-deg: a capture's still test.
 
-    ``sem_parameter``: the node parameter of the precision limit; ``mean_of``
-    and ``capture`` name what is averaged and what may move in the help texts.
+    The test is ``still_capture``'s; ``sem_parameter``: the node parameter of
+    the precision limit; ``mean_of`` and ``capture`` name what is averaged
+    and what may move in the help texts.
     """
     node_option(parser, '--max-sem-deg', sem_parameter,
                 f'largest standard error of the mean {mean_of} [deg]')
     node_option(parser, '--max-drift-deg-per-s', 'still.max_drift_deg_per_s',
                 f'{capture} whose mean drifts faster [deg/s], significantly for its noise, moved')
+    node_option(parser, '--max-motion-deg', 'still.max_motion_deg',
+                f'{capture} whose attitude at a part lies further from its mean [deg], '
+                'significantly for its noise, moved; a smaller motion is in the 1 sigma')
 
 
 def add_sensor_argument(parser):

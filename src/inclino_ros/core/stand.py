@@ -102,6 +102,9 @@ class SphereFit(_LinearSensor):
 
     residual_mps2: np.ndarray  # (N,) |K^-1 (A - b)| - g
     rms_residual_mps2: float
+    # (12, 12) of (K^-1 row-major, b), as StandFit's (``sphere_covariance``); the elements
+    # below K^-1's diagonal are fixed at zero (no variance)
+    parameter_covariance: np.ndarray = None
 
 
 def stand_specific_force(inclination_deg, toolface_deg, g):
@@ -123,7 +126,8 @@ def correct_stand(readings, scale_matrix, bias):
     return solved.T.reshape(offset.shape)
 
 
-def fit_stand(readings, truth, min_separation_deg=MIN_SEPARATION_DEG):
+def fit_stand(readings, truth, min_separation_deg=MIN_SEPARATION_DEG, attitude_sigma_deg=0.0,
+              mean_noise_mps2=None):
     """
     Return the least-squares ``A = K G + b`` of stand positions (seed 001 Eq. 10 + bias).
 
@@ -137,6 +141,18 @@ def fit_stand(readings, truth, min_separation_deg=MIN_SEPARATION_DEG):
     attitudes again.  Every visit is one more equation of the least squares (an
     attitude visited twice weighs twice; its visits average their noise), and
     the scatter of the visits is reported (``repeatability``).
+
+    ``attitude_sigma_deg`` > 0: the positions' attitudes are known only to
+    this (1 sigma per tilt axis: a tool set on its faces by hand, not a
+    stand).  A tilt d of a position moves its reading across gravity by g d
+    (first order) and along gravity by g d^2 / 2 only, so each position's
+    residual is weighed by the inverse of its covariance
+    ``s^2 I + (g sigma)^2 (I - u u^T)`` (u the direction of G, s the noise
+    of the position's mean, ``mean_noise_mps2`` (N,), unknown entries NaN:
+    the pooled residual of the unweighted fit stands in): generalised least
+    squares (``_weighted_coefficients``).  On the six-position set the bias
+    of each axis then comes from its own pair's readings along gravity, as
+    in Ferraris et al. (1995); K is the same (six positions determine it).
 
     Raises StandFitRefused, with the reason, for: fewer than MIN_POSITIONS
     distinct attitudes; non-finite values; truth vectors not of one gravity,
@@ -165,6 +181,9 @@ def fit_stand(readings, truth, min_separation_deg=MIN_SEPARATION_DEG):
             'down)')
     try:
         fit = _fit_stand(readings, truth, g_scale)
+        if attitude_sigma_deg > 0.0:
+            fit = _fit_stand(readings, truth, g_scale, _attitude_weights(
+                truth, fit, g_scale, attitude_sigma_deg, mean_noise_mps2))
     except np.linalg.LinAlgError as err:
         raise StandFitRefused(f'numerical failure of the fit ({err})') from None
     per_attitude, overall = repeatability(fit.apply(readings), truth, attitude)
@@ -219,8 +238,51 @@ def repeatability(corrected, truth, attitude):
     return per_attitude, overall
 
 
-def _fit_stand(readings, truth, g_scale):
-    """Return the StandFit of checked, finite readings and truth (see ``fit_stand``)."""
+def _attitude_weights(truth, fit, g_scale, attitude_sigma_deg, mean_noise_mps2):
+    """
+    Return (N, 3, 3) inverse covariances of the positions' readings (``fit_stand``).
+
+    ``s^2 I + (g sigma)^2 (I - u u^T)``: s the noise of each position's mean
+    (``mean_noise_mps2``; NaN or None: the unweighted ``fit``'s pooled
+    residual), sigma the attitude's uncertainty [rad] per tilt axis.
+    """
+    count = truth.shape[0]
+    pooled = float(np.sum(fit.residual_mps2 ** 2)) / max(3 * (count - 4), 1)
+    noise = np.full(count, np.nan) if mean_noise_mps2 is None else np.array(
+        mean_noise_mps2, dtype=float).reshape(count)
+    noise = np.where(np.isfinite(noise) & (noise > 0.0), noise ** 2, pooled)
+    unit = truth / np.linalg.norm(truth, axis=1)[:, None]
+    across = np.eye(3) - unit[:, :, None] * unit[:, None, :]
+    tilt = (g_scale * math.radians(attitude_sigma_deg)) ** 2
+    return np.linalg.inv(noise[:, None, None] * np.eye(3) + tilt * across)
+
+
+def _weighted_coefficients(design, readings, weights):
+    """
+    Return (coefficients (4, 3), their (12, 12) covariance) of ``A_i = C^T x_i``, weighted.
+
+    Generalised least squares: each position's residual weighed by
+    ``weights`` (N, 3, 3), its inverse covariance; the parameters ordered
+    axis by axis (``C[:, 0], C[:, 1], C[:, 2]``), their covariance ``N^-1``
+    times the reduced chi-square (as the unweighted fit scales by its pooled
+    residual).
+    """
+    jacobian = np.einsum('ab,nj->nabj', np.eye(3), design).reshape(design.shape[0], 3, 12)
+    normal = np.einsum('nai,nab,nbj->ij', jacobian, weights, jacobian)
+    theta = np.linalg.solve(normal, np.einsum('nai,nab,nb->i', jacobian, weights, readings))
+    residual = readings - np.einsum('nai,i->na', jacobian, theta)
+    chi_square = float(np.einsum('na,nab,nb->', residual, weights, residual))
+    freedom = max(3 * design.shape[0] - 12, 1)
+    return theta.reshape(3, 4).T, np.linalg.inv(normal) * chi_square / freedom
+
+
+def _fit_stand(readings, truth, g_scale, weights=None):
+    """
+    Return the StandFit of checked, finite readings and truth (see ``fit_stand``).
+
+    ``weights`` (N, 3, 3): inverse covariances of the positions' readings
+    (``_attitude_weights``); None: each reading's axes alike and independent.
+    """
     count = readings.shape[0]
     design = np.column_stack([truth / g_scale, np.ones(count)])
     condition = _condition_number(design)
@@ -230,22 +292,32 @@ def _fit_stand(readings, truth, g_scale):
             f'{np.linalg.matrix_rank(design)} of 4 and condition number {condition:.3g} '
             f'(limit {MAX_CONDITION_NUMBER:g}); the positions must turn every axis both '
             'up and down (not all with one axis vertical, not all at one inclination)')
-    coefficients = np.linalg.lstsq(design, readings, rcond=None)[0]
+    if weights is None:
+        coefficients = np.linalg.lstsq(design, readings, rcond=None)[0]
+    else:
+        coefficients, by_axis = _weighted_coefficients(design, readings, weights)
     scale_matrix = coefficients[:3].T / g_scale
     _refuse_singular(scale_matrix)
     bias = coefficients[3]
 
     residual = readings - design @ coefficients
     # Each row's coefficients (K_i * g_scale, b_i) have s^2 (X^T X)^-1, s^2 the residual's
-    # mean square per degree of freedom pooled over the axes; to (K^-1, b) through
+    # mean square per degree of freedom pooled over the axes (weighted: N^-1 scaled by the
+    # reduced chi-square, every pair of axes); to (K^-1, b) through
     # dK^-1 = -K^-1 dK K^-1 (row-major: -K^-1 kron K^-T).
-    pooled = float(np.sum(residual ** 2)) / max(3 * (count - 4), 1)
-    unscaled = np.linalg.pinv(design.T @ design)
+    units = np.array([1.0 / g_scale] * 3 + [1.0])
+    order = [index for axis in range(3) for index in (3 * axis, 3 * axis + 1, 3 * axis + 2,
+                                                      9 + axis)]
     rows = np.zeros((12, 12))
-    for axis in range(3):
-        index = [3 * axis, 3 * axis + 1, 3 * axis + 2, 9 + axis]
-        rows[np.ix_(index, index)] = pooled * unscaled * np.array([1.0 / g_scale] * 3 + [1.0])[
-            :, None] * np.array([1.0 / g_scale] * 3 + [1.0])[None, :]
+    if weights is None:
+        pooled = float(np.sum(residual ** 2)) / max(3 * (count - 4), 1)
+        unscaled = np.linalg.pinv(design.T @ design)
+        for axis in range(3):
+            index = order[4 * axis:4 * axis + 4]
+            rows[np.ix_(index, index)] = pooled * unscaled * units[:, None] * units[None, :]
+    else:
+        scaled = np.tile(units, 3)
+        rows[np.ix_(order, order)] = by_axis * scaled[:, None] * scaled[None, :]
     inverse = np.linalg.inv(scale_matrix)
     turn = np.eye(12)
     turn[:9, :9] = -np.kron(inverse, inverse.T)
@@ -327,7 +399,38 @@ def _fit_sphere(readings, g):
     bias = g * (centre + offset)
     residual = np.linalg.norm(correct_stand(readings, scale_matrix, bias), axis=1) - g
     return SphereFit(scale_matrix=scale_matrix, bias_mps2=bias, condition_number=condition,
-                     residual_mps2=residual, rms_residual_mps2=_rms(residual))
+                     residual_mps2=residual, rms_residual_mps2=_rms(residual),
+                     parameter_covariance=sphere_covariance(readings, upper, bias, residual))
+
+
+#: Row-major indices of an upper-triangular 3x3 matrix's free elements.
+_UPPER = [3 * row + column for row in range(3) for column in range(row, 3)]
+
+
+def sphere_covariance(readings, inverse, bias, residual):
+    """
+    Return the (12, 12) covariance of (K^-1 row-major, b) of a sphere fit (Gauss-Newton).
+
+    The fit minimises r_i = |K^-1 (A_i - b)| - g over the six free elements of
+    the upper-triangular K^-1 and b (its algebraic solution is the
+    least-squares one to first order): with u_i = K^-1 (A_i - b) / |...|,
+    dr_i / dK^-1_jk = u_ij (A_i - b)_k and dr_i / db = -K^-T u_i; the
+    covariance is s^2 (J^T J)^-1, s^2 = sum r^2 / (N - 9).  ``inverse``:
+    K^-1 (upper triangular).
+    """
+    centred = readings - bias
+    corrected = centred @ inverse.T
+    unit = corrected / np.linalg.norm(corrected, axis=1, keepdims=True)
+    jacobian = np.column_stack([
+        (unit[:, :, None] * centred[:, None, :]).reshape(-1, 9)[:, _UPPER],
+        -unit @ inverse])
+    count = readings.shape[0]
+    free = np.linalg.pinv(jacobian.T @ jacobian) * (
+        float(np.sum(residual ** 2)) / max(count - 9, 1))
+    index = _UPPER + [9, 10, 11]
+    covariance = np.zeros((12, 12))
+    covariance[np.ix_(index, index)] = free
+    return covariance
 
 
 def consecutive_poses(readings, min_samples=6, jump_ratio=10.0, min_jump_deg=1.0):

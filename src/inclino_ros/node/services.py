@@ -47,7 +47,9 @@ class CalibrationServices:
         return StillLimits(
             max_drift_deg_per_s=self.node.param('still.max_drift_deg_per_s'),
             max_sem_deg=self.node.param(f'{prefix}.max_sem_deg'),
-            drift_name='still.max_drift_deg_per_s', sem_name=f'{prefix}.max_sem_deg')
+            max_motion_deg=self.node.param('still.max_motion_deg'),
+            drift_name='still.max_drift_deg_per_s', sem_name=f'{prefix}.max_sem_deg',
+            motion_name='still.max_motion_deg')
 
     def stage_temperature(self, captured, names):
         """
