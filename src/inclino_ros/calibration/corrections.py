@@ -51,6 +51,12 @@ MOUNT_STAGES = ('installation', 'tool_axis')
 #: The magnetometer's stages, in the order they are applied (the mount included).
 MAGNETOMETER_STAGES = ('magnetometer_temperature', 'magnetometer',
                        'magnetometer_alignment') + MOUNT_STAGES + ('magnetic',)
+#: What each toolface zero (``CalibrationModel.toolface_zero``, the one rule) means: the
+#: words every output carrying a toolface quotes (issue 19 item 6).
+TOOLFACE_ZEROS = {
+    'stand': "calibrated: the tool's high side, tied by a multi-position stand",
+    'board': 'relative to the sensor board: its roll about the tool axis is not calibrated '
+             '(no stand), and the toolface 1 sigma leaves that offset out'}
 
 
 @dataclass(frozen=True)
@@ -81,13 +87,26 @@ class CalibrationModel:
         """
         Return what the toolface's zero is tied to: ``'stand'`` or ``'board'`` (issue 19 item 6).
 
-        A stand calibration sees the tool at known toolfaces, so its correction
-        takes up the board's roll about the tool axis; a level bench, a rotation
-        or a magnetometer calibration cannot see that roll: the toolface is then
-        measured from the sensor board's x axis, off the tool's high side by the
-        roll whatever its 1 sigma says.
+        The one rule every output carrying a toolface states.  A stand
+        calibration (``method`` ``stand``) sees the tool at known toolfaces, so
+        its correction takes up the board's roll about the tool axis; a level
+        bench, a rotation, a magnetometer calibration or a sphere fit (``|G| =
+        g`` only) cannot see that roll: the toolface is then measured from the
+        sensor board's x axis, off the tool's high side by the roll whatever
+        its 1 sigma says.
         """
-        return 'stand' if self.stand is not None else 'board'
+        return 'stand' if self.stand is not None and self.stand.method == 'stand' else 'board'
+
+    @property
+    def toolface_zero_meaning(self):
+        """Return what ``toolface_zero`` means, in words (``TOOLFACE_ZEROS``)."""
+        return TOOLFACE_ZEROS[self.toolface_zero]
+
+    @property
+    def toolface_zero_lines(self):
+        """Return the ``name: value`` lines a text output states the toolface zero with."""
+        return (f'toolface_zero: {self.toolface_zero}',
+                f'toolface_zero_meaning: {self.toolface_zero_meaning}')
 
     @property
     def magnetometer_stages(self):

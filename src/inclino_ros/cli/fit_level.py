@@ -119,7 +119,8 @@ def fit(args, lines, outputs):
     png, txt = report_paths(args, REPORT_NAME)
     plot_level(outputs.path(png), level, installation, g_mps2)
     # The level bench measures the whole mount: a tool axis on top would count twice.
-    model = save(args, replace(existing, installation=installation, tool_axis=None), outputs)
+    model = save(args, replace(existing, installation=installation, tool_axis=None), outputs,
+                 lines)
     lines += [f'wrote {args.calibration}: installation stage'
               + (f', {" and ".join(applied)} stage kept' if applied else ''),
               f'report: {png}, {txt}']

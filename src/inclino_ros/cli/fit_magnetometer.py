@@ -189,7 +189,7 @@ def fit(args, lines, outputs):
     if args.plot:
         plot_report(outputs.path(png), labels, before, after, result.fit.field_nT,
                     args.gravity_mps2)
-    model = save(args, result.model, outputs)
+    model = save(args, result.model, outputs, lines)
     written = ['magnetometer', 'magnetometer_alignment'] + (
         ['tool_axis'] if result.fit.tool_axis is not None else []) + (
         ['stand (method sphere)'] if result.fit.accel_matrix is not None else [])

@@ -166,9 +166,12 @@ def begin_update(args, command):
         raise CommandError(f'cannot read {args.calibration}: {err}') from None
 
 
-def save(args, model, outputs):
+def save(args, model, outputs, lines=None):
     """
     Write ``model`` to ``args.calibration`` among ``outputs`` (``model.save_model``); return it.
+
+    The toolface zero the saved model gives (``CalibrationModel.toolface_zero_lines``)
+    is appended to the fit's report ``lines`` (issue 19 item 6; None: said elsewhere).
 
     Refused when the fitted model is one load_model would refuse (an
     implausible result) or the file changed since ``begin_update``,
@@ -180,6 +183,8 @@ def save(args, model, outputs):
         raise Refused(f'the result is not a plausible calibration: {err}') from None
     except OSError as err:
         raise CommandError(f'cannot write {args.calibration}: {err}') from None
+    if lines is not None:
+        lines.extend(model.toolface_zero_lines)
     return model
 
 
