@@ -118,6 +118,25 @@ def test_calibration_round_trip_corrects_the_stations(start_node, probe, tmp_pat
     assert values['toolface_zero'] == 'board'
     assert values['toolface_zero_meaning'] == TOOLFACE_ZEROS['board']
     assert status.message.endswith('toolface zero: board')
+
+    # ~/capture_high_side_mark: near vertical refused; on a 30 deg bench, mark up (toolface 0)
+    # the zero is the mark's (this board has no roll: an offset within its 1 sigma).
+    rng = np.random.default_rng(3)
+    refused = probe.calibrate(lambda i: tilted_reading(1.0, 0.0, GAMMA_DEG, BETA_DEG)
+                              + rng.normal(0.0, NOISE_MPS2, 3), service='capture_high_side_mark')
+    assert not refused.success
+    if axes == 2:
+        assert 'needs a three-axis accelerometer' in refused.message
+        assert node.stop() == 0
+        return
+    assert 'near vertical the toolface is undefined' in refused.message
+    answer = probe.calibrate(lambda i: tilted_reading(30.0, 0.0, GAMMA_DEG, BETA_DEG)
+                             + rng.normal(0.0, NOISE_MPS2, 3), service='capture_high_side_mark')
+    assert answer.success, answer.message
+    mark = load_model(tmp_path / 'calibration.json').toolface_mark
+    assert abs(mark.offset_deg) < 4.0 * mark.std_deg and 'toolface_zero: mark' in answer.message
+    probe.spin_until(lambda: calibration[-1]['toolface_zero'] == 'mark')
+    assert latest_status(probe, ': calibration')[1]['toolface_zero'] == 'mark'
     assert node.stop() == 0
 
 
