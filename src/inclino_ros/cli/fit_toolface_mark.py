@@ -26,8 +26,9 @@ from inclino_ros.calibration.model import readings_temperature_c, temperature_co
 from inclino_ros.calibration.toolface_mark import (
     CaptureRefused, MarkLimits, solve_toolface_mark)
 from inclino_ros.cli.fitting import (
-    add_common_arguments, add_still_options, axes_maps, load_existing, NODE_DEFAULTS, node_option,
-    Refused, report_paths, run_fit, save, source_of, tool_axes, write_text)
+    add_capture_checks, add_common_arguments, add_still_options, add_window_arguments, axes_maps,
+    load_existing, NODE_DEFAULTS, Refused, report_paths, run_fit, save, source_of, tool_axes,
+    write_text)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.report.common import Fitted
 import numpy as np
@@ -53,22 +54,12 @@ def register(subparsers):
         'precision asked, an implausible G-total, a tool near vertical (no high side there), a '
         'temperature far from that of the other stages. Exit 2: unusable input.')
     add_common_arguments(parser)
-    parser.add_argument('--start-s', type=float, default=0.0, metavar='S',
-                        help='bag: first sample, seconds after the first message (default: 0)')
-    parser.add_argument('--end-s', type=float, metavar='S',
-                        help='bag: samples before S seconds after the first message (default: '
-                             'to the last message)')
+    add_window_arguments(parser)
     add_still_options(parser, 'level_capture.max_sem_deg', 'tilts', 'a capture')
-    node_option(parser, '--g-total-tolerance-mps2', 'level_capture.g_total_tolerance_mps2',
-                'largest deviation of G-total from gravity [m/s^2]')
-    node_option(parser, '--max-temperature-difference-c', 'temperature.max_stage_difference_c',
-                'without a temperature stage, a capture further in temperature [deg C] from '
-                'the stand and level-bench stages is refused')
+    add_capture_checks(parser, 'stand and level-bench stages')
     parser.add_argument('--toolface-convention', choices=('seed000', 'iscwsa_highside'),
                         default=NODE_DEFAULTS['toolface_convention'],
                         help='the toolface whose zero the mark is (default: %(default)s)')
-    parser.add_argument('--gravity-mps2', type=float, default=NODE_DEFAULTS['gravity_mps2'],
-                        help='local gravity [m/s^2] (default: %(default)s)')
     parser.set_defaults(func=run)
 
 

@@ -114,6 +114,26 @@ def add_still_options(parser, sem_parameter, mean_of, capture):
                 f'{capture} whose mean drifts faster [deg/s], significantly for its noise, moved')
 
 
+def add_window_arguments(parser):
+    """Add --start-s and --end-s: the window of a bag a still capture is read from."""
+    parser.add_argument('--start-s', type=float, default=0.0, metavar='S',
+                        help='bag: first sample, seconds after the first message (default: 0)')
+    parser.add_argument('--end-s', type=float, metavar='S',
+                        help='bag: samples before S seconds after the first message (default: '
+                             'to the last message)')
+
+
+def add_capture_checks(parser, other_stages):
+    """Add the G-total, temperature and gravity options of a still capture's fit."""
+    node_option(parser, '--g-total-tolerance-mps2', 'level_capture.g_total_tolerance_mps2',
+                'largest deviation of G-total from gravity [m/s^2]')
+    node_option(parser, '--max-temperature-difference-c', 'temperature.max_stage_difference_c',
+                'without a temperature stage, a capture further in temperature [deg C] from '
+                f'the {other_stages} is refused')
+    parser.add_argument('--gravity-mps2', type=float, default=NODE_DEFAULTS['gravity_mps2'],
+                        help='local gravity [m/s^2] (default: %(default)s)')
+
+
 def add_sensor_argument(parser):
     """Add --sensor-id: the sensor the calibration file must belong to (and is stamped with)."""
     parser.add_argument('--sensor-id', metavar='ID',
