@@ -15,12 +15,15 @@ import json
 import math
 
 from inclino_ros.calibration.model import CalibrationModel, load_model, model_from_dict
+from inclino_ros.calibration.stations import raw_survey_inputs
+from inclino_ros.core.magnetics import azimuth_deg, iscwsa_from_tool
 from inclino_ros.pipeline import MagneticSettings, run, Settings
 from inclino_ros.sim import sensor_model
 import numpy as np
 import pytest
 from shots_sim import angle_error_deg
 from test_msa_cli import quiet
+from test_plausibility import ALL_STAGES
 
 NOISE_MPS2 = 0.01
 ROLL_DEG = 20.0
@@ -143,3 +146,20 @@ def test_the_mark_turns_both_triads_about_the_tool_axis():
     doc['toolface_mark']['inclination_deg'] = 1.0
     with pytest.raises(ValueError, match='toolface_mark.inclination_deg'):
         model_from_dict(doc)
+
+
+def test_msa_stations_keep_g_and_b_in_one_frame():
+    """The MSA's G of raw survey readings skips the mark as B does: its azimuth is the same."""
+    rng = np.random.default_rng(9)
+    incl, tf, azim = rng.uniform(10, 80, 20), rng.uniform(0, 360, 20), rng.uniform(0, 360, 20)
+    readings = sensor_model.read(replace(sensor_model.IDEAL, mount=sensor_model.Mount()),
+                                 incl, tf, azim, rng=rng)
+    gravity = -iscwsa_from_tool(readings.accel_mps2) / 9.80665
+    field = iscwsa_from_tool(readings.mag_nT)
+    plain = CalibrationModel(3, installation=ALL_STAGES.installation)
+    marked = replace(plain, toolface_mark=ALL_STAGES.toolface_mark)
+    azimuths = [azimuth_deg(*raw_survey_inputs(model, gravity, field, 9.80665))
+                for model in (plain, marked)]
+    np.testing.assert_allclose(angle_error_deg(azimuths[1], azimuths[0]), 0.0, atol=1e-9)
+    np.testing.assert_allclose(marked.before_mark(marked.apply(readings.accel_mps2)),
+                               plain.apply(readings.accel_mps2), atol=1e-12)

@@ -216,6 +216,15 @@ class CalibrationModel:
                 matrix = stage.inverse_matrix @ matrix
         return self._mark @ matrix
 
+    def before_mark(self, vectors):
+        """
+        Return tool-frame vectors (N, 3) with the ``toolface_mark`` turn undone.
+
+        The frame every magnetic fit works in (seed 002's stage comes before
+        the mark): G and B of one station must be in the same one.
+        """
+        return np.asarray(vectors, dtype=float) @ self._mark
+
     @property
     def _mark(self):
         """Return the toolface mark's turn (identity without the stage)."""

@@ -179,9 +179,10 @@ def fit(args, lines, outputs):
     for note in result.notes:
         if note.startswith('WARNING'):
             print(f'inclino fit-magnetometer: {note}', file=sys.stderr)
-    before, after = (magnetics.survey_of(model.apply(accel, temperature_c),
-                                         model.apply_magnetic(field, before='magnetic'))
-                     for model in (existing, result.model))
+    # G in the frame of B before seed 002's stage: before the toolface mark.
+    before, after = (magnetics.survey_of(
+        model.apply(accel, temperature_c, before='toolface_mark'),
+        model.apply_magnetic(field, before='magnetic')) for model in (existing, result.model))
     lines += summary_lines(result, labels, before, after, total_nT, dip_ref, source)
     rows = shot_residuals(result.fit, labels)
     lines += residual_lines(rows, '|B| of each shot after the fit minus the fitted field')
