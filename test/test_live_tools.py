@@ -76,7 +76,8 @@ def test_level_calibration_with_play_calibrate_monitor_param(start_node, bench):
     assert 'calibrated from 600 samples' in out
     assert out.rstrip().endswith('toolface_zero: board; toolface_zero_meaning: relative to the '
                                  'sensor board: its roll about the tool axis is not calibrated '
-                                 '(no stand), and the toolface 1 sigma leaves that offset out')
+                                 '(no stand or high-side mark), and the toolface 1 sigma leaves '
+                                 'that offset out')
     assert 'calibrate_level: collecting' in err          # the progress bar
     code, _, err = finish(player, signal.SIGTERM)        # what `kill` in a script sends
     assert code == 0 and 'stopped: published' in err and 'Traceback' not in err
