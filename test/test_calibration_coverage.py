@@ -139,7 +139,7 @@ def test_the_stand_keeps_its_covariance_and_older_files_say_they_lack_it():
     _, model = coverage_sim.calibrate('fit-stand', coverage_sim.TOOLS[0][1], 1,
                                       np.random.default_rng(5))
     doc = json.loads(json.dumps(model.to_dict()))
-    assert doc['schema_version'] == 10
+    assert doc['schema_version'] == 11
     again = model_from_dict(doc)
     assert again == model and again.uncertainty_notes == ()
     covariance = np.array(again.stand.parameter_covariance)
@@ -167,7 +167,7 @@ def test_file_keeps_the_covariance_and_older_files_say_they_lack_it():
     rng = np.random.default_rng(5)
     _, model = coverage_sim.calibrate('fit-magnetometer', coverage_sim.TOOLS[0][1], 1, rng)
     doc = json.loads(json.dumps(model.to_dict()))
-    assert doc['schema_version'] == 10
+    assert doc['schema_version'] == 11
     again = model_from_dict(doc)
     assert again == model
     assert again.magnetometer.covariance_stages == ('stand', 'magnetometer', 'tool_axis')

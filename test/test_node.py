@@ -5,6 +5,7 @@ import math
 import re
 
 from diagnostic_msgs.msg import DiagnosticStatus
+from inclino_ros.calibration.corrections import TOOLFACE_ZEROS
 from inclino_ros.calibration.model import load_model
 import numpy as np
 import pytest
@@ -66,9 +67,19 @@ def test_calibration_round_trip_corrects_the_stations(start_node, probe, tmp_pat
     assert raw.x == pytest.approx(
         math.degrees(math.acos(reading[2] / np.linalg.norm(reading))), abs=1e-6)
     assert abs(raw.x - 2.0) > 0.3
+    calibration = probe.listen_latched('/inclinometer/calibration')
+    probe.spin_until(lambda: calibration)
+    assert calibration[-1]['toolface_zero'] == 'board'
 
     response = probe.calibrate(level_samples())
     assert response.success, response.message
+    # Every output carrying a toolface states its zero (issue 19 item 6): the answer, the
+    # latched ~/calibration, the diagnostics; a level bench leaves it the board's.
+    assert 'toolface_zero: board' in response.message
+    assert 'toolface_zero_meaning: relative to the sensor board' in response.message
+    probe.spin_until(lambda: 'installation' in calibration[-1]['stages'])
+    assert calibration[-1]['toolface_zero'] == 'board'
+    assert calibration[-1]['toolface_zero_meaning'] == TOOLFACE_ZEROS['board']
     angles = parse_angles(response.message)
     assert angles['gamma_deg'] == pytest.approx(GAMMA_DEG, abs=ANGLE_TOL_DEG)
     assert angles['beta_deg'] == pytest.approx(BETA_DEG, abs=ANGLE_TOL_DEG)
@@ -105,6 +116,27 @@ def test_calibration_round_trip_corrects_the_stations(start_node, probe, tmp_pat
     assert float(values['gamma_deg']) == pytest.approx(angles['gamma_deg'], abs=1e-4)
     # A level bench cannot see the board's roll: the toolface is the board's (issue 19).
     assert values['toolface_zero'] == 'board'
+    assert values['toolface_zero_meaning'] == TOOLFACE_ZEROS['board']
+    assert status.message.endswith('toolface zero: board')
+
+    # ~/capture_high_side_mark: near vertical refused; on a 30 deg bench, mark up (toolface 0)
+    # the zero is the mark's (this board has no roll: an offset within its 1 sigma).
+    rng = np.random.default_rng(3)
+    refused = probe.calibrate(lambda i: tilted_reading(1.0, 0.0, GAMMA_DEG, BETA_DEG)
+                              + rng.normal(0.0, NOISE_MPS2, 3), service='capture_high_side_mark')
+    assert not refused.success
+    if axes == 2:
+        assert 'needs a three-axis accelerometer' in refused.message
+        assert node.stop() == 0
+        return
+    assert 'near vertical the toolface is undefined' in refused.message
+    answer = probe.calibrate(lambda i: tilted_reading(30.0, 0.0, GAMMA_DEG, BETA_DEG)
+                             + rng.normal(0.0, NOISE_MPS2, 3), service='capture_high_side_mark')
+    assert answer.success, answer.message
+    mark = load_model(tmp_path / 'calibration.json').toolface_mark
+    assert abs(mark.offset_deg) < 4.0 * mark.std_deg and 'toolface_zero: mark' in answer.message
+    probe.spin_until(lambda: calibration[-1]['toolface_zero'] == 'mark')
+    assert latest_status(probe, ': calibration')[1]['toolface_zero'] == 'mark'
     assert node.stop() == 0
 
 

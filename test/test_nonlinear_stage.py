@@ -179,10 +179,10 @@ def test_simulated_cubic_sensor_turns_the_stage_on(seed, cubic):
 
 
 def test_the_stage_is_stored_validated_and_in_the_sigma(tmp_path):
-    """Schema 10 keeps the stage; a stage of 50 % of the field is refused; its weights' error."""
+    """Schema 10 on keeps the stage; a stage of 50 % of |B| is refused; its weights' error."""
     model, _ = fit_real(tmp_path, 'mag_cal_cal_data', 'ab')
     doc = model.to_dict()
-    assert doc['schema_version'] == 10
+    assert doc['schema_version'] == 11
     assert model_from_dict(json.loads(json.dumps(doc))) == model
     bad = json.loads(json.dumps(doc))
     bad['magnetometer_nonlinear']['weights'][0] = [0.5] * len(bad['magnetometer_nonlinear']

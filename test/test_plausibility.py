@@ -14,7 +14,7 @@ from calibration_files import load_refusal
 from inclino_ros.calibration import plausibility
 from inclino_ros.calibration.model import (
     CalibrationFileError, load_model, Magnetic, MagnetometerTemperature, NO_MAGNETIC_CORRECTION,
-    save_model)
+    save_model, ToolfaceMark)
 from inclino_ros.calibration.plausibility import Implausible
 from inclino_ros.calibration.stages import MagnetometerNonlinear
 import numpy as np
@@ -193,10 +193,15 @@ NONLINEAR = MagnetometerNonlinear(
     held_out_after_deg=0.19, held_out_noise_deg=0.05, fitted_at='2026-03-01T10:00:00+00:00',
     parameter_covariance=tuple(tuple(1e-8 if i == j else 0.0 for j in range(6))
                                for i in range(6)))
-#: Every stage of issues 8, 9 and 18 present: magnetometer, alignment, tool axis, both drifts,
-#: the non-linear magnetometer stage.
+#: A high-side mark (issue 19 item 6): the board rolled 20 deg, captured at 30 deg.
+MARK = ToolfaceMark(offset_deg=-20.0, std_deg=0.005, inclination_deg=30.0,
+                    toolface_convention='seed000', sample_count=600,
+                    captured_at='2026-03-01T11:00:00+00:00')
+#: Every stage of issues 8, 9, 18 and 19 present: magnetometer, alignment, tool axis, both
+#: drifts, the non-linear magnetometer stage, the high-side mark.
 ALL_STAGES = replace(FULL, magnetic=MAGNETIC, temperature=DRIFT,
-                     magnetometer_temperature=MAGNETOMETER_DRIFT, magnetometer_nonlinear=NONLINEAR)
+                     magnetometer_temperature=MAGNETOMETER_DRIFT, magnetometer_nonlinear=NONLINEAR,
+                     toolface_mark=MARK)
 
 NEW_STAGE_EDITS = {
     'K_m scale 3': ('magnetometer', {'scale_matrix': [[3, 0, 0], [0, 1, 0], [0, 0, 1]]},

@@ -387,6 +387,20 @@ def check_magnetometer_nonlinear(stage):
             ' nT')
 
 
+#: The least inclination [deg] (from vertical, up or down) a high-side mark is captured at:
+#: nearer vertical the toolface is undefined (its 1 sigma grows as 1 / sin I).
+MIN_MARK_INCLINATION_DEG = 5.0
+
+
+def check_toolface_mark(stage):
+    """Raise Implausible for a ToolfaceMark no capture gives (off vertical, a finite sigma)."""
+    _within(stage.offset_deg, -180.0, 180.0, 'toolface_mark.offset_deg', ' deg')
+    _within(stage.std_deg, 0.0, 90.0, 'toolface_mark.std_deg', ' deg')
+    _within(stage.inclination_deg, MIN_MARK_INCLINATION_DEG, 180.0 - MIN_MARK_INCLINATION_DEG,
+            'toolface_mark.inclination_deg', ' deg')
+    _within(stage.sample_count, 1, MAX_COUNT, 'toolface_mark.sample_count')
+
+
 def check_magnetometer(stage):
     """Raise Implausible for a Magnetometer stage (K_m, b_m) no magnetometer has, in nT."""
     k, bias = (np.asarray(a, dtype=float) for a in stage.arrays)

@@ -19,7 +19,8 @@ from inclino_ros.calibration.migrations import (
     READABLE_VERSIONS, SCHEMA_VERSION, SECTIONS, upgraded)
 from inclino_ros.calibration.stages import (
     Installation, Magnetic, Magnetometer, MagnetometerAlignment, MagnetometerNonlinear,
-    MagnetometerTemperature, Stand, Temperature, ToolAxis)
+    MagnetometerTemperature, Stand, Temperature, ToolAxis, ToolfaceMark)
+from inclino_ros.core.attitude import TOOLFACE_CONVENTIONS
 from inclino_ros.core.mounting import axes_map_matrix
 import numpy as np
 
@@ -350,6 +351,11 @@ STAGE_FIELDS = {
         'gamma_deg': _number, 'beta_deg': _number, 'std_deg': _number, 'g_total_mps2': _number,
         'sample_count': _count, 'captured_at': _time, 'temperature_c': _temperature}, (),
         plausibility.check_installation),
+    'toolface_mark': (ToolfaceMark, {
+        'offset_deg': _number, 'std_deg': _number, 'inclination_deg': _number,
+        'toolface_convention': _choice(*TOOLFACE_CONVENTIONS), 'sample_count': _count,
+        'captured_at': _time, 'temperature_c': _temperature}, (),
+        plausibility.check_toolface_mark),
     'tool_axis': (ToolAxis, {
         'gamma_deg': _number, 'beta_deg': _number, 'axial_rms_deg': _number,
         'roll_groups': _count, 'shots': _count, 'fitted_at': _time,

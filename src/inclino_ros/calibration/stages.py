@@ -82,6 +82,46 @@ class ToolAxis(_SeedZeroRotation):
     temperature_c: float = None  # what the fitted readings stood for; None: unknown
 
 
+@dataclass(frozen=True)
+class ToolfaceMark:
+    """
+    The board's roll about the tool axis, tied to the tool's high-side mark (issue 19 item 6).
+
+    A still capture with the mark up on a tilted bench reads the board's
+    toolface ``offset_deg`` where the tool's is 0 by definition (in
+    ``toolface_convention``); the stage turns both triads' tool-frame vectors
+    back by it, ``R_z(-offset)``: the toolface moves by ``-offset``, the
+    inclination and the azimuth (a turn of G and B together about the tool
+    axis) do not.  ``std_deg``: the capture's standard error of the mean
+    tilt over ``sin I`` (``calibration.toolface_mark``).
+    """
+
+    offset_deg: float
+    std_deg: float
+    inclination_deg: float       # of the tool in the capture
+    toolface_convention: str     # the toolface whose zero the mark is
+    sample_count: int
+    captured_at: str
+    temperature_c: float = None  # what the captured readings stood for; None: unknown
+
+    @cached_property
+    def matrix(self):
+        """Return ``R_z(-offset)``, the turn the stage applies (computed once)."""
+        angle = math.radians(self.offset_deg)
+        c, s = math.cos(angle), math.sin(angle)
+        return np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+
+    def apply(self, f, temperature_c=None):
+        """Return the tool-frame vectors ``f`` (N x 3) turned to the mark's zero."""
+        return to_tool_frame(f, self.matrix)
+
+    @staticmethod
+    def jacobian(turned):
+        """Return d(R_z(-offset) v)/d offset [per rad] (N, 3, 1) at the turned vectors."""
+        turned = np.asarray(turned, dtype=float)
+        return np.stack([turned[:, 1], -turned[:, 0], np.zeros(len(turned))], axis=1)[..., None]
+
+
 class _PolynomialOfTemperature:
     """
     A linear correction ``K^-1 (v - b)`` whose K and b may be polynomials of T (issue 18).

@@ -192,9 +192,10 @@ def fit(args, lines, outputs):
     for note in result.notes:
         if note.startswith('WARNING'):
             print(f'inclino fit-magnetometer: {note}', file=sys.stderr)
-    before, after = (magnetics.survey_of(model.apply(accel, temperature_c),
-                                         model.apply_magnetic(field, before='magnetic'))
-                     for model in (existing, result.model))
+    # G in the frame of B before seed 002's stage: before the toolface mark.
+    before, after = (magnetics.survey_of(
+        model.apply(accel, temperature_c, before='toolface_mark'),
+        model.apply_magnetic(field, before='magnetic')) for model in (existing, result.model))
     lines += summary_lines(result, labels, before, after, total_nT, dip_ref, source)
     rows = shot_residuals(result.fit, labels)
     lines += residual_lines(rows, '|B| of each shot after the fit minus the fitted field')
@@ -202,7 +203,7 @@ def fit(args, lines, outputs):
     if args.plot:
         plot_report(outputs.path(png), labels, before, after, result.fit.field_nT,
                     args.gravity_mps2)
-    model = save(args, result.model, outputs)
+    model = save(args, result.model, outputs, lines)
     written = ['magnetometer', 'magnetometer_alignment'] + (
         ['tool_axis'] if result.fit.tool_axis is not None else []) + (
         ['stand (method sphere)'] if result.fit.accel_matrix is not None else []) + (

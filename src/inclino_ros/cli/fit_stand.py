@@ -142,11 +142,11 @@ def fit(args, lines, outputs):
     png, txt = report_paths(args, REPORT_NAME + ('_refused' if refusal else ''))
     draw(outputs.path(png))
     lines.append(f'report: {png}')
-    write_text(outputs.path(txt), lines + ([f'REFUSED: {refusal}'] if refusal else []))
     if refusal:
+        write_text(outputs.path(txt), lines + [f'REFUSED: {refusal}'])
         raise Refused(refusal)
     dropped = existing.installation is not None
-    model = save(args, with_stand(existing, stage, field), outputs)
+    model = save(args, with_stand(existing, stage, field), outputs, lines)
     lines.append(f'wrote {args.calibration}: stand stage ({args.method}, {stage.positions} '
                  f'{"positions" if args.method == "stand" else "readings"})'
                  + (', temperature stage kept' if existing.temperature else ''))
@@ -158,6 +158,7 @@ def fit(args, lines, outputs):
     elif args.method == 'sphere':
         lines.append('a sphere fit cannot see the mounting rotation: calibrate the level bench '
                      '(inclino calibrate) next')
+    write_text(outputs.path(txt), lines)
     return Fitted(model, tuple(rows))
 
 

@@ -131,6 +131,26 @@ def add_still_options(parser, sem_parameter, mean_of, capture):
                 'significantly for its noise, moved; a smaller motion is in the 1 sigma')
 
 
+def add_window_arguments(parser):
+    """Add --start-s and --end-s: the window of a bag a still capture is read from."""
+    parser.add_argument('--start-s', type=float, default=0.0, metavar='S',
+                        help='bag: first sample, seconds after the first message (default: 0)')
+    parser.add_argument('--end-s', type=float, metavar='S',
+                        help='bag: samples before S seconds after the first message (default: '
+                             'to the last message)')
+
+
+def add_capture_checks(parser, other_stages):
+    """Add the G-total, temperature and gravity options of a still capture's fit."""
+    node_option(parser, '--g-total-tolerance-mps2', 'level_capture.g_total_tolerance_mps2',
+                'largest deviation of G-total from gravity [m/s^2]')
+    node_option(parser, '--max-temperature-difference-c', 'temperature.max_stage_difference_c',
+                'without a temperature stage, a capture further in temperature [deg C] from '
+                f'the {other_stages} is refused')
+    parser.add_argument('--gravity-mps2', type=float, default=NODE_DEFAULTS['gravity_mps2'],
+                        help='local gravity [m/s^2] (default: %(default)s)')
+
+
 def add_sensor_argument(parser):
     """Add --sensor-id: the sensor the calibration file must belong to (and is stamped with)."""
     parser.add_argument('--sensor-id', metavar='ID',
@@ -183,9 +203,12 @@ def begin_update(args, command):
         raise CommandError(f'cannot read {args.calibration}: {err}') from None
 
 
-def save(args, model, outputs):
+def save(args, model, outputs, lines=None):
     """
     Write ``model`` to ``args.calibration`` among ``outputs`` (``model.save_model``); return it.
+
+    The toolface zero the saved model gives (``CalibrationModel.toolface_zero_lines``)
+    is appended to the fit's report ``lines`` (issue 19 item 6; None: said elsewhere).
 
     Refused when the fitted model is one load_model would refuse (an
     implausible result) or the file changed since ``begin_update``,
@@ -198,6 +221,8 @@ def save(args, model, outputs):
         raise Refused(f'the result is not a plausible calibration: {err}') from None
     except OSError as err:
         raise CommandError(f'cannot write {args.calibration}: {err}') from None
+    if lines is not None:
+        lines.extend(model.toolface_zero_lines)
     return model
 
 

@@ -358,7 +358,8 @@ class Collector:
     def answer(self, response, message, saved=True):
         """Fill a successful response (and log it)."""
         response.success = True
-        response.message = f'{message}; saved to {self.node.calibration_file}' if saved \
+        response.message = (f'{message}; saved to {self.node.calibration_file}; '
+                            + '; '.join(self.node.model.toolface_zero_lines)) if saved \
             else message
         self.node.get_logger().info(response.message)
         return response
