@@ -20,16 +20,19 @@ Two honest comparisons, the same data for both:
   other way round; both sets' deviations pooled).
 
 Ours: ``inclino fit-magnetometer`` (one joint least-squares fit: ellipsoids, dip-constancy
-alignment, tool axis from the roll groups, robust to outlier shots; linear).  Also (in-sample and
-held-out) ours + the peer's non-linear stage class, written out here the peer's way on our
-tool-frame fields (``non_linear``: an experiment of this bench, not part of the package).
+alignment, tool axis from the roll groups, robust to outlier shots), then the package's
+non-linear stage (``core.nonlinear``: 3 ridge-regularised Gaussian RBFs per cross axis, fitted
+from the roll sets): gated (``--non-linear auto``, the default: kept only when each roll set,
+judged by the stage fitted on the other, agrees better by more than 2 sigma) and forced
+(``--non-linear on``).
 
 The peer's figures are recorded (``PEER``); ``--peer-repo DIR`` (a checkout of the peer at the
 commit above) recomputes them with its code.  Writes ``bench/results/sap6_peer.md``.  Run:
-``.venv/bin/python bench/bench_sap6_peer.py`` (~2 min).
+``.venv/bin/python bench/bench_sap6_peer.py`` (~4 min).
 """
 
 import argparse
+from dataclasses import replace
 import math
 import os
 import subprocess
@@ -58,7 +61,7 @@ PEER = {'BB': (2.181, 0.726, 0.463, 0.740, 0.655), 'CF': (1.393, 0.518, 0.352, 0
         'ee': (1.791, 0.386, 0.440, 0.825, 1.785), 'fb': (1.536, 0.424, 0.310, 0.463, 0.927),
         'hj': (2.166, 0.481, 0.207, 0.472, 0.313), 'hj2': (1.488, 0.478, 0.289, 0.643, 1.183),
         'jd': (1.279, 0.496, 0.324, 0.479, 2.206)}
-#: Gaussian RBF parameters per axis of the non-linear stage (the peer test's setting).
+#: The peer's Gaussian RBF parameters per axis (its test's setting).
 RBF_PARAMETERS = 5
 
 
@@ -82,8 +85,8 @@ def read_set(folder, name):
     return lines[0], lines[1:], table[:, :3], table[:, 3:]
 
 
-def calibrate(header, rows, shots, work):
-    """Return the model ``inclino fit-magnetometer`` fits to the rows ``shots``."""
+def calibrate(header, rows, shots, work, nonlinear='on'):
+    """Return the model ``inclino fit-magnetometer --non-linear nonlinear`` fits to ``shots``."""
     path, calibration = os.path.join(work, 'shots.csv'), os.path.join(work, 'cal.json')
     for old in (calibration,):
         if os.path.exists(old):
@@ -92,74 +95,51 @@ def calibrate(header, rows, shots, work):
         stream.write('\n'.join([header] + [rows[k] for k in shots]) + '\n')
     inclino = os.path.join(os.path.dirname(sys.executable), 'inclino')
     subprocess.run([inclino, 'fit-magnetometer', path, '--calibration', calibration,
-                    '--report-dir', work], check=True, capture_output=True)
+                    '--report-dir', work, '--non-linear', nonlinear], check=True,
+                   capture_output=True)
     return load_model(calibration)
 
 
-def gaussians(x):
-    """Return the peer's RBF design (N, RBF_PARAMETERS) of normalised components x (N,)."""
-    offsets = np.linspace(-1.0, 1.0, RBF_PARAMETERS)
-    return np.exp(-(((x[:, None] - offsets[None, :]) / (1.5 / RBF_PARAMETERS)) ** 2))
+def azimuth_deg(model, accel, field):
+    """Return the azimuths [deg] a model gives the shots (its non-linear stage included)."""
+    return magnetics.survey_of(model.apply(accel),
+                               model.apply_magnetic(field, before='magnetic'))['azimuth_deg']
 
 
-def non_linear(gravity, field, roll_sets):
-    """
-    Return ``correct(field)``: the peer's fast non-linear stage fitted to ``roll_sets``.
-
-    On tool-frame fields (z the pointing axis): each roll set's fields turned back by their
-    toolface, averaged, turned again give what each shot should read; the x and y differences
-    are regressed, per axis, on Gaussian RBFs of that component over the field's magnitude.
-    """
-    scale = float(np.median(np.linalg.norm(field, axis=1)))
-    design, target = [[], []], [[], []]
-    for shots in roll_sets:
-        toolface = np.arctan2(gravity[shots, 1], gravity[shots, 0])
-        c, s = np.cos(toolface), np.sin(toolface)
-        b = field[shots]
-        mean_x = np.mean(c * b[:, 0] + s * b[:, 1])
-        mean_y = np.mean(-s * b[:, 0] + c * b[:, 1])
-        expected = np.column_stack([c * mean_x - s * mean_y, s * mean_x + c * mean_y])
-        for axis in (0, 1):
-            design[axis].append(gaussians(b[:, axis] / scale))
-            target[axis].append((expected[:, axis] - b[:, axis]) / scale)
-    weights = [np.linalg.lstsq(np.vstack(design[axis]), np.concatenate(target[axis]),
-                               rcond=None)[0] for axis in (0, 1)]
-
-    def correct(values):
-        values = np.array(values, dtype=float)
-        for axis in (0, 1):
-            values[:, axis] += scale * gaussians(values[:, axis] / scale) @ weights[axis]
-        return values
-    return correct
-
-
-def azimuth_deg(model, accel, field, correct=None):
-    """Return the azimuths [deg] a model (and a non-linear stage) gives the shots."""
-    gravity, corrected = model.apply(accel), model.apply_magnetic(field, before='magnetic')
-    if correct is not None:
-        corrected = correct(corrected)
-    return magnetics.survey_of(gravity, corrected)['azimuth_deg']
+def spread(model, accel, field, sets):
+    """Return the pooled RMS [deg] of the roll sets' azimuths about their circular means."""
+    return rms([circular_deviation_deg(azimuth_deg(model, accel[s], field[s])) for s in sets])
 
 
 def instrument(folder, name, work):
-    """Return our figures: raw, in-sample (linear, + non-linear), held-out (both)."""
+    """
+    Return a dict of our figures on one of the instruments.
+
+    ``raw``; in-sample ``linear``, ``gated`` (``--non-linear auto``: the package's gate),
+    ``forced`` (``--non-linear on``); the gate's own held-out figures ``gate_before``,
+    ``gate_after`` (each roll set judged by the stage fitted on the other) and ``enabled``;
+    held-out (8 sphere shots + one roll set) ``held_linear`` and ``held_forced`` (the stage
+    fitted on the one set, judged on the other).  Held-out gated is ``held_linear``: with one
+    roll set the gate cannot judge the stage and keeps it off.
+    """
     header, rows, accel, field = read_set(folder, name)
-    raw = rms([circular_deviation_deg(azimuth_deg(CalibrationModel(3), accel[s], field[s]))
-               for s in ROLL_SETS])
-    model = calibrate(header, rows, range(24), work)
-    gravity, fields = model.apply(accel), model.apply_magnetic(field, before='magnetic')
-    correct = non_linear(gravity, fields, ROLL_SETS)
-    inside = [rms([circular_deviation_deg(azimuth_deg(model, accel[s], field[s], c))
-                   for s in ROLL_SETS]) for c in (None, correct)]
+    figures = {'raw': spread(CalibrationModel(3), accel, field, ROLL_SETS)}
+    forced = calibrate(header, rows, range(24), work, 'on')
+    gated = calibrate(header, rows, range(24), work, 'auto')
+    stage = forced.magnetometer_nonlinear
+    figures.update(linear=spread(replace(forced, magnetometer_nonlinear=None), accel, field,
+                                 ROLL_SETS),
+                   gated=spread(gated, accel, field, ROLL_SETS),
+                   forced=spread(forced, accel, field, ROLL_SETS),
+                   gate_before=stage.held_out_before_deg, gate_after=stage.held_out_after_deg,
+                   enabled=gated.magnetometer_nonlinear is not None)
     held = [[], []]
     for fitted, judged in (ROLL_SETS, ROLL_SETS[::-1]):
-        model = calibrate(header, rows, np.r_[0:8, fitted], work)
-        correct = non_linear(model.apply(accel), model.apply_magnetic(field, before='magnetic'),
-                             (fitted,))
-        for k, c in enumerate((None, correct)):
-            held[k].append(circular_deviation_deg(azimuth_deg(model, accel[judged],
-                                                              field[judged], c)))
-    return raw, inside[0], inside[1], rms(held[0]), rms(held[1])
+        model = calibrate(header, rows, np.r_[0:8, fitted], work, 'on')
+        for k, m in enumerate((replace(model, magnetometer_nonlinear=None), model)):
+            held[k].append(circular_deviation_deg(azimuth_deg(m, accel[judged], field[judged])))
+    figures.update(held_linear=rms(held[0]), held_forced=rms(held[1]))
+    return figures
 
 
 def peer_figures(repo):
@@ -204,15 +184,22 @@ def main():
     parser.add_argument('--peer-repo', help='a checkout of circuitpython-mag-cal at acf6b5f')
     args = parser.parse_args()
     peer = PEER if args.peer_repo is None else peer_figures(args.peer_repo)
-    rows = []
+    rows, wins = [], {'in-sample': 0, 'held-out': 0}
     with tempfile.TemporaryDirectory() as work:
         for folder, _, _, names in SETS:
             for name in names:
-                raw, inside, inside_nl, held, held_nl = instrument(folder, name, work)
+                f = instrument(folder, name, work)
                 p = peer[name]
-                rows.append(f'| {folder}/{name} | {raw:.2f} | {inside:.3f} | {p[1]:.3f} | '
-                            f'{inside_nl:.3f} | {p[2]:.3f} | {held:.3f} | {p[3]:.3f} | '
-                            f'{held_nl:.3f} | {p[4]:.3f} |')
+                wins['in-sample'] += f['gated'] < min(p[1], p[2])
+                wins['held-out'] += f['held_linear'] < min(p[3], p[4])
+                rows.append(
+                    f"| {folder}/{name} | {f['raw']:.2f} | {f['linear']:.3f} | "
+                    f"{f['gated']:.3f} {'(on)' if f['enabled'] else '(off)'} | "
+                    f"{f['forced']:.3f} | {p[1]:.3f} | {p[2]:.3f} | "
+                    f"{f['gate_before']:.3f} -> {f['gate_after']:.3f} | "
+                    f"{f['held_linear']:.3f} | {f['held_forced']:.3f} | {p[3]:.3f} | "
+                    f'{p[4]:.3f} |')
+    count = len(rows)
     text = '\n'.join([
         '# Fifteen real hand-held instruments: roll-set azimuth agreement, ours vs the peer',
         '',
@@ -222,15 +209,24 @@ def main():
         'sphere shots',
         '+ one roll set, judged on the other (both ways, pooled). Peer: circuitpython-mag-cal '
         'acf6b5f',
-        '(axis: AXIS_CORRECTION; non-linear: FAST_NON_LINEAR, 5 RBF parameters per axis). '
-        '"ours + non-linear":',
-        "the peer's non-linear stage on our linear fit (this bench's experiment, not in the "
-        'package).',
+        '(axis: AXIS_CORRECTION; non-linear: FAST_NON_LINEAR, 5 RBF parameters per axis).',
+        'Ours: `inclino fit-magnetometer`; "gated" = `--non-linear auto` (the stage kept only '
+        'when the roll sets,',
+        'each judged by the stage fitted on the other, agree better by more than 2 sigma: the '
+        '"gate" column,',
+        'held-out before -> after, shots the fit used); "forced" = `--non-linear on`. Held-out '
+        'gated = held-out',
+        'linear: with one roll set the gate cannot judge the stage and keeps it off.',
         '',
-        '| instrument | raw | ours (linear) in-sample | peer axis in-sample | ours + non-linear '
-        'in-sample | peer non-linear in-sample | ours held-out | peer axis held-out | '
-        'ours + non-linear held-out | peer non-linear held-out |',
-        '|---|' + '---|' * 9, *rows, ''])
+        f"Ours gated beats the peer's best (axis or non-linear) in-sample on {wins['in-sample']}"
+        f"/{count}, held-out on {wins['held-out']}/{count}.",
+        '',
+        '| instrument | raw | ours linear in-sample | ours gated in-sample | '
+        'ours forced in-sample | peer axis in-sample | peer non-linear in-sample | '
+        'gate: held-out before -> after | '
+        'ours linear (= gated) held-out | ours forced held-out | peer axis held-out | '
+        'peer non-linear held-out |',
+        '|---|' + '---|' * 11, *rows, ''])
     os.makedirs(os.path.join(HERE, 'results'), exist_ok=True)
     with open(os.path.join(HERE, 'results', 'sap6_peer.md'), 'w') as out:
         out.write(text)

@@ -12,7 +12,15 @@ it prints, over ``--draws`` captures:
   as the captures run it (``judge`` with the default ``StillLimits``, significance and the
   size of the motion).
 
-Usage: .venv/bin/python bench/bench_stillness.py [--draws 20000] [--seed 1]
+Slow turns and steps (issue 19 item 5, ``--turn-draws``): captures of two tilt components at
+100 Hz, MEMS (0.117 deg per sample: 0.02 m/s^2) and quartz (0.0057 deg: 1e-4 g) noise, 3 / 5 /
+10 s long: still ones with white and AR(1) noise (rho 0.5, 0.9: false refusals), and ones that
+turn at 0.005-0.05 deg/s or step by 0.1 deg at mid-capture (white noise): the fraction
+accepted by ``judge`` (default ``StillLimits``), and of the accepted, the fraction whose mean
+lies within 1 and 2 ``stated_sem_deg`` of the attitude at both ends of the capture (for a
+still capture: of the attitude), and the median stated sigma.
+
+Usage: .venv/bin/python bench/bench_stillness.py [--draws 20000] [--turn-draws 1000] [--seed 1]
 """
 
 import argparse
@@ -20,8 +28,17 @@ import math
 
 from inclino_ros.core.stillness import assess, FALSE_MOTION_P, judge, StillLimits
 import numpy as np
+from scipy.signal import lfilter
 
 RATE_HZ = 100.0
+#: Per-sample tilt noise [deg] of the slow-turn rows: MEMS 0.02 m/s^2, quartz 1e-4 g.
+SENSORS = (('MEMS', 0.117), ('quartz', 0.0057))
+#: Capture lengths [s] and motions of the slow-turn rows: (name, rate deg/s, step deg, rho).
+DURATIONS_S = (3.0, 5.0, 10.0)
+MOTIONS = (('still white', 0.0, 0.0, 0.0), ('still AR(1) 0.5', 0.0, 0.0, 0.5),
+           ('still AR(1) 0.9', 0.0, 0.0, 0.9), ('turn 0.005 deg/s', 0.005, 0.0, 0.0),
+           ('turn 0.015 deg/s', 0.015, 0.0, 0.0), ('turn 0.05 deg/s', 0.05, 0.0, 0.0),
+           ('step 0.1 deg', 0.0, 0.1, 0.0))
 #: (samples, components, per-sample noise [deg]): the survey station of test_node_quality
 #: (16 samples, 4e-4 g), a short capture, the rotation's axis (k = 1), the default capture
 #: of a MEMS (500 samples, 0.02 m/s^2).
@@ -47,11 +64,66 @@ def draw_rates(samples, components, noise_deg, draws, rng):
     return counts
 
 
+def motion_rates(noise_deg, duration_s, motion, draws, rng):
+    """
+    Return (accepted, moving, covered 1 sigma, covered 2 sigma, median stated sigma) of ``draws``.
+
+    ``motion`` (name, rate deg/s, step deg, rho): the first tilt component turns at the rate or
+    steps at mid-capture; the noise is AR(1) of stationary 1 sigma ``noise_deg``.
+    """
+    _, rate, step, rho = motion
+    samples = int(round(duration_s * RATE_HZ))
+    times_s = np.arange(samples) / RATE_HZ
+    truth = rate * times_s + step * (times_s >= times_s[samples // 2])
+    limits = StillLimits()
+    accepted, moving, one, two, stated = 0, 0, 0, 0, []
+    for _ in range(draws):
+        white = rng.normal(0.0, 1.0, (samples, 2))
+        # Stationary AR(1): w_0 = e_0, w_i = rho w_(i-1) + sqrt(1 - rho^2) e_i.
+        white[0] /= math.sqrt(1.0 - rho ** 2)
+        noise = lfilter([math.sqrt(1.0 - rho ** 2)], [1.0, -rho], white, axis=0)
+        angles_deg = noise * noise_deg
+        angles_deg[:, 0] += truth
+        result = assess(np.radians(angles_deg), times_s)
+        reason = judge(result, limits)
+        if reason is not None:
+            moving += reason.startswith('tool is moving')
+            continue
+        accepted += 1
+        mean_deg = angles_deg[:, 0].mean()
+        error = max(abs(mean_deg - truth[0]), abs(mean_deg - truth[-1]))
+        one += error <= result.stated_sem_deg
+        two += error <= 2.0 * result.stated_sem_deg
+        stated.append(result.stated_sem_deg)
+    return accepted, moving, one, two, float(np.median(stated)) if stated else math.nan
+
+
+def slow_turns(draws, rng):
+    """Print the slow-turn table (markdown)."""
+    print(f'\n{draws} captures per row; accepted: by judge (default StillLimits: max_sem_deg '
+          f'{StillLimits.max_sem_deg}, max_motion_deg {StillLimits.max_motion_deg}, '
+          f'max_drift_deg_per_s {StillLimits.max_drift_deg_per_s}); covered: of the accepted, '
+          'mean within 1 / 2 stated sigma of the attitude at both ends\n')
+    print('| sensor | capture s | motion | accepted | refused moving | covered 1 sigma | '
+          'covered 2 sigma | median stated sigma deg | sem deg |')
+    print('|---|---|---|---|---|---|---|---|---|')
+    for sensor, noise_deg in SENSORS:
+        for duration_s in DURATIONS_S:
+            sem_deg = noise_deg / math.sqrt(duration_s * RATE_HZ)
+            for motion in MOTIONS:
+                accepted, moving, one, two, stated = motion_rates(
+                    noise_deg, duration_s, motion, draws, rng)
+                share = (f'{one / accepted:.2f} | {two / accepted:.2f}' if accepted else '- | -')
+                print(f'| {sensor} | {duration_s:g} | {motion[0]} | {accepted / draws:.3f} | '
+                      f'{moving / draws:.3f} | {share} | {stated:.4f} | {sem_deg:.4f} |')
+
+
 def main():
     """Print the table (markdown)."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[1])
     parser.add_argument('--draws', type=int, default=20000)
     parser.add_argument('--seed', type=int, default=1)
+    parser.add_argument('--turn-draws', type=int, default=1000)
     args = parser.parse_args()
     rng = np.random.default_rng(args.seed)
     print(f'{args.draws} still captures per row, seed {args.seed}; FALSE_MOTION_P '
@@ -66,6 +138,7 @@ def main():
         print(f"| {samples} | {components} | {noise_deg} | {rate['drift<1e-2']:.2e} | "
               f"{rate['drift<1e-3']:.1e} | {rate['steady<1e-2']:.2e} | "
               f"{rate['steady<1e-3']:.1e} | {c['drift']} | {c['steady']} | {c['judge']} |")
+    slow_turns(args.turn_draws, rng)
 
 
 if __name__ == '__main__':

@@ -110,7 +110,7 @@ class Probe:
                          for name in ('calibrate_level', 'capture_position',
                                       'solve_stand_calibration', 'clear_positions',
                                       'capture_rotation', 'take_survey', 'solve_msa',
-                                      'clear_surveys')}
+                                      'clear_surveys', 'capture_high_side_mark')}
         self.client = self.services['calibrate_level']
         self.parameters = AsyncParameterClient(self.node, node_name)
         self.mag_publisher = self.node.create_publisher(

@@ -28,6 +28,7 @@ import io
 import json
 import math
 import os
+from pathlib import Path
 import subprocess
 
 from inclino_ros.calibration.level_capture import LevelLimits, solve_level_capture
@@ -326,6 +327,7 @@ def test_process_summary(run_3axis):
     assert values['samples_in'] == values['accepted'] == '5400'
     # A level bench cannot see the board's roll: the toolface is the board's (issue 19).
     assert values['toolface_zero'] == 'board'
+    assert values['toolface_zero_meaning'].startswith('relative to the sensor board')
     assert all(values[f'dropped_{r}'] == '0'
                for r in ('non_finite', 'saturated', 'zero', 'over_g', 'dynamic',
                          'two_axis_range'))
@@ -532,3 +534,19 @@ def test_process_bias_instability_adds_its_flicker_to_each_window(tmp_path, run_
     assert variances[0].shape == variances[1].shape and variances[0].size
     np.testing.assert_allclose(variances[1] - variances[0],
                                (flicker_mean_factor() * b_mps2) ** 2, rtol=0.03)
+
+
+def test_processed_bag_states_its_toolface_zero(run_3axis):
+    """The metadata of OUT holds the toolface zero; compare prints it (issue 19 item 6)."""
+    custom = bag.custom_data(run_3axis['out'])
+    assert custom['inclino.toolface_zero'] == 'board'
+    assert 'inclino.toolface_zero: board' in (Path(run_3axis['out']) / 'metadata.yaml').read_text()
+    assert custom['inclino.toolface_zero_meaning'].startswith('relative to the sensor board')
+    code, out, err = quiet(['compare', run_3axis['out'], run_3axis['sim']])
+    assert code == 0, err
+    assert '\ntoolface_zero: board\ntoolface_zero_meaning: relative to the sensor board' in out
+    # A bag that states none (the simulated input): compare says it does not know.
+    code, out, err = quiet(['compare', run_3axis['sim'], run_3axis['sim'],
+                            '--topic', '/truth/survey'])
+    assert code == 0, err
+    assert 'toolface_zero: unknown' in out

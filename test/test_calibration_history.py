@@ -12,14 +12,17 @@ import math
 import os
 import random
 import re
+import shutil
 import signal
 import subprocess
 import sys
 import time
 
+from inclino_ros.calibration import history
 from inclino_ros.calibration.history import digest, history_folder
 from inclino_ros.calibration.model import (
     CalibrationModel, load_model, read_model_history, save_model)
+from inclino_ros.node.parameters import PARAMETERS
 import numpy as np
 import pytest
 from ros_harness import installed_script, tilted_reading
@@ -134,6 +137,80 @@ def test_a_damaged_history_never_blocks_the_file(tmp_path):
         stream.write('not a folder')
     assert load_model(broken) == CalibrationModel(3)
     assert read_model_history(broken)[1][0].startswith('the history')
+
+
+def test_the_history_keeps_the_newest_versions_and_says_which_it_removed(tmp_path):
+    """Five fit-levels with --history-keep 2: versions 4 and 5 stay; each write names what went."""
+    calibration = str(tmp_path / 'cal.json')
+    notes = []
+    for i in range(5):
+        code, _, err = fit_level(level_csv(tmp_path / f'{i}.csv', gamma_deg=0.1 * i, seed=i),
+                                 calibration, '--history-keep', 2)
+        assert code == 0, err
+        notes.append([line for line in err.splitlines() if 'removed' in line])
+    assert notes[:2] == [[], []]
+    assert notes[2:] == [[f'inclino fit-level: note: {calibration}: removed version {n} from its '
+                          'history (it keeps the newest 2, and the version in use)']
+                         for n in (1, 2, 3)]
+    versions, problems = read_model_history(calibration)
+    assert problems == [] and [v.number for v in versions] == [4, 5]
+    assert versions[-1].sha256 == digest(open(calibration).read())
+    assert load_model(calibration).installation.gamma_deg == pytest.approx(0.4, abs=0.01)
+    # A restore keeps as many (restore 4: versions 5 and 6 stay, 6 holding 4's text).
+    code, _, err = quiet(['calibration', 'restore', calibration, '4', '--history-keep', 2])
+    assert code == 0 and 'removed version 4 from its history' in err
+    versions, _ = read_model_history(calibration)
+    assert [v.number for v in versions] == [5, 6]
+    code, _, err = quiet(['calibration', 'restore', calibration, '6', '--history-keep', 0])
+    assert code == 2 and "the range of the node's calibration.history_keep" in err
+
+
+def test_the_default_keep_is_the_node_parameter_and_generous(tmp_path):
+    """One definition: the node's calibration.history_keep default, what every write keeps."""
+    (parameter,) = (p for p in PARAMETERS if p.name == 'calibration.history_keep')
+    assert parameter.default == history.DEFAULT_KEEP == 200 and parameter.low == 1
+    code, out, _ = quiet(['fit-level', '--help'])
+    assert code == 0 and 'as calibration.history_keep' in ' '.join(out.split())
+    calibration = str(tmp_path / 'cal.json')
+    save_model(calibration, CalibrationModel(3, sensor_id='SN0'))
+    first = os.path.join(history_folder(calibration), 'v000001.json')
+    for number in range(2, history.DEFAULT_KEEP + 3):   # as if written 202 times
+        shutil.copyfile(first, os.path.join(history_folder(calibration), f'v{number:06d}.json'))
+    save_model(calibration, CalibrationModel(3, sensor_id='SN1'))
+    versions, _ = read_model_history(calibration)
+    assert [v.number for v in versions] == list(range(4, history.DEFAULT_KEEP + 4))
+
+
+def test_pruning_never_removes_the_version_in_use_nor_the_newest(tmp_path):
+    """The file holds version 2 (a write killed between history and file): 2 and 4 stay."""
+    calibration = str(tmp_path / 'cal.json')
+    for sensor in range(4):
+        save_model(calibration, CalibrationModel(3, sensor_id=f'SN{sensor}'))
+    versions, _ = read_model_history(calibration)
+    with open(calibration, 'w') as stream:
+        stream.write(versions[1].text)
+    assert history.prune(calibration, 1) == [1, 3]
+    assert [v.number for v in read_model_history(calibration)[0]] == [2, 4]
+    assert history.prune(calibration, 1, in_use={versions[3].sha256}) == []
+    assert load_model(calibration).sensor_id == 'SN1'
+
+
+def test_the_node_prunes_with_its_parameter_and_logs_it(start_node, probe, tmp_path):
+    """calibration.history_keep 1: three level captures leave the newest; the log names others."""
+    node = start_node(**{'calibration.history_keep': 1, 'level_capture.samples': 100})
+    probe.wait_for_node()
+    level = tilted_reading(0.0, 0.0, GAMMA_DEG, BETA_DEG)
+    rng = np.random.default_rng(3)
+    for _ in range(3):
+        response = probe.calibrate(lambda i: level + rng.normal(0.0, NOISE_MPS2, 3))
+        assert response.success, response.message
+    calibration = str(tmp_path / 'calibration.json')
+    versions, problems = read_model_history(calibration)
+    assert problems == [] and [v.number for v in versions] == [3]
+    assert versions[0].sha256 == digest(open(calibration).read())
+    log = node.log()
+    assert f'{calibration}: removed version 1 from its history (it keeps the newest 1' in log
+    assert f'{calibration}: removed version 2 from its history' in log
 
 
 WRITER = """

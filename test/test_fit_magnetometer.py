@@ -221,12 +221,12 @@ def test_bad_input_is_refused_and_the_file_is_untouched(tmp_path, name):
     assert calibration.read_bytes() == before
 
 
-def write_shots_bag(path, tool, incl, tf, azim, rng):
+def held_shots(tool, incl, tf, azim, rng):
     """
-    Write a bag of the tool held 2.5 s at each attitude, 0.5 s turning to the next.
+    Return (stamps_ns, readings) of the tool held 2.5 s at each attitude, 0.5 s turning on.
 
-    The one still rule (``stillness.find_still_segments``) leaves out the first and last
-    0.5 s window of a still run (the tool settling, the hand taking it): 1.5 s remain.
+    100 Hz; the one still rule (``stillness.find_still_segments``) leaves out the first and
+    last 0.5 s window of a still run (the tool settling, the hand taking it): 1.5 s remain.
     """
     rate_hz, still, moving = 100, 250, 50
     parts = []
@@ -238,13 +238,27 @@ def write_shots_bag(path, tool, incl, tf, azim, rng):
     attitude = np.concatenate(parts, axis=1)
     readings = sensor_model.read(tool, *attitude, field=shots_sim.FIELD,
                                  interference_nT=shots_sim.INTERFERENCE_NT, rng=rng)
-    stamps = np.arange(attitude.shape[1], dtype=np.int64) * (10 ** 9 // rate_hz)
+    return np.arange(attitude.shape[1], dtype=np.int64) * (10 ** 9 // rate_hz), readings
+
+
+def write_shots_bag(path, tool, incl, tf, azim, rng, temperature_c=None):
+    """
+    Write a bag of the tool held at each attitude in turn (``held_shots``).
+
+    ``temperature_c``: a function of the stamps [ns] giving /imu/temperature, or None.
+    """
+    stamps, readings = held_shots(tool, incl, tf, azim, rng)
+    series = {'/imu/data_raw': bag.raw_imu(stamps, 'tool', readings.accel_mps2, 1e-3),
+              '/imu/mag': bag.magnetometer(stamps, 'tool', readings.mag_nT, 5.0)}
+    if temperature_c is not None:
+        series['/imu/temperature'] = bag.TemperatureSeries(
+            stamps, np.full(stamps.size, 'tool'), temperature_c(stamps), np.zeros(stamps.size))
     with bag.BagWriter(path, 'mcap') as out:
         out.add_topic('/imu/data_raw', bag.IMU)
         out.add_topic('/imu/mag', bag.MAGNETIC_FIELD)
-        out.write_series({
-            '/imu/data_raw': bag.raw_imu(stamps, 'tool', readings.accel_mps2, 1e-3),
-            '/imu/mag': bag.magnetometer(stamps, 'tool', readings.mag_nT, 5.0)})
+        if temperature_c is not None:
+            out.add_topic('/imu/temperature', bag.TEMPERATURE)
+        out.write_series(series)
     return path
 
 

@@ -66,14 +66,21 @@ def bench(tmp_path):
     return tmp_path
 
 
-def test_level_calibration_with_play_calibrate_monitor_param(start_node, bench):
+def test_level_calibration_with_play_calibrate_monitor_param(start_node, probe, bench):
     """The README walkthrough: loop the level segment, calibrate, stop play, look, process."""
     start_node(**{'level_capture.samples': 600})
+    # As a user does, who starts play once the node is up: play waits --wait-s (10 s) for
+    # a subscriber of any node, which a node still starting on a loaded machine may pass.
+    probe.wait_for_node()
     player = start('play', 'bench_bag', '--end-s', 3, '--loop', cwd=bench)
     read_until(player, 'playing 600 messages of /imu/data_raw')
     code, out, err = inclino('calibrate', cwd=bench)
     assert code == 0, err
     assert 'calibrated from 600 samples' in out
+    assert out.rstrip().endswith('toolface_zero: board; toolface_zero_meaning: relative to the '
+                                 'sensor board: its roll about the tool axis is not calibrated '
+                                 '(no stand or high-side mark), and the toolface 1 sigma leaves '
+                                 'that offset out')
     assert 'calibrate_level: collecting' in err          # the progress bar
     code, _, err = finish(player, signal.SIGTERM)        # what `kill` in a script sends
     assert code == 0 and 'stopped: published' in err and 'Traceback' not in err
@@ -86,7 +93,8 @@ def test_level_calibration_with_play_calibrate_monitor_param(start_node, bench):
     assert code == 0, err
     assert 'calibration   installation' in out
     assert 'last answer of calibrate_level: succeeded: calibrated from 600 samples' in out
-    assert 'OK    calibration: calibrated: installation' in out
+    assert 'OK    calibration: calibrated: installation; toolface zero: board' in out
+    assert 'toolface zero board: relative to the sensor board' in out
 
     assert inclino('param', 'get', 'level_capture.samples', cwd=bench)[1] == '600\n'
     assert inclino('param', 'set', 'stand.toolface_deg', '270', cwd=bench)[:2] == (

@@ -61,7 +61,7 @@ def test_save_load_round_trip(tmp_path, model):
     assert load_model(str(path)) == model
     doc = json.loads(path.read_text())
     assert doc['format'] == 'inclino_ros.calibration'
-    assert doc['schema_version'] == SCHEMA_VERSION == 9
+    assert doc['schema_version'] == SCHEMA_VERSION == 11
     assert sorted(os.listdir(path.parent)) == ['calibration.json', 'calibration.json.history']
 
 
@@ -177,8 +177,8 @@ BAD_DOCUMENTS = {
     'wrong format': (_edit(format='other.calibration'), 'not an inclino_ros.calibration'),
     'no format': (_edit(format=None), 'not an inclino_ros.calibration'),
     'not an object': ([valid_doc()], 'not an inclino_ros.calibration'),
-    'schema 10': (_edit(schema_version=10),
-                  'schema_version 10 is not one of (1, 2, 3, 4, 5, 6, 7, 8, 9)'),
+    'schema 12': (_edit(schema_version=12),
+                  'schema_version 12 is not one of (1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11)'),
     'schema string': (_edit(schema_version='1'), "schema_version '1' is not one of"),
     'no schema': (_edit(schema_version=None), 'schema_version None is not one of'),
     'schema bool': (_edit(schema_version=True), 'schema_version True is not one of'),

@@ -69,7 +69,7 @@ def test_round_trip_with_every_stage(tmp_path):
     path = tmp_path / 'calibration.json'
     save_model(path, MODEL)
     assert load_model(path) == MODEL
-    assert json.loads(path.read_text())['schema_version'] == 9
+    assert json.loads(path.read_text())['schema_version'] == 11
 
 
 def test_version_1_file_still_loads(tmp_path):

@@ -96,6 +96,9 @@ def test_default_improved_corrects_within_target(stations, tmp_path):
     assert record['search_bracket_nT'][0] < 2000.0 < record['search_bracket_nT'][1]
     assert record['v_after_nT2'] < record['v_before_nT2']
     assert report.stat().st_size > 0
+    # No calibration: the toolface of G as given is the board's, and says so (issue 19 item 6).
+    assert record['toolface_zero'] == 'board'
+    assert 'toolface_zero: board\ntoolface_zero_meaning: relative to the sensor board' in out
 
 
 @pytest.mark.parametrize('method', ('classic', 'axial', 'short-collar'))

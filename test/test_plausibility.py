@@ -14,8 +14,9 @@ from calibration_files import load_refusal
 from inclino_ros.calibration import plausibility
 from inclino_ros.calibration.model import (
     CalibrationFileError, load_model, Magnetic, MagnetometerTemperature, NO_MAGNETIC_CORRECTION,
-    save_model)
+    save_model, ToolfaceMark)
 from inclino_ros.calibration.plausibility import Implausible
+from inclino_ros.calibration.stages import MagnetometerNonlinear
 import numpy as np
 import pytest
 from test_model_stages import FULL, MAGNETOMETER, MODEL
@@ -184,9 +185,23 @@ MAGNETOMETER_DRIFT = MagnetometerTemperature(
     reference_temperature_c=25.0, rms_residual_nT=(5.0, 5.0, 5.0), samples=90,
     fitted_at='2026-03-01T09:00:00+00:00', bias_coefficients_nT=((-25.0, 1.0),) * 3,
     attitudes=2)
-#: Every stage of issues 8 and 9 present: magnetometer, alignment, tool axis, both drifts.
+#: A gated non-linear magnetometer stage (issue 18): 3 RBF weights per cross axis, a few
+#: hundred nT at most, as the real instruments' kept stages.
+NONLINEAR = MagnetometerNonlinear(
+    weights=((0.002, -0.004, 0.002), (-0.001, 0.003, -0.002)), scale_nT=50000.0,
+    rms_residual_nT=40.0, roll_sets=2, shots=24, held_out_before_deg=0.39,
+    held_out_after_deg=0.19, held_out_noise_deg=0.05, fitted_at='2026-03-01T10:00:00+00:00',
+    parameter_covariance=tuple(tuple(1e-8 if i == j else 0.0 for j in range(6))
+                               for i in range(6)))
+#: A high-side mark (issue 19 item 6): the board rolled 20 deg, captured at 30 deg.
+MARK = ToolfaceMark(offset_deg=-20.0, std_deg=0.005, inclination_deg=30.0,
+                    toolface_convention='seed000', sample_count=600,
+                    captured_at='2026-03-01T11:00:00+00:00')
+#: Every stage of issues 8, 9, 18 and 19 present: magnetometer, alignment, tool axis, both
+#: drifts, the non-linear magnetometer stage, the high-side mark.
 ALL_STAGES = replace(FULL, magnetic=MAGNETIC, temperature=DRIFT,
-                     magnetometer_temperature=MAGNETOMETER_DRIFT)
+                     magnetometer_temperature=MAGNETOMETER_DRIFT, magnetometer_nonlinear=NONLINEAR,
+                     toolface_mark=MARK)
 
 NEW_STAGE_EDITS = {
     'K_m scale 3': ('magnetometer', {'scale_matrix': [[3, 0, 0], [0, 1, 0], [0, 0, 1]]},

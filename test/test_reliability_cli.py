@@ -7,13 +7,14 @@ a traceback, a hang or gigabytes of memory.  Every error is now one line on stde
 2 unusable, 1 refused, 130 Ctrl-C) and leaves no output and no temporary behind.
 """
 
+import fcntl
 import math
 import os
+import re
 import resource
 import signal
 import subprocess
 import sys
-import time
 
 from hypothesis import given, HealthCheck, settings, strategies as st
 from inclino_ros.calibration.level_capture import LevelLimits, solve_level_capture
@@ -388,6 +389,10 @@ def test_an_unexpected_error_is_one_line_and_debug_shows_it(tmp_path, monkeypatc
     assert not leftovers(tmp_path) and not (tmp_path / 'w.csv').exists()
 
 
+#: A tqdm bar's count: ``  12%|#2        | 60000/500000 [``.
+PROGRESS = re.compile(rb'(\d+)/(\d+) \[')
+
+
 def test_ctrl_c_in_process_stops_cleanly(bench, tmp_path):
     """SIGINT while processing: exit 130, what was done, no traceback, no OUT, no temporary."""
     work, sim, calibration = bench
@@ -395,17 +400,39 @@ def test_ctrl_c_in_process_stops_cleanly(bench, tmp_path):
     assert quiet(['simulate', big, '--rate-hz', 2000, '--level-s', 10, '--station-s', 20])[0] == 0
     child = subprocess.Popen([INCLINO, 'process', str(big), str(tmp_path / 'out'),
                               '--calibration', calibration, '--chunk-size', '100'],
-                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    deadline = time.monotonic() + 60.0
-    while time.monotonic() < deadline and child.poll() is None and not any(
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    # It cannot run away while this test is not scheduled: its progress bar (~100 bytes
+    # at most every 0.1 s of its work) fills a one-page pipe in ~4 s of its ~12 s of work,
+    # then it waits for this test to read.  Wait (no timing) for the bar and a written
+    # chunk of OUT, then freeze it (SIGSTOP) and prove it is still within the replay: not
+    # ended, its bar short of the total.  SIGINT is sent to the frozen process: it is
+    # interrupted right there (on a loaded machine it had finished before SIGINT came).
+    fcntl.fcntl(child.stderr.fileno(), fcntl.F_SETPIPE_SZ, 4096)
+    err = b''
+    while not (PROGRESS.search(err) and any(
             os.path.getsize(os.path.join(root, name)) > 1 << 20  # a written chunk
-            for root, _, names in os.walk(tmp_path) if '.tmp' in root for name in names):
-        time.sleep(0.05)
-    assert leftovers(tmp_path) and child.poll() is None, 'the output was never written'
+            for root, _, names in os.walk(tmp_path) if '.tmp' in root for name in names)):
+        chunk = os.read(child.stderr.fileno(), 4096)
+        assert chunk, f'it ended before the output was written: {err[-2000:]!r}'
+        err += chunk
+    child.send_signal(signal.SIGSTOP)
+    os.set_blocking(child.stderr.fileno(), False)
+    try:
+        err += os.read(child.stderr.fileno(), 1 << 20) or b''   # all it wrote until frozen
+    except BlockingIOError:
+        pass
+    os.set_blocking(child.stderr.fileno(), True)
+    frozen, total = map(int, PROGRESS.findall(err)[-1])
+    assert child.poll() is None and frozen < total == 500_000, err[-2000:]
+    assert leftovers(tmp_path)
     child.send_signal(signal.SIGINT)
-    _, err = child.communicate(timeout=60)
+    child.send_signal(signal.SIGCONT)
+    _, rest = child.communicate(timeout=60)
+    err = (err + rest).decode()
     assert child.returncode == 130, err
-    assert 'interrupted (Ctrl-C) after' in err and 'Traceback' not in err
+    assert 'Traceback' not in err
+    done = int(re.search(r'interrupted \(Ctrl-C\) after (\d+) of 500000 messages', err).group(1))
+    assert frozen <= done < total
     assert sorted(os.listdir(tmp_path)) == ['big', 'big.truth.json']
 
 

@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 import shots_sim
 from shots_sim import angle_error_deg
-from test_fit_magnetometer import azimuths, write_shots_bag
+from test_fit_magnetometer import azimuths, held_shots, write_shots_bag
 from test_msa_cli import quiet
 
 SAP6 = pathlib.Path(__file__).parent / 'data' / 'sap6'
@@ -241,6 +241,54 @@ def test_roll_sets_are_found_in_a_bag(tmp_path):
     assert code == 0, err
     assert '2 roll group(s) found in the order of the shots' in out
     assert 'shots 9-16, shots 17-24' in out and 'WARNING' not in err
+    model = load_model(calibration)
+    assert model.tool_axis is not None and model.tool_axis.roll_groups == 2
+    incl, tf, azim = shots_sim.random_attitudes(rng, 300, min_inclination_deg=0.0)
+    _, inclination = azimuths(model, *shots_sim.read(tool, incl, tf, azim, rng))
+    assert np.max(np.abs(inclination - incl)) < 0.05
+
+
+def test_a_bag_with_a_temperature_topic_records_what_its_shots_stood_for(tmp_path):
+    """
+    ``--temperature-topic`` of a bag is read: the stages record the shots' mean temperature.
+
+    The tool warms 30 -> 40 C over the run (linear in time): the segments' mean
+    temperature is 35 C within the still parts' asymmetry (< 0.5 C).  Main read no
+    temperature from a bag (the stages stood for an unknown one; failed first).
+    """
+    rng = np.random.default_rng(21)
+    tool = shots_sim.tool(sensor_model.QUARTZ_FLUXGATE)
+    incl, tf, azim, _ = shots_sim.shot_attitudes(rng)
+    path = write_shots_bag(str(tmp_path / 'shots_bag'), tool, incl, tf, azim, rng,
+                           lambda stamps: 30.0 + 10.0 * stamps / stamps[-1])
+    calibration = tmp_path / 'cal.json'
+    code, out, err = quiet(['fit-magnetometer', path, '--calibration', calibration])
+    assert code == 0, err
+    model = load_model(calibration)
+    assert model.magnetometer.temperature_c == pytest.approx(35.0, abs=0.5)
+    assert model.stand.temperature_c == pytest.approx(model.magnetometer.temperature_c)
+
+
+def test_a_continuous_log_gives_its_still_segments_as_shots(tmp_path):
+    """
+    A CSV log (``time_s``, ax..bz) of the bag's run: its still segments are the shots, as a bag's.
+
+    The same 24 holds as ``test_roll_sets_are_found_in_a_bag``, 7200 rows at 100 Hz: main
+    took every row as a shot (the turning ones named outliers at hundreds of sigma).
+    """
+    rng = np.random.default_rng(21)
+    tool = shots_sim.tool(sensor_model.QUARTZ_FLUXGATE)
+    incl, tf, azim, _ = shots_sim.shot_attitudes(rng)
+    stamps, readings = held_shots(tool, incl, tf, azim, rng)
+    path = tmp_path / 'log.csv'
+    np.savetxt(path, np.column_stack([stamps * 1e-9, readings.accel_mps2, readings.mag_nT]),
+               delimiter=',', header='time_s,ax,ay,az,bx,by,bz', comments='')
+    calibration = tmp_path / 'cal.json'
+    code, out, err = quiet(['fit-magnetometer', path, '--calibration', calibration])
+    assert code == 0, err
+    assert f'24 still segment(s) found in the log {path}' in out
+    assert '2 roll group(s) found in the order of the shots' in out
+    assert 'shots 9-16, shots 17-24' in out and 'outlier' not in out and 'WARNING' not in err
     model = load_model(calibration)
     assert model.tool_axis is not None and model.tool_axis.roll_groups == 2
     incl, tf, azim = shots_sim.random_attitudes(rng, 300, min_inclination_deg=0.0)

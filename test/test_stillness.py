@@ -18,6 +18,7 @@ import math
 
 from inclino_ros.calibration.level_capture import CaptureRefused, LevelLimits, solve_level_capture
 from inclino_ros.calibration.stand_capture import average_position
+from inclino_ros.core.attitude import angle_between
 from inclino_ros.core.stillness import (
     assess, FALSE_MOTION_P, judge, motion, StillLimits, tangent_angles, without_once_per_turn)
 from inclino_ros.sim import sensor_model
@@ -126,7 +127,11 @@ def test_stand_position_accepts_still_and_refuses_turning_toolface():
     limits = StillLimits()
     readings, times_s = capture(DEFAULT_NOISE_MPS2, 90.0, 0.0)
     position = average_position(readings, 90.0, 0.0, limits, times_s, 25.0)
-    assert position.std_deg == pytest.approx(math.degrees(DEFAULT_NOISE_MPS2 / G), rel=0.1)
+    # The stated 1 sigma: the noise's, and the motion the capture cannot exclude (slow turns).
+    still = assess(tangent_angles(readings), times_s)
+    assert still.noise_deg == pytest.approx(math.degrees(DEFAULT_NOISE_MPS2 / G), rel=0.1)
+    assert position.std_deg == pytest.approx(still.stated_sem_deg * math.sqrt(SAMPLES))
+    assert still.sem_deg <= still.stated_sem_deg <= math.hypot(still.sem_deg, still.turn_deg)
     assert position.temperature_c == 25.0
     turning = sensor_model.read(tool(DEFAULT_NOISE_MPS2), 90.0, 0.05 * times_s,
                                 rng=3).accel_mps2
@@ -352,3 +357,86 @@ def test_slow_turns_that_move_the_mean_beyond_its_precision_are_refused(timed):
         assert verdict(40.0 + 0.1 * (times_s >= 4.0), 100 + seed).startswith('tool is moving')
         assert verdict(40.0 + 0.003 * times_s, 200 + seed, 0.001) is None
         assert verdict(np.full(SAMPLES, 40.0), 300 + seed) is None
+
+
+def test_slow_turn_is_refused_or_in_the_stated_sigma():
+    """
+    A stand position turning 0.015 deg/s for 5 s (MEMS): refused, or its 2 sigma covers both ends.
+
+    Issue 19 item 5: the turn moves the ends 0.0375 deg from the mean, 7x the
+    mean's standard error (0.0052 deg) and below what the capture can tell
+    from its noise at FALSE_MOTION_P.  The truth is the simulator's noiseless
+    reading at the first and last sample.  Before the rule every capture was
+    accepted with std_deg the noise's (17 of 20 beyond 2 sigma, failed first);
+    bench/results/stillness.md: 0.93 of the accepted within 2 sigma, so at
+    most 3 of 20 beyond it (binomial, expected 1.4; 1 measured).
+    """
+    rate = 0.015
+    uncovered = 0
+    for seed in range(20):
+        readings, times_s = capture(DEFAULT_NOISE_MPS2, 30.0, 45.0, seed=seed,
+                                    turn_deg_per_s=rate)
+        try:
+            position = average_position(readings, 30.0, 45.0, StillLimits(), times_s)
+        except CaptureRefused as err:
+            assert str(err).startswith('tool is moving')
+            continue
+        ends = sensor_model.read(tool(0.0), 30.0 + rate * times_s[[0, -1]], 45.0).accel_mps2
+        error_deg = np.degrees(angle_between(ends, np.array(position.reading_mps2))).max()
+        uncovered += error_deg > 2.0 * position.std_deg / math.sqrt(position.samples)
+    assert uncovered <= 3, uncovered
+
+
+def test_still_correlated_capture_is_accepted_with_its_sigma():
+    """
+    Still AR(1) captures (rho 0.5, 0.9: a low-pass filter) are accepted, their 2 sigma honest.
+
+    Quartz-grade noise (1e-4 g) so that precision passes: none of 40 is
+    refused (the drift test takes the correlation; the motion in the stated
+    sigma is the fitted drift's excess over its noise, so no refusal), and
+    the mean's direction lies within 2 stated sigma (of one component) of the
+    simulator's noiseless reading in at least 30 of 40: an honest sigma
+    covers 1 - exp(-2) = 0.865 of two-component errors, 34.6 +- 2.2 expected
+    (37 measured).  Main accepted these too (item 4): this guards that the
+    motion in the stated sigma refuses no still capture.
+    """
+    covered = 0
+    for rho in (0.5, 0.9):
+        source = sensor_model.Tool(mount=MOUNT, accelerometer=sensor_model.Triad(
+            noise_std=1e-4 * G, noise_rho=rho))
+        truth = sensor_model.read(tool(0.0), 20.0, 30.0).accel_mps2
+        times_s = np.arange(SAMPLES) / RATE_HZ
+        for seed in range(20):
+            readings = sensor_model.read(source, np.full(SAMPLES, 20.0), 30.0,
+                                         rng=seed).accel_mps2
+            position = average_position(readings, 20.0, 30.0, StillLimits(), times_s)
+            error_deg = np.degrees(angle_between(truth, np.array(position.reading_mps2)))
+            covered += error_deg.max() <= 2.0 * position.std_deg / math.sqrt(SAMPLES)
+    assert covered >= 30, covered
+
+
+def test_slow_turn_rule_is_one_for_timed_and_untimed_captures():
+    """
+    Evenly sampled, a capture with times and one without state the same turn and sigma.
+
+    The motion at the ends is the slope times the half-span, in seconds or in
+    samples: the same number (``turn_deg``, its standard error, the stated
+    sigma), and the same verdict on a turn the capture cannot tell (MEMS,
+    0.015 deg/s over 5 s: accepted) and on one it can (quartz-grade noise:
+    refused, its ends beyond max_motion_deg).
+    """
+    for noise_mps2, verdict in ((DEFAULT_NOISE_MPS2, None), (1e-4 * G, 'tool is moving')):
+        readings, times_s = capture(noise_mps2, 30.0, 45.0, seed=4, turn_deg_per_s=0.015)
+        angles = tangent_angles(readings)
+        timed, untimed = assess(angles, times_s), assess(angles, None)
+        assert untimed.turn_deg == pytest.approx(timed.turn_deg, rel=1e-9)
+        assert untimed.turn_sigma_deg == pytest.approx(timed.turn_sigma_deg, rel=1e-9)
+        assert untimed.stated_sem_deg == pytest.approx(timed.stated_sem_deg, rel=1e-9)
+        # The fitted turn estimates the true one, 0.015 deg/s * 2.495 s, within 4 sigma.
+        assert timed.turn_deg == pytest.approx(0.015 * times_s[-1] / 2,
+                                               abs=4 * math.sqrt(2) * timed.turn_sigma_deg)
+        for result in (timed, untimed):
+            reason = judge(result, StillLimits())
+            assert (reason if reason is None else reason[:14]) == verdict, reason
+            if verdict:
+                assert 'its ends' in reason and 'max_motion_deg 0.01 deg' in reason

@@ -1,8 +1,11 @@
 """``inclino survey`` and ``inclino fit-stand`` with the magnetometer (issue 8 items 2 and 4)."""
 
 import csv
+from dataclasses import replace
+import json
 
-from inclino_ros.calibration.model import load_model
+from inclino_ros.calibration.model import CalibrationModel, load_model
+from inclino_ros.calibration.stages import Stand
 from inclino_ros.pipeline import MagneticSettings, run, Settings
 from inclino_ros.sim import sensor_model
 import numpy as np
@@ -49,6 +52,8 @@ def test_fit_stand_then_survey(tmp_path):
                             *REFERENCE])
     assert code == 0, err
     assert 'magnetometer (seed 001 Eq. 12)' in out
+    # The fit's report states the zero its stand ties (issue 19 item 6).
+    assert "toolface_zero: stand\ntoolface_zero_meaning: calibrated: the tool's high side" in out
     model = load_model(calibration)
     assert model.magnetometer.method == 'stand' and model.stand.method == 'stand'
 
@@ -174,3 +179,33 @@ def test_samples_column_must_be_a_count(tmp_path):
                           '--calibration', tmp_path / 'cal.json'])
     assert code == 2 and 'samples' in err and 'row 2' in err
     assert not (tmp_path / 'out.csv').exists()
+
+
+def test_survey_states_a_board_zero_the_sphere_fit_leaves(tmp_path):
+    """
+    A board rolled 20 deg about the tool axis: a sphere-fit stand cannot see it (issue 19 item 6).
+
+    The physical model's toolface is off by the roll, far beyond its 1 sigma: every row and
+    stdout say the zero is the board's (main called any stand stage 'stand'), and an
+    accelerometer-only survey carries the column too (main had it with a field only).
+    """
+    rng = np.random.default_rng(19)
+    tool = replace(sensor_model.IDEAL, mount=sensor_model.Mount(roll_deg=20.0))
+    incl, tf, azim = shots_sim.random_attitudes(rng, 50, min_inclination_deg=20.0)
+    accel, _ = shots_sim.read(tool, incl, tf, azim, rng, samples=100)
+    write_rows(tmp_path / 'in.csv', ['ax', 'ay', 'az', 'samples'],
+               [[*a, 100] for a in accel])
+    sphere = Stand(scale_matrix=((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)),
+                   bias_mps2=(0.0, 0.0, 0.0), method='sphere', condition_number=1.0,
+                   rms_inclination_deg=None, positions=200, fitted_at='2026-11-26T00:00:00Z')
+    (tmp_path / 'cal.json').write_text(json.dumps(CalibrationModel(3, stand=sphere).to_dict()))
+    code, out, err = quiet(['survey', tmp_path / 'in.csv', '-o', tmp_path / 'out.csv',
+                            '--calibration', tmp_path / 'cal.json'])
+    assert code == 0, err
+    rows = read_rows(tmp_path / 'out.csv')
+    error = angle_error_deg(np.array([float(r['toolface_deg']) for r in rows]), tf)
+    sigma = np.array([float(r['toolface_std_deg']) for r in rows])
+    # The roll shifts the toolface by -20 deg (sim.sensor_model.Mount), its 1 sigma is tiny.
+    assert np.all(np.abs(error + 20.0) < 5.0 * sigma) and sigma.max() < 0.05
+    assert [r['toolface_zero'] for r in rows] == ['board'] * len(rows)
+    assert 'toolface_zero: board\ntoolface_zero_meaning: relative to the sensor board' in out

@@ -106,7 +106,7 @@ def test_file_without_parameter_covariance_keeps_the_residual_and_says_so():
     stage, fit, _ = solve_temperature(CalibrationModel(3), 'accelerometer', temperature_c,
                                       readings, labels, ORDER)
     doc = CalibrationModel(3, temperature=stage).to_dict()
-    assert doc['schema_version'] == 9
+    assert doc['schema_version'] == 11
     assert np.shape(doc['temperature']['parameter_covariance']) == (3, 2 * ORDER, 2 * ORDER)
     new = model_from_dict(doc)
     assert new.tilt_std_rad == 0.0 and new.uncertainty_notes == ()

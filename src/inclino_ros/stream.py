@@ -39,6 +39,8 @@ import numpy as np
 #: The topics ``inclino process`` writes.
 SURVEY_TOPIC = '/survey'
 IMU_TOPIC = '/imu/data'
+#: The keys of the bag's metadata (``custom_data``) stating the toolface zero of its survey.
+TOOLFACE_ZERO_KEYS = ('inclino.toolface_zero', 'inclino.toolface_zero_meaning')
 #: Azimuth counts of the summary (accepted samples; mag_non_finite: magnetometer messages).
 MAGNETIC_COUNTS = ('mag_non_finite', 'mag_paired', 'mag_unpaired', 'azimuth_trusted',
                    'azimuth_untrusted', 'azimuth_imprecise', 'qc_failed', 'qc_failed_b_total',
@@ -331,9 +333,9 @@ def survey_columns(result, declination_deg, with_qc, toolface_zero):
     Return ``{name: (accepted mask, values of the accepted rows)}`` of a surveyed table.
 
     The angles, totals and their 1 sigma of a ``pipeline.Survey`` (``inclino
-    survey``); with a field the azimuth, dip, ``toolface_zero``, the true
-    azimuth with ``declination_deg`` and, ``with_qc`` (a reference field),
-    the survey QC.
+    survey``) and ``toolface_zero`` (``CalibrationModel.toolface_zero``);
+    with a field the azimuth, dip, the true azimuth with ``declination_deg``
+    and, ``with_qc`` (a reference field), the survey QC.
     """
     accepted = result.accepted
     azimuth = result.magnetic
@@ -341,7 +343,8 @@ def survey_columns(result, declination_deg, with_qc, toolface_zero):
         values = {'inclination_deg': result.inclination_deg,
                   'toolface_deg': result.toolface_deg, 'g_total_mps2': result.g_total_mps2,
                   'inclination_std_deg': result.inclination_std_deg,
-                  'toolface_std_deg': result.toolface_std_deg}
+                  'toolface_std_deg': result.toolface_std_deg,
+                  'toolface_zero': [toolface_zero] * int(np.count_nonzero(accepted))}
         return {name: (accepted, value) for name, value in values.items()}
     values = {'inclination_deg': result.inclination_deg, 'toolface_deg': result.toolface_deg,
               'azimuth_deg': azimuth.defined_azimuth_deg, 'g_total_mps2': result.g_total_mps2,
@@ -469,7 +472,8 @@ def replay_recording(in_path, topic, out, model, settings, chunk_size, summary, 
     """
     Correct ``topic`` of the bag ``in_path`` into the open BagWriter ``out`` (``replay``).
 
-    Writes SURVEY_TOPIC and IMU_TOPIC.  ``temperature`` (a TemperatureSeries
+    Writes SURVEY_TOPIC and IMU_TOPIC, and the toolface zero of ``model`` in the
+    bag's metadata (TOOLFACE_ZERO_KEYS).  ``temperature`` (a TemperatureSeries
     or None) gives each sample its temperature, ``magnetometer`` (a
     Magnetometer or None) its field; with an ``averager``
     (``core.averaging.Averager``) the windows it closes are written instead
@@ -478,6 +482,8 @@ def replay_recording(in_path, topic, out, model, settings, chunk_size, summary, 
     """
     out.add_topic(SURVEY_TOPIC, VECTOR3_STAMPED)
     out.add_topic(IMU_TOPIC, IMU)
+    for key, value in zip(TOOLFACE_ZERO_KEYS, (model.toolface_zero, model.toolface_zero_meaning)):
+        out.set_custom_data(key, value)
     batches = (read(in_path, topic, chunk_size) if imu is None else
                (ImuSeries(*(getattr(imu, f.name)[start:start + chunk_size] for f in fields(imu)))
                 for start in range(0, imu.stamps_ns.size, chunk_size)))

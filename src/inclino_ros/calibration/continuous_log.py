@@ -42,35 +42,42 @@ class LogSegments:
                 f'({min(duration)}..{max(duration)} samples a segment)']
 
 
-def segment_limits(max_drift_deg_per_s, max_sem_deg, sem_name='--max-sem-deg', **segment):
+def segment_limits(max_drift_deg_per_s, max_sem_deg, sem_name='--max-sem-deg',
+                   max_motion_deg=None, motion_name='--max-motion-deg', **segment):
     """
     Return the SegmentLimits of a command's still options (the capture's own limits).
 
     ``sem_name``: the option of ``max_sem_deg`` as the messages name it;
+    ``max_motion_deg`` (``StillLimits``), named ``motion_name``; None:
+    ``max_sem_deg`` under ``sem_name`` (a segment's one tolerance);
     ``segment``: other SegmentLimits fields (``window_s``, ``min_s``,
     ``max_rate_deg_per_s``), their defaults otherwise.
     """
+    if max_motion_deg is None:
+        max_motion_deg, motion_name = max_sem_deg, sem_name
     still = StillLimits(max_drift_deg_per_s=max_drift_deg_per_s, max_sem_deg=max_sem_deg,
-                        drift_name='--max-drift-deg-per-s', sem_name=sem_name)
+                        max_motion_deg=max_motion_deg, drift_name='--max-drift-deg-per-s',
+                        sem_name=sem_name, motion_name=motion_name)
     return SegmentLimits(still=still, **segment)
 
 
 def log_segments(times_s, readings, gyro_radps=None, temperature_c=None,
-                 limits=SegmentLimits()):
+                 limits=SegmentLimits(), fields=None):
     """
     Return the LogSegments of a continuous log (``stillness.find_still_segments``).
 
     ``times_s`` (N,) [s], increasing (ValueError otherwise: a log written
     out of order or with repeated times is not a continuous log);
     ``readings`` (N, 3); ``gyro_radps`` (N, 3) or None; ``temperature_c``
-    (N,) or None.
+    (N,) or None; ``fields`` (N, 3): the magnetometer's readings at the same
+    samples, still too in a segment, or None.
     """
     times_s = np.asarray(times_s, dtype=float).reshape(-1)
     if not (np.all(np.isfinite(times_s)) and np.all(np.diff(times_s) > 0.0)):
         raise ValueError('the time column must hold finite, increasing times (a continuous '
                          'log in the order it was recorded)')
     readings = np.asarray(readings, dtype=float).reshape(-1, 3)
-    ranges = find_still_segments(times_s, readings, gyro_radps, limits)
+    ranges = find_still_segments(times_s, readings, gyro_radps, limits, fields)
     segment = np.full(times_s.size, -1)
     for number, (start, end) in enumerate(ranges):
         segment[start:end] = number

@@ -13,7 +13,9 @@ two-axis sensor has the mount stages only) goes through:
 3. ``installation`` (shared mount): seed 000 Eqs. 8-9, the level-bench
    angles gamma, beta;
 4. ``tool_axis`` (shared mount): the same rotation found from roll groups
-   (``inclino fit-magnetometer``), measured after the installation stage.
+   (``inclino fit-magnetometer``), measured after the installation stage;
+5. ``toolface_mark`` (both triads, last): the turn about the tool axis that
+   ties the toolface's zero to the tool's high-side mark (issue 19 item 6).
 
 Raw magnetometer readings [nT] go through their own stages into the
 accelerometer frame, then the same mount, then seed 002's corrections:
@@ -29,7 +31,12 @@ accelerometer frame, then the same mount, then seed 002's corrections:
    (``Stand.rotation``), so that a new accelerometer calibration carries
    the magnetometer along;
 4. ``installation``, ``tool_axis``: the shared mount, as above;
-5. ``magnetic``: seed 002's cross-axial correction and interference.
+5. ``magnetometer_nonlinear``: a smooth per-axis correction of the tool-frame
+   x, y fitted from roll sets (``core.nonlinear``), kept only where held-out
+   roll sets showed it helps;
+6. ``magnetic``: seed 002's cross-axial correction and interference;
+7. ``toolface_mark``: the accelerometer's turn about the tool axis, so that G
+   and B turn together (the azimuth is unchanged, the toolface tied).
 """
 
 from dataclasses import dataclass
@@ -37,20 +44,28 @@ from functools import cached_property
 import math
 
 from inclino_ros.calibration.stages import (
-    Installation, Magnetic, Magnetometer, MagnetometerAlignment, MagnetometerTemperature, Stand,
-    Temperature, ToolAxis)
+    Installation, Magnetic, Magnetometer, MagnetometerAlignment, MagnetometerNonlinear,
+    MagnetometerTemperature, Stand, Temperature, ToolAxis, ToolfaceMark)
 from inclino_ros.core.constants import STANDARD_GRAVITY_MPS2
 from inclino_ros.core.installation import to_tool_frame
+from inclino_ros.core.nonlinear import correction_jacobian
 from inclino_ros.core.uncertainty import affine_jacobian, tilt_jacobian
 import numpy as np
 
 #: The accelerometer's stages, in the order they are applied.
-STAGES = ('temperature', 'stand', 'installation', 'tool_axis')
+STAGES = ('temperature', 'stand', 'installation', 'tool_axis', 'toolface_mark')
 #: The stages both triads share: the mount.
 MOUNT_STAGES = ('installation', 'tool_axis')
 #: The magnetometer's stages, in the order they are applied (the mount included).
-MAGNETOMETER_STAGES = ('magnetometer_temperature', 'magnetometer',
-                       'magnetometer_alignment') + MOUNT_STAGES + ('magnetic',)
+MAGNETOMETER_STAGES = (('magnetometer_temperature', 'magnetometer', 'magnetometer_alignment')
+                       + MOUNT_STAGES + ('magnetometer_nonlinear', 'magnetic', 'toolface_mark'))
+#: What each toolface zero (``CalibrationModel.toolface_zero``, the one rule) means: the
+#: words every output carrying a toolface quotes (issue 19 item 6).
+TOOLFACE_ZEROS = {
+    'stand': "calibrated: the tool's high side, tied by a multi-position stand",
+    'mark': "calibrated: the tool's high side, tied by a capture with its high-side mark up",
+    'board': 'relative to the sensor board: its roll about the tool axis is not calibrated '
+             '(no stand or high-side mark), and the toolface 1 sigma leaves that offset out'}
 
 
 @dataclass(frozen=True)
@@ -66,6 +81,8 @@ class CalibrationModel:
     magnetometer: Magnetometer = None
     magnetometer_alignment: MagnetometerAlignment = None
     magnetometer_temperature: MagnetometerTemperature = None
+    magnetometer_nonlinear: MagnetometerNonlinear = None
+    toolface_mark: ToolfaceMark = None
     sensor_id: str = None     # the sensor this calibration belongs to; None: not named
     # The axes maps (core.mounting) its readings were turned by before the fits:
     # (accelerometer, magnetometer); None: not recorded (older files, or no map known).
@@ -79,15 +96,32 @@ class CalibrationModel:
     @property
     def toolface_zero(self):
         """
-        Return what the toolface's zero is tied to: ``'stand'`` or ``'board'`` (issue 19 item 6).
+        Return what the toolface's zero is tied to: ``'mark'``, ``'stand'`` or ``'board'``.
 
-        A stand calibration sees the tool at known toolfaces, so its correction
-        takes up the board's roll about the tool axis; a level bench, a rotation
-        or a magnetometer calibration cannot see that roll: the toolface is then
-        measured from the sensor board's x axis, off the tool's high side by the
-        roll whatever its 1 sigma says.
+        The one rule every output carrying a toolface states (issue 19 item
+        6).  A ``toolface_mark`` stage ties it to the tool's high-side mark
+        (applied last, it decides whatever came before).  A stand
+        calibration (``method`` ``stand``) sees the tool at known toolfaces, so
+        its correction takes up the board's roll about the tool axis; a level
+        bench, a rotation, a magnetometer calibration or a sphere fit (``|G| =
+        g`` only) cannot see that roll: the toolface is then measured from the
+        sensor board's x axis, off the tool's high side by the roll whatever
+        its 1 sigma says.
         """
-        return 'stand' if self.stand is not None else 'board'
+        if self.toolface_mark is not None:
+            return 'mark'
+        return 'stand' if self.stand is not None and self.stand.method == 'stand' else 'board'
+
+    @property
+    def toolface_zero_meaning(self):
+        """Return what ``toolface_zero`` means, in words (``TOOLFACE_ZEROS``)."""
+        return TOOLFACE_ZEROS[self.toolface_zero]
+
+    @property
+    def toolface_zero_lines(self):
+        """Return the ``name: value`` lines a text output states the toolface zero with."""
+        return (f'toolface_zero: {self.toolface_zero}',
+                f'toolface_zero_meaning: {self.toolface_zero_meaning}')
 
     @property
     def magnetometer_stages(self):
@@ -185,7 +219,21 @@ class CalibrationModel:
         for stage in (self.installation, self.tool_axis):
             if stage is not None:
                 matrix = stage.inverse_matrix @ matrix
-        return matrix
+        return self._mark @ matrix
+
+    def before_mark(self, vectors):
+        """
+        Return tool-frame vectors (N, 3) with the ``toolface_mark`` turn undone.
+
+        The frame every magnetic fit works in (seed 002's stage comes before
+        the mark): G and B of one station must be in the same one.
+        """
+        return np.asarray(vectors, dtype=float) @ self._mark
+
+    @property
+    def _mark(self):
+        """Return the toolface mark's turn (identity without the stage)."""
+        return np.eye(3) if self.toolface_mark is None else self.toolface_mark.matrix
 
     @property
     def tilt_std_rad(self):
@@ -251,7 +299,7 @@ class CalibrationModel:
             soft_iron = np.eye(3)
             soft_iron[:2, :2] = self.magnetic.correction
             matrix = soft_iron @ matrix
-        return matrix
+        return self._mark @ matrix
 
     @property
     def covariance_stages(self):
@@ -280,9 +328,9 @@ class CalibrationModel:
         seed 002's W as 3x3, the tool axis's angles [rad], the rotation fit's
         covariance).
         """
-        soft_iron = np.eye(3)
+        soft_iron = self._mark.copy()   # what follows the mount: W, then the mark's turn
         if self.magnetic is not None:
-            soft_iron[:2, :2] = self.magnetic.correction
+            soft_iron[:, :2] = soft_iron[:, :2] @ self.magnetic.correction
         mount = np.eye(3)
         for stage in (self.installation, self.tool_axis):
             if stage is not None:
@@ -298,7 +346,7 @@ class CalibrationModel:
                      or 'stand' in names else np.array(self.stand.parameter_covariance))
         return {
             'names': names, 'covariance': covariance, 'own_stand': own_stand,
-            'soft_iron': soft_iron, 'mount': mount,
+            'soft_iron': soft_iron, 'mount': mount, 'mark': self._mark,
             'stand': None if self.stand is None else np.linalg.inv(self.stand.arrays[0]),
             'magnetometer': None if self.magnetometer is None else (
                 self.magnetometer_rotation @ np.linalg.inv(self.magnetometer.arrays[0])),
@@ -318,6 +366,7 @@ class CalibrationModel:
         None: the block does not move that vector).  Blocks: the accelerometer
         stand fit's (``Stand.parameter_covariance``, when the magnetometer's
         does not cover it), the magnetometer fit's (``covariance_stages``), the
+        non-linear stage's weights (``core.nonlinear.correction_jacobian``), the
         rotation fit's (seed 002 §2.1).
         """
         layout = self._fit_layout
@@ -342,13 +391,18 @@ class CalibrationModel:
                         j_b.append(soft_iron @ mount @ affine_jacobian(
                             inputs, layout['magnetometer']))
                 else:   # the tool axis turns both triads
-                    j_f.append(tilt_jacobian(self.apply(sensor, temperature_c,
-                                                        before='tool_axis'), *layout['angles']))
+                    j_f.append(layout['mark'] @ tilt_jacobian(self.apply(
+                        sensor, temperature_c, before='tool_axis'), *layout['angles']))
                     if field_nT is not None:
                         j_b.append(soft_iron @ tilt_jacobian(self.apply_magnetic(
                             field_nT, temperature_c, before='tool_axis'), *layout['angles']))
             blocks.append((layout['covariance'], np.concatenate(j_f, axis=2),
                            np.concatenate(j_b, axis=2) if field_nT is not None else None))
+        stage = self.magnetometer_nonlinear
+        if field_nT is not None and stage is not None and stage.parameter_covariance is not None:
+            inputs = self.apply_magnetic(field_nT, temperature_c, before='magnetometer_nonlinear')
+            blocks.append((np.array(stage.parameter_covariance), None, soft_iron @
+                           correction_jacobian(inputs, stage.arrays, stage.scale_nT)))
         if field_nT is not None and layout['rotation'] is not None:
             stage = self.magnetic
             inputs = (self.apply_magnetic(field_nT, temperature_c, before='magnetic')[:, :2]
@@ -356,13 +410,20 @@ class CalibrationModel:
             jacobian = np.zeros((count, 3, 6))
             jacobian[:, 0, 0:2] = jacobian[:, 1, 2:4] = inputs
             jacobian[:, :2, 4:] = -stage.correction
-            blocks.append((layout['rotation'], None, jacobian))
+            blocks.append((layout['rotation'], None, layout['mark'] @ jacobian))
+        mark = self.toolface_mark
+        if mark is not None:    # the mark's own offset: a turn of both triads about the axis
+            j_b = None if field_nT is None else mark.jacobian(
+                self.apply_magnetic(field_nT, temperature_c))
+            blocks.append((np.array([[math.radians(mark.std_deg) ** 2]]),
+                           mark.jacobian(self.apply(sensor, temperature_c)), j_b))
         return blocks
 
     def _stand_jacobian(self, sensor, temperature_c):
         """Return d f / d(K^-1 row-major, b) (M, 3, 12) of the corrected specific force."""
         inputs = self.apply(sensor, temperature_c, before='stand') - self.stand.arrays[1]
-        return self._fit_layout['mount'] @ affine_jacobian(inputs, self._fit_layout['stand'])
+        layout = self._fit_layout
+        return layout['mark'] @ layout['mount'] @ affine_jacobian(inputs, layout['stand'])
 
     def temperature_covariance(self, readings, temperature_c=None, triad='accelerometer'):
         """

@@ -18,6 +18,13 @@ new version while the file still is the previous one, which the history also
 holds).  A damaged or unreadable version (its digest does not match its text,
 its text is no calibration) is reported by ``read_history`` and skipped; it
 never blocks loading the calibration file itself.
+
+The history keeps the newest ``keep`` versions (``DEFAULT_KEEP``, the node's
+``calibration.history_keep`` and the commands' ``--history-keep``): after a
+write has landed, ``prune`` removes the older ones, oldest first, each
+removal atomic, so a kill at any point leaves a valid history that still
+holds the newest versions; the version the file holds now (in use) and the
+newest are never removed, whatever ``keep``.
 """
 
 from dataclasses import dataclass
@@ -26,7 +33,8 @@ import os
 import re
 
 from inclino_ros.io.files import (
-    fitting_name, loads_strict, MAX_JSON_BYTES, open_regular, read_json, write_json)
+    fitting_name, fsync_folder, loads_strict, MAX_JSON_BYTES, open_regular, read_json,
+    write_json)
 
 FORMAT = 'inclino_ros.calibration_version'
 SCHEMA_VERSION = 1
@@ -35,6 +43,8 @@ UNKNOWN_WRITER = 'unknown (found on disk, not written through inclino_ros)'
 #: What a calibration file's name gets for its history folder's.
 _SUFFIX = '.history'
 _ENTRY = re.compile(r'v(\d{6,})\.json\Z')
+#: Versions a history keeps by default: a write a day for more than half a year.
+DEFAULT_KEEP = 200
 
 
 @dataclass(frozen=True)
@@ -161,6 +171,58 @@ def record(path, text, writer, sensor_id, written_at, outputs):
             'format': FORMAT, 'schema_version': SCHEMA_VERSION, 'written_at': written_at,
             'writer': writer_name, 'sensor_id': sensor, 'sha256': digest(content),
             'text': content}, outputs=outputs, new=True)
+
+
+def prune(path, keep, in_use=()):
+    """
+    Remove the versions of ``path``'s history older than its newest ``keep``; return their numbers.
+
+    Never removed: the newest version, the one the file holds now, and any
+    whose digest is in ``in_use`` (e.g. the model a node runs with).  Oldest
+    first, each one removal (atomic): a kill at any point leaves a valid
+    history holding every version kept.  A damaged version counts as one.
+    OSError when the history cannot be read.
+    """
+    folder = history_folder(path)
+    if not os.path.isdir(folder):
+        return []
+    numbers = _numbers(folder)
+    kept = set(sorted(numbers)[-max(int(keep), 1):])
+    digests = {number: _sha256_of(entry) for number, entry in numbers.items()}
+    for wanted in set(in_use) | {file_digest(path)}:
+        holding = [number for number, sha256 in digests.items() if sha256 == wanted]
+        if holding:
+            kept.add(max(holding))   # the version in use: the newest that holds it
+    pruned = []
+    for number in sorted(set(numbers) - kept):
+        try:
+            os.unlink(numbers[number])
+        except FileNotFoundError:   # another writer pruned it meanwhile
+            continue
+        pruned.append(number)
+    if pruned:
+        fsync_folder(folder)
+    return pruned
+
+
+def _sha256_of(entry):
+    """Return the digest of the version file ``entry``; None when it is damaged."""
+    try:
+        return _version(0, entry, lambda text: None).sha256
+    except ValueError:
+        return None
+
+
+def pruned_message(path, numbers, keep):
+    """Return the line that says which versions of ``path``'s history ``prune`` removed."""
+    spans, start = [], None
+    for i, number in enumerate(numbers):
+        start = number if start is None else start
+        if i + 1 == len(numbers) or numbers[i + 1] != number + 1:
+            spans.append(str(number) if start == number else f'{start}-{number}')
+            start = None
+    return (f'{path}: removed version{"s" if len(numbers) > 1 else ""} {", ".join(spans)} from '
+            f'its history (it keeps the newest {keep}, and the version in use)')
 
 
 def sensor_id_of(text):

@@ -37,7 +37,7 @@ TRIAD_COLUMNS = {'accelerometer': (AXIS_COLUMNS, ('ref_ax', 'ref_ay', 'ref_az'))
 #: not a whole segment, and a window moves only beyond 0.1 deg/s or 0.5 deg within it (a
 #: hand turning the tool moves it by degrees).
 HEATING_SEGMENTS = SegmentLimits(window_s=5.0, min_s=10.0, whole=False, still=StillLimits(
-    max_drift_deg_per_s=0.1, max_sem_deg=0.5))
+    max_drift_deg_per_s=0.1, max_sem_deg=0.5, max_motion_deg=0.5))
 
 
 @dataclass(frozen=True)
@@ -294,20 +294,26 @@ def rotation_input(source):
 
 def bag_shots(source, max_pairing_s, pairing_tolerance_nT, limits):
     """
-    Return (accel (S, 3), field (S, 3), paired samples) of a bag's shots (fit-magnetometer).
+    Return (accel (S, 3), field (S, 3), temperature_c (S,) or None, paired samples).
 
-    Each Imu sample of ``raw_topic`` is paired with a ``mag_topic`` reading
-    (``timing.pair_nearest`` within ``max_pairing_s`` and
-    ``pairing_tolerance_nT``); the still segments of the paired stream, both
-    triads still (``stillness.find_still_segments`` with ``limits``, a
-    SegmentLimits), are the shots, each the mean of its segment.  Refused
-    with fewer than two paired samples or more segments than a fit takes
-    (``tables.MAX_SHOTS``).
+    Of a bag's shots (fit-magnetometer).  Each Imu sample of ``raw_topic`` is
+    paired with a ``mag_topic`` reading (``timing.pair_nearest`` within
+    ``max_pairing_s`` and ``pairing_tolerance_nT``); the still segments of the
+    paired stream, both triads still (``stillness.find_still_segments`` with
+    ``limits``, a SegmentLimits), are the shots, each the mean of its
+    segment, and its mean ``temperature_topic`` reading when the bag has that
+    topic (``sample_temperatures``; None when a segment lies outside its time
+    span).  Refused with fewer than two paired samples or more segments than
+    a fit takes (``tables.MAX_SHOTS``).
     """
     imu = read_topic(source.path, source.raw_topic)
     mag = read_topic(source.path, source.mag_topic)
     field, paired = pair_nearest(imu.stamps_ns, mag.stamps_ns, mag.field_nT,
                                  round(max_pairing_s * 1e9), pairing_tolerance_nT)
+    temperature_c = None
+    if has_topic(source.path, source.temperature_topic):
+        temperature_c, inside = sample_temperatures(imu, source.path, source.temperature_topic)
+        temperature_c = np.where(inside, temperature_c, np.nan)
     order = np.argsort(imu.stamps_ns[paired], kind='stable')
     stamps = imu.stamps_ns[paired][order]
     accel = imu.linear_acceleration_mps2[paired][order]
@@ -317,12 +323,57 @@ def bag_shots(source, max_pairing_s, pairing_tolerance_nT, limits):
                       f'{source.mag_topic} reading')
     segments = find_still_segments((stamps - stamps[0]) * 1e-9, accel, limits=limits,
                                    fields=field)
-    if len(segments) > tables.MAX_SHOTS:
-        raise Refused(f'{len(segments)} still segments are more shots than a fit takes '
-                      f'({tables.MAX_SHOTS}): take a longer --min-still-s')
+    _check_shot_count(len(segments))
+    if temperature_c is not None:
+        temperature_c = np.array([np.mean(temperature_c[paired][order][a:b])
+                                  for a, b in segments])
+        if not np.all(np.isfinite(temperature_c)):
+            temperature_c = None
     return (np.array([accel[a:b].mean(axis=0) for a, b in segments]).reshape(-1, 3),
             np.array([field[a:b].mean(axis=0) for a, b in segments]).reshape(-1, 3),
-            stamps.size)
+            temperature_c, stamps.size)
+
+
+def _check_shot_count(segments):
+    """Refuse more still segments than a shot fit takes (``tables.MAX_SHOTS``)."""
+    if segments > tables.MAX_SHOTS:
+        raise Refused(f'{segments} still segments are more shots than a fit takes '
+                      f'({tables.MAX_SHOTS}): take a longer --min-still-s')
+
+
+def shots_input(path, limits, group_column='roll_group'):
+    """
+    Return (accel (S, 3), field (S, 3), labels or None, temperature_c or None, lines).
+
+    Of ``inclino fit-magnetometer``'s CSV: one row a shot (``tables.read_shots``,
+    roll groups from ``group_column``), or a continuous log, a CSV with a
+    ``time_s`` column and no roll group given: its still segments, both triads
+    still and the gyro ``wx, wy, wz`` (optional) turning no faster than the
+    limit (``continuous_log.log_segments`` with ``limits``, the one still rule
+    of a bag's), each segment's mean one shot.  ``lines``: what was found.
+    TableError if unusable.
+    """
+    header = tables.header_of(path)
+    if TIME_COLUMN not in header or (group_column in header and any(
+            tables.read_csv(path, (), text=(group_column,))[group_column])):
+        return (*tables.read_shots(path, AXIS_COLUMNS, FIELD_COLUMNS, group_column), [])
+    table = tables.read_csv(path, (TIME_COLUMN,) + AXIS_COLUMNS + FIELD_COLUMNS,
+                            optional=('temperature_c',) + GYRO_COLUMNS)
+    accel, field = (np.column_stack([table[name] for name in names])
+                    for names in (AXIS_COLUMNS, FIELD_COLUMNS))
+    gyro = (np.column_stack([table[name] for name in GYRO_COLUMNS])
+            if all(name in table for name in GYRO_COLUMNS) else None)
+    try:
+        found = log_segments(table[TIME_COLUMN], accel, gyro, table.get('temperature_c'),
+                             limits, fields=field)
+    except ValueError as err:
+        raise tables.TableError(f'{path}: {err}') from None
+    _check_shot_count(len(found.ranges))
+    means = np.array([field[start:end].mean(axis=0)
+                      for start, end in found.ranges]).reshape(-1, 3)
+    return found.means, means, None, found.temperature_c, found.lines(f'log {path}') + [
+        f'a continuous log ({TIME_COLUMN} column): each still segment is one shot'
+        + ('' if gyro is None else ', the gyro (wx, wy, wz) checked too')]
 
 
 def log_series(path):

@@ -28,6 +28,7 @@ class LevelLimits:
     gravity_mps2: float
     g_total_tolerance_mps2: float
     still: StillLimits = StillLimits(drift_name='still.max_drift_deg_per_s',
+                                     motion_name='still.max_motion_deg',
                                      sem_name='level_capture.max_sem_deg')
 
 

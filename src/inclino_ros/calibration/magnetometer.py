@@ -15,12 +15,14 @@ import math
 
 from inclino_ros.calibration.model import (
     Magnetometer, MagnetometerAlignment, readings_temperature_c, Stand, ToolAxis, utc_now_iso)
+from inclino_ros.calibration.stages import MagnetometerNonlinear
 from inclino_ros.calibration.stand_fit import (
     group_positions, position_noise_deg, position_stood_c, stood_for_c, temperature_plateaus)
 from inclino_ros.core.attitude import angle_between
 from inclino_ros.core.constants import STANDARD_GRAVITY_MPS2
 from inclino_ros.core.installation import installation_matrix, to_tool_frame
 from inclino_ros.core.magnetics import expected_field_tool_nT
+from inclino_ros.core.nonlinear import fit_correction, gate
 from inclino_ros.core.shots import find_roll_groups, fit_shots, ShotLimits, tilt_angles
 from inclino_ros.core.stand import (
     fit_stand, plateau_numbers, plateau_stand_fit, rotation_part, StandFitRefused)
@@ -211,17 +213,58 @@ class ShotCalibration:
     A reference-free calibration: the new model, the fit, and what changed (text lines).
 
     ``roll_group``: the labels the fit used (given, or found; None: none).
+    ``gate``: the held-out verdict on the non-linear stage (``core.nonlinear.Gate``;
+    None: not judged, ``nonlinear='off'``).
     """
 
     model: object
     fit: object
     notes: tuple
     roll_group: object = None
+    gate: object = None
+
+
+#: What ``calibrate_from_shots`` does with the non-linear stage: ``auto`` (fitted from the
+#: roll sets and kept when the held-out gate says it helps), ``off``, ``on`` (kept whatever
+#: the gate says, when there is at least one roll set).
+NONLINEAR_CHOICES = ('auto', 'off', 'on')
+
+
+def nonlinear_stage(model, accel_mps2, field_nT, roll_sets, temperature_c, choice, fitted_at,
+                    temperature_of_fields_c):
+    """
+    Return (MagnetometerNonlinear or None, Gate or None, note) of ``model``'s roll sets.
+
+    The roll sets' corrected gravity and tool-frame fields (``model`` up to
+    the stage) are judged by ``core.nonlinear.gate`` (each set held out in
+    turn); the stage is fitted on all of them when the gate enables it (or
+    ``choice`` is ``on``).
+    """
+    if choice == 'off':
+        return None, None, 'non-linear stage: off (--non-linear off)'
+    gravity = model.apply(accel_mps2, temperature_c)
+    fields = model.apply_magnetic(field_nT, temperature_c, before='magnetometer_nonlinear')
+    verdict = gate(gravity, fields, roll_sets)
+    keep = verdict.enabled or (choice == 'on' and len(roll_sets) >= 1)
+    if not keep:
+        return None, verdict, f'non-linear stage: OFF (linear kept): {verdict.reason}'
+    correction = fit_correction(gravity, fields, roll_sets, verdict.centres, verdict.ridge)
+    stage = MagnetometerNonlinear(
+        weights=_matrix(correction.weights), scale_nT=correction.scale_nT,
+        rms_residual_nT=correction.rms_residual_nT, roll_sets=len(roll_sets),
+        shots=int(sum(len(s) for s in roll_sets)),
+        **{f'held_out_{key}_deg': value if math.isfinite(value) else None for key, value in (
+            ('before', verdict.before_deg), ('after', verdict.after_deg),
+            ('noise', verdict.noise_deg))}, fitted_at=fitted_at,
+        parameter_covariance=_matrix(correction.covariance),
+        temperature_c=temperature_of_fields_c)
+    forced = '' if verdict.enabled else ' (forced: --non-linear on)'
+    return stage, verdict, f'non-linear stage: ON{forced}: {verdict.reason}'
 
 
 def calibrate_from_shots(existing, accel_mps2, field_nT, roll_group=None, temperature_c=None,
                          gravity_mps2=STANDARD_GRAVITY_MPS2, reference_total_nT=None,
-                         limits=ShotLimits()):
+                         limits=ShotLimits(), nonlinear='auto'):
     """
     Return the ShotCalibration of shots (``core.shots.fit_shots``) on top of ``existing``.
 
@@ -235,7 +278,9 @@ def calibrate_from_shots(existing, accel_mps2, field_nT, roll_group=None, temper
     gets MOUNT_WARNING in its notes.  Every other stage is kept.  Raises
     ShotFitRefused with the reason.  Without ``roll_group`` the roll sets among
     shots taken in order are found (``core.shots.find_roll_groups``) and the
-    fit repeated with them.
+    fit repeated with them.  Then the non-linear stage (``nonlinear_stage``,
+    ``nonlinear`` one of NONLINEAR_CHOICES) from the roll sets' shots the fit
+    used; a non-linear stage of ``existing`` is replaced (or dropped).
     """
     fit_accel = existing.stand is None
     accel = existing.apply(accel_mps2, temperature_c,
@@ -330,5 +375,13 @@ def calibrate_from_shots(existing, accel_mps2, field_nT, roll_group=None, temper
         notes.append('magnetic (seed 002) stage kept: it was fitted on the previous '
                      'magnetometer correction; fit the rotation and MSA again')
     model = replace(existing, stand=stand, installation=installation, tool_axis=tool_axis,
-                    magnetometer=magnetometer, magnetometer_alignment=alignment)
-    return ShotCalibration(model=model, fit=fit, notes=tuple(notes), roll_group=roll_group)
+                    magnetometer=magnetometer, magnetometer_alignment=alignment,
+                    magnetometer_nonlinear=None)
+    labels = np.asarray(-1 if roll_group is None else roll_group)
+    roll_sets = [np.flatnonzero((labels == k) & fit.used) for k in fit.groups]
+    stage, verdict, note = nonlinear_stage(model, accel_mps2, field_nT, roll_sets, temperature_c,
+                                           nonlinear, now, field_c)
+    notes.append(note)
+    model = replace(model, magnetometer_nonlinear=stage)
+    return ShotCalibration(model=model, fit=fit, notes=tuple(notes), roll_group=roll_group,
+                           gate=verdict)

@@ -17,20 +17,24 @@ Version 7 files' temperature stages were fitted in the tool axes
 (``VERSION_8_FIELDS``: no ``axes_map``, issue 19 item 7).  Version 8 files lack the
 accelerometer stand fit's parameter covariance (``VERSION_9_FIELDS``; without it the
 stand's residual stands for the fit's error as a tilt variance, as before, and
-``CalibrationModel.uncertainty_notes`` says so).
+``CalibrationModel.uncertainty_notes`` says so).  Version 9 files have no
+``magnetometer_nonlinear`` section (issue 18: the non-linear stage fitted from roll sets;
+without it the chain is linear, as before).  Version 11 added the ``toolface_mark`` stage
+(issue 19 item 6): an older file has none, its toolface zero is what its other stages give.
 """
 
-from inclino_ros.calibration.corrections import STAGES
-
-SCHEMA_VERSION = 9
+SCHEMA_VERSION = 11
 #: Versions load_model reads.
-READABLE_VERSIONS = (1, 2, 3, 4, 5, 6, 7, 8, 9)
+READABLE_VERSIONS = (1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11)
 #: Sections of each readable schema version.
 SECTIONS = {1: ('installation',),
             2: ('temperature', 'stand', 'installation', 'magnetic'),
-            3: STAGES + ('magnetometer_temperature', 'magnetometer', 'magnetometer_alignment',
-                         'magnetic')}
+            3: ('temperature', 'stand', 'installation', 'tool_axis', 'magnetometer_temperature',
+                'magnetometer', 'magnetometer_alignment', 'magnetic')}
 SECTIONS[4] = SECTIONS[5] = SECTIONS[6] = SECTIONS[7] = SECTIONS[8] = SECTIONS[9] = SECTIONS[3]
+#: Version 10 added the magnetometer's non-linear stage (issue 18), 11 the toolface mark.
+SECTIONS[10] = SECTIONS[3] + ('magnetometer_nonlinear',)
+SECTIONS[11] = SECTIONS[10] + ('toolface_mark',)
 #: Fields version 3 added, with the value an older file's section gets.
 VERSION_3_FIELDS = {
     'installation': {'temperature_c': None},

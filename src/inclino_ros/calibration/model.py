@@ -28,7 +28,7 @@ from inclino_ros.calibration.schema import (
     stage_from_dict)
 from inclino_ros.calibration.stages import (
     Installation, Magnetic, Magnetometer, MagnetometerAlignment, MagnetometerTemperature,
-    NO_MAGNETIC_CORRECTION, Stand, Temperature, ToolAxis)
+    NO_MAGNETIC_CORRECTION, Stand, Temperature, ToolAxis, ToolfaceMark)
 from inclino_ros.calibration.store import (
     CalibrationChanged, CalibrationFileError, check_axes_maps, check_sensor, load_model,
     model_text, PYTHON_WRITER, read_model_history, save_model, UNCHECKED)
@@ -43,6 +43,6 @@ __all__ = [
     'readings_temperature_c', 'save_model', 'SCHEMA_VERSION', 'SECTIONS', 'stage_ages_s',
     'STAGE_FIELDS', 'stage_from_dict', 'stage_temperatures', 'STAGE_TIMES', 'STAGES',
     'stale_stages', 'Stand', 'STANDARD_GRAVITY_MPS2', 'Temperature', 'temperature_conflict',
-    'TEMPERATURE_FIELDS', 'TEMPERATURE_STAGES', 'ToolAxis', 'UNCHECKED', 'upgraded', 'utc_now_iso',
-    'VERSION_3_FIELDS',
+    'TEMPERATURE_FIELDS', 'TEMPERATURE_STAGES', 'ToolAxis', 'ToolfaceMark', 'UNCHECKED',
+    'upgraded', 'utc_now_iso', 'VERSION_3_FIELDS',
 ]

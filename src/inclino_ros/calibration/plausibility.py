@@ -368,6 +368,39 @@ def check_tool_axis(stage):
     _within(stage.axial_rms_deg, 0.0, 90.0, 'tool_axis.axial_rms_deg', ' deg')
 
 
+#: The largest non-linear correction a magnetometer's axis plausibly needs, over |B|.
+MAX_NONLINEAR_FRACTION = 0.2
+
+
+def check_magnetometer_nonlinear(stage):
+    """Raise Implausible for a MagnetometerNonlinear stage larger than a sensor's non-linearity."""
+    if not EARTH_FIELD_NT[0] <= stage.scale_nT <= EARTH_FIELD_NT[1]:
+        raise Implausible(f'magnetometer_nonlinear.scale_nT = {stage.scale_nT:.6g} nT is not an '
+                          f'Earth field ({EARTH_FIELD_NT[0]:g} .. {EARTH_FIELD_NT[1]:g} nT)')
+    grid = np.zeros((201, 3))
+    grid[:, 0] = grid[:, 1] = stage.scale_nT * np.linspace(-1.0, 1.0, 201)
+    largest = float(np.max(np.abs(stage.apply(grid) - grid))) / stage.scale_nT
+    if largest > MAX_NONLINEAR_FRACTION:
+        raise Implausible(f'magnetometer_nonlinear corrects up to {largest:.3g} of the field '
+                          f'(limit {MAX_NONLINEAR_FRACTION:g}): not a smooth non-linearity')
+    _within(stage.rms_residual_nT, 0.0, FIELD_NT[1], 'magnetometer_nonlinear.rms_residual_nT',
+            ' nT')
+
+
+#: The least inclination [deg] (from vertical, up or down) a high-side mark is captured at:
+#: nearer vertical the toolface is undefined (its 1 sigma grows as 1 / sin I).
+MIN_MARK_INCLINATION_DEG = 5.0
+
+
+def check_toolface_mark(stage):
+    """Raise Implausible for a ToolfaceMark no capture gives (off vertical, a finite sigma)."""
+    _within(stage.offset_deg, -180.0, 180.0, 'toolface_mark.offset_deg', ' deg')
+    _within(stage.std_deg, 0.0, 90.0, 'toolface_mark.std_deg', ' deg')
+    _within(stage.inclination_deg, MIN_MARK_INCLINATION_DEG, 180.0 - MIN_MARK_INCLINATION_DEG,
+            'toolface_mark.inclination_deg', ' deg')
+    _within(stage.sample_count, 1, MAX_COUNT, 'toolface_mark.sample_count')
+
+
 def check_magnetometer(stage):
     """Raise Implausible for a Magnetometer stage (K_m, b_m) no magnetometer has, in nT."""
     k, bias = (np.asarray(a, dtype=float) for a in stage.arrays)

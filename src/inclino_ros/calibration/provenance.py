@@ -28,9 +28,11 @@ STAGE_TIMES = (('temperature', 'fitted_at', 'calibration'),
                ('stand', 'fitted_at', 'calibration'),
                ('installation', 'captured_at', 'calibration'),
                ('tool_axis', 'fitted_at', 'calibration'),
+               ('toolface_mark', 'captured_at', 'calibration'),
                ('magnetometer_temperature', 'fitted_at', 'calibration'),
                ('magnetometer', 'fitted_at', 'calibration'),
                ('magnetometer_alignment', 'fitted_at', 'calibration'),
+               ('magnetometer_nonlinear', 'fitted_at', 'calibration'),
                ('magnetic', 'rotation_fitted_at', 'calibration'),
                ('magnetic', 'msa_fitted_at', 'interference'))
 

@@ -18,8 +18,9 @@ from inclino_ros.calibration.corrections import CalibrationModel
 from inclino_ros.calibration.migrations import (
     READABLE_VERSIONS, SCHEMA_VERSION, SECTIONS, upgraded)
 from inclino_ros.calibration.stages import (
-    Installation, Magnetic, Magnetometer, MagnetometerAlignment, MagnetometerTemperature, Stand,
-    Temperature, ToolAxis)
+    Installation, Magnetic, Magnetometer, MagnetometerAlignment, MagnetometerNonlinear,
+    MagnetometerTemperature, Stand, Temperature, ToolAxis, ToolfaceMark)
+from inclino_ros.core.attitude import TOOLFACE_CONVENTIONS
 from inclino_ros.core.mounting import axes_map_matrix
 import numpy as np
 
@@ -300,6 +301,22 @@ def _stand_polynomial(values, name):
                          f'or does not contain its temperature {values["temperature_c"]} C')
 
 
+def _nonlinear_weights(section, name, key):
+    """Read 2 rows (x, y) of 1..12 RBF weights, as nested tuples."""
+    weights = np.asarray(section[key], dtype=object)
+    if weights.ndim != 2 or weights.shape[0] != 2 or not 1 <= weights.shape[1] <= 12:
+        raise ValueError(f'{name}.{key} must be 2 rows of 1..12 weights')
+    return _array(*weights.shape)(section, name, key)
+
+
+def _nonlinear_covariance(section, name, key):
+    """Read the weights' covariance (2 centres square) or None."""
+    if section[key] is None:
+        return None
+    size = 2 * np.asarray(section['weights'], dtype=object).shape[-1]
+    return _covariance(section, name, key, size)
+
+
 def _msa(values, name):
     """Raise ValueError unless a solved interference names its method, stations and field."""
     if values['msa_method'] is not None:
@@ -334,6 +351,11 @@ STAGE_FIELDS = {
         'gamma_deg': _number, 'beta_deg': _number, 'std_deg': _number, 'g_total_mps2': _number,
         'sample_count': _count, 'captured_at': _time, 'temperature_c': _temperature}, (),
         plausibility.check_installation),
+    'toolface_mark': (ToolfaceMark, {
+        'offset_deg': _number, 'std_deg': _number, 'inclination_deg': _number,
+        'toolface_convention': _choice(*TOOLFACE_CONVENTIONS), 'sample_count': _count,
+        'captured_at': _time, 'temperature_c': _temperature}, (),
+        plausibility.check_toolface_mark),
     'tool_axis': (ToolAxis, {
         'gamma_deg': _number, 'beta_deg': _number, 'axial_rms_deg': _number,
         'roll_groups': _count, 'shots': _count, 'fitted_at': _time,
@@ -361,6 +383,13 @@ STAGE_FIELDS = {
         'dip_deg': _optional(_number), 'dip_rms_deg': _optional(_number), 'shots': _count,
         'fitted_at': _time, 'temperature_c': _temperature}, (),
         plausibility.check_magnetometer_alignment),
+    'magnetometer_nonlinear': (MagnetometerNonlinear, {
+        'weights': _nonlinear_weights, 'scale_nT': _number, 'rms_residual_nT': _number,
+        'roll_sets': _count, 'shots': _count, 'held_out_before_deg': _optional(_number),
+        'held_out_after_deg': _optional(_number), 'held_out_noise_deg': _optional(_number),
+        'fitted_at': _time,
+        'parameter_covariance': _nonlinear_covariance, 'temperature_c': _temperature}, (),
+        plausibility.check_magnetometer_nonlinear),
     'temperature': (Temperature, _temperature_fields('mps2'), (_temperature_range,),
                     partial(plausibility.check_temperature, name='temperature')),
     'magnetometer_temperature': (

@@ -14,6 +14,7 @@ from inclino_ros.core.cross_axial import apply_cross_axial
 from inclino_ros.core.installation import (
     inverse_installation_matrix, pseudo_inclination, to_tool_frame)
 from inclino_ros.core.mounting import axes_map_matrix, to_sensor_axes, to_tool_axes
+from inclino_ros.core.nonlinear import apply_correction
 from inclino_ros.core.stand import correct_stand, rotation_part
 from inclino_ros.core.temperature import (
     compensate_temperature, in_range, normalised_temperature, TemperatureFit,
@@ -79,6 +80,46 @@ class ToolAxis(_SeedZeroRotation):
     axial_rms_deg: float       # what the fit leaves of the within-group axial spread
     fitted_at: str
     temperature_c: float = None  # what the fitted readings stood for; None: unknown
+
+
+@dataclass(frozen=True)
+class ToolfaceMark:
+    """
+    The board's roll about the tool axis, tied to the tool's high-side mark (issue 19 item 6).
+
+    A still capture with the mark up on a tilted bench reads the board's
+    toolface ``offset_deg`` where the tool's is 0 by definition (in
+    ``toolface_convention``); the stage turns both triads' tool-frame vectors
+    back by it, ``R_z(-offset)``: the toolface moves by ``-offset``, the
+    inclination and the azimuth (a turn of G and B together about the tool
+    axis) do not.  ``std_deg``: the capture's standard error of the mean
+    tilt over ``sin I`` (``calibration.toolface_mark``).
+    """
+
+    offset_deg: float
+    std_deg: float
+    inclination_deg: float       # of the tool in the capture
+    toolface_convention: str     # the toolface whose zero the mark is
+    sample_count: int
+    captured_at: str
+    temperature_c: float = None  # what the captured readings stood for; None: unknown
+
+    @cached_property
+    def matrix(self):
+        """Return ``R_z(-offset)``, the turn the stage applies (computed once)."""
+        angle = math.radians(self.offset_deg)
+        c, s = math.cos(angle), math.sin(angle)
+        return np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+
+    def apply(self, f, temperature_c=None):
+        """Return the tool-frame vectors ``f`` (N x 3) turned to the mark's zero."""
+        return to_tool_frame(f, self.matrix)
+
+    @staticmethod
+    def jacobian(turned):
+        """Return d(R_z(-offset) v)/d offset [per rad] (N, 3, 1) at the turned vectors."""
+        turned = np.asarray(turned, dtype=float)
+        return np.stack([turned[:, 1], -turned[:, 0], np.zeros(len(turned))], axis=1)[..., None]
 
 
 class _PolynomialOfTemperature:
@@ -274,6 +315,41 @@ class MagnetometerAlignment:
         """Return the angle of the rotation [deg]."""
         return math.degrees(math.acos(float(np.clip((np.trace(self.matrix) - 1.0) / 2.0,
                                                     -1.0, 1.0))))
+
+
+@dataclass(frozen=True)
+class MagnetometerNonlinear:
+    """
+    A smooth non-linear correction of the tool-frame field's x, y (``core.nonlinear``).
+
+    Fitted from roll sets by ``inclino fit-magnetometer`` on top of its linear
+    stages and kept only when it improved the roll sets' azimuth agreement on
+    sets it was not fitted on (the gate): ``held_out_before_deg``,
+    ``held_out_after_deg`` and ``held_out_noise_deg`` are that judgement.
+    ``weights``: 2 rows (x, y) of Gaussian RBF weights, normalised by
+    ``scale_nT``; ``parameter_covariance``: of the weights, x then y.
+    """
+
+    weights: tuple
+    scale_nT: float
+    rms_residual_nT: float
+    roll_sets: int
+    shots: int
+    held_out_before_deg: float
+    held_out_after_deg: float
+    held_out_noise_deg: float
+    fitted_at: str
+    parameter_covariance: tuple = None
+    temperature_c: float = None  # what the fitted readings stood for; None: unknown
+
+    @cached_property
+    def arrays(self):
+        """Return the weights (2, centres) as an array, built once."""
+        return np.array(self.weights)
+
+    def apply(self, b_nT):
+        """Return tool-frame fields (..., 3) [nT] with x, y corrected."""
+        return apply_correction(b_nT, self.arrays, self.scale_nT)
 
 
 class _TemperatureStage:

@@ -305,10 +305,15 @@ def with_stand(model, stand, field=None):
     The installation and tool-axis stages are dropped: a stand K, fitted
     against the tool's attitude, already holds the mounting misalignment (a
     kept gamma/beta would count it twice), and after a sphere fit the level
-    bench must be measured again on the stand-corrected readings.  ``field``:
-    a ``magnetometer.FieldStandFit`` or None.
+    bench must be measured again on the stand-corrected readings.  The
+    magnetometer's non-linear stage, fitted in the tool frame of the previous
+    chain, is dropped too (``inclino fit-magnetometer`` fits it again), and so
+    is a high-side mark: it was captured through the old stages (a stand ties
+    the toolface itself; after a sphere fit capture the mark again).
+    ``field``: a ``magnetometer.FieldStandFit`` or None.
     """
-    model = replace(model, stand=stand, installation=None, tool_axis=None)
+    model = replace(model, stand=stand, installation=None, tool_axis=None,
+                    magnetometer_nonlinear=None, toolface_mark=None)
     if field is not None:
         model = replace(model, magnetometer=field.magnetometer,
                         magnetometer_alignment=field.alignment)

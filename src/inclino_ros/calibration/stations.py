@@ -42,7 +42,7 @@ class StationsFileError(Exception):
 class Station:
     """One still survey, averaged."""
 
-    specific_force_mps2: tuple  # corrected accelerometer, tool frame
+    specific_force_mps2: tuple  # corrected accelerometer, tool frame before the toolface mark
     field_nT: tuple             # raw magnetometer, tool frame
     samples: int
     captured_at: str
@@ -97,7 +97,7 @@ def raw_survey_inputs(model, gravity, field_nT, gravity_mps2):
     gravity = np.asarray(gravity, dtype=float)
     if model.stages:
         force = -iscwsa_from_tool(gravity) * gravity_mps2
-        gravity = -iscwsa_from_tool(model.apply(force)) / gravity_mps2
+        gravity = -iscwsa_from_tool(model.apply(force, before='toolface_mark')) / gravity_mps2
     return gravity, iscwsa_from_tool(corrected_field_nT(model, iscwsa_from_tool(field_nT)))
 
 

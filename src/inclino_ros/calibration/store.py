@@ -54,7 +54,8 @@ def model_text(model):
     return json.dumps(model.to_dict(), indent=2) + '\n'
 
 
-def save_model(path, model, writer=PYTHON_WRITER, outputs=None, based_on=UNCHECKED):
+def save_model(path, model, writer=PYTHON_WRITER, outputs=None, based_on=UNCHECKED,
+               history_keep=history.DEFAULT_KEEP, report=None):
     """
     Write ``model`` to ``path`` atomically, its new version kept in the history; return its digest.
 
@@ -67,13 +68,15 @@ def save_model(path, model, writer=PYTHON_WRITER, outputs=None, based_on=UNCHECK
     digest of the file the writer read (``history.file_digest``; None: there
     was none); when the file on disk is another one at the commit,
     CalibrationChanged and nothing is written.  ValueError for a model
-    load_model would refuse.
+    load_model would refuse.  Once it has landed, the history is pruned to its
+    newest ``history_keep`` versions (``history.prune``); ``report(line)``
+    is told which were removed (or why none could be).
     """
     path = os.path.abspath(os.path.expanduser(path))
     model_from_dict(model.to_dict())  # never write what load_model would refuse
     if outputs is None:
         with Outputs(force=True) as own:
-            return save_model(path, model, writer, own, based_on)
+            return save_model(path, model, writer, own, based_on, history_keep, report)
     text = model_text(model)
 
     def unchanged():
@@ -82,6 +85,18 @@ def save_model(path, model, writer=PYTHON_WRITER, outputs=None, based_on=UNCHECK
 
     unchanged()
     outputs.require(unchanged)
+
+    def prune():
+        try:
+            pruned = history.prune(path, history_keep, in_use={history.digest(text)})
+        except OSError as err:
+            pruned, line = [], f'{path}: its history was not pruned ({err})'
+        else:
+            line = history.pruned_message(path, pruned, history_keep) if pruned else None
+        if line is not None and report is not None:
+            report(line)
+
+    outputs.after(prune)
     history.record(path, text, writer, model.sensor_id, utc_now_iso(), outputs)
     write_text(path, text, outputs=outputs, update=True)
     return history.digest(text)

@@ -22,7 +22,7 @@ from inclino_ros.calibration.history import file_digest
 from inclino_ros.calibration.model import (
     age_seconds, CalibrationChanged, model_from_dict, read_model_history, save_model)
 from inclino_ros.cli.errors import CommandError
-from inclino_ros.cli.fitting import load_calibration
+from inclino_ros.cli.fitting import add_history_option, history_report, load_calibration
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.io.files import loads_strict
 from inclino_ros.report.diff import ALL_STAGES, angle_changes, stage_changes
@@ -47,6 +47,7 @@ def register(subparsers):
     restore = actions.add_parser('restore', help='write version N of FILE back into FILE')
     restore.add_argument('file', metavar='FILE', help='calibration file')
     restore.add_argument('number', metavar='N', type=int, help='version number (see history)')
+    add_history_option(restore)
     restore.set_defaults(func=run_restore)
     diff = actions.add_parser('diff', help='what changed between two calibrations')
     for name in ('a', 'b'):
@@ -125,7 +126,8 @@ def run_restore(args):
     model = _model_of_text(version.text, f'version {args.number}')
     try:
         save_model(args.file, model, f'inclino calibration restore {args.number}',
-                   based_on=based_on)
+                   based_on=based_on, history_keep=args.history_keep,
+                   report=history_report('inclino calibration restore'))
     except CalibrationChanged as err:
         print(f'inclino calibration restore: refused: {err}; nothing written', file=sys.stderr)
         return 1

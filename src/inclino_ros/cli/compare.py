@@ -9,16 +9,20 @@ station, the truth and the signed error of the station mean; then the worst
 of them.  The toolface and the azimuth are compared where the true
 inclination is at least ``--min-inclination-deg`` (near vertical both are
 ill-defined); an azimuth the chain withheld (NaN: not trusted) is counted,
-not compared.
+not compared.  Then the toolface zero RESULT's metadata states
+(``stream.TOOLFACE_ZERO_KEYS``, ``unknown`` when it states none): a
+toolface relative to the sensor board is off the truth by the board's roll.
 """
 
 import sys
 
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.options import between, inclination_deg
-from inclino_ros.io.bag import BagError, concatenate, read, topic_info, VECTOR3_STAMPED
+from inclino_ros.io.bag import (
+    BagError, concatenate, custom_data, read, topic_info, VECTOR3_STAMPED)
 from inclino_ros.report.compare import (
     corrected_vectors, number, simulated_segments, station_rows, table_lines, worst)
+from inclino_ros.stream import TOOLFACE_ZERO_KEYS
 import numpy as np
 
 RESULT_TOPIC = '/survey'
@@ -65,6 +69,7 @@ def run(args):
                                f'({option} names the angles: /survey)')
         truth = concatenate(read(args.truth, args.truth_topic))
         result = concatenate(read(args.result, args.topic))
+        metadata = custom_data(args.result)
     except (BagError, IndexError) as err:
         print(f'inclino compare: error: {err or "an empty topic"}', file=sys.stderr)
         return 2
@@ -86,6 +91,9 @@ def run(args):
           f'mean error: inclination {number(bad["inclination"], 0, 4)} deg, toolface '
           f'{number(bad["toolface"], 0, 3)} deg, azimuth {number(bad["azimuth"], 0, 3)} deg '
           f'(toolface and azimuth {args.min_inclination_deg:g} deg or more off vertical)')
+    zero, meaning = (metadata.get(key) for key in TOOLFACE_ZERO_KEYS)
+    print(f'toolface_zero: {zero or "unknown"}\ntoolface_zero_meaning: '
+          + (meaning or f'{args.result} does not say (not written by inclino process)'))
     limit = args.max_error_deg
     if limit is not None and not np.isfinite(bad['inclination']):
         print('inclino compare: error: no station mean was compared, so none is within '

@@ -25,6 +25,7 @@ import subprocess
 import sys
 import tempfile
 
+from inclino_ros.calibration.model import load_model
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.options import add_force_argument
 from inclino_ros.io.bag import concatenate, read
@@ -160,6 +161,8 @@ def run(args):
     print(f'worst inclination error: raw {worst["raw"]:.4f} deg, corrected '
           f'{worst["corrected"]:.4f} deg, offline {worst["offline"]:.4f} deg; '
           f'live vs offline differ by at most {live_vs_offline:.2e} deg')
+    # What the corrected toolfaces' zero is tied to (issue 19 item 6).
+    print('\n'.join(load_model(calibration_file).toolface_zero_lines))
     png = os.path.join(out, 'demo.png')
     with outputs:
         with open(outputs.path(os.path.join(out, 'results.json')), 'x') as stream:

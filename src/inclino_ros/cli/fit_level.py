@@ -28,8 +28,9 @@ from inclino_ros.calibration.inputs import level_input
 from inclino_ros.calibration.level_capture import CaptureRefused, LevelLimits, solve_level_capture
 from inclino_ros.calibration.model import readings_temperature_c, temperature_conflict
 from inclino_ros.cli.fitting import (
-    add_common_arguments, add_still_options, axes_maps, load_existing, NODE_DEFAULTS, node_option,
-    Refused, report_paths, run_fit, save, source_of, tool_axes, write_text)
+    add_capture_checks, add_common_arguments, add_still_options, add_window_arguments, axes_maps,
+    load_existing, node_option, Refused, report_paths, run_fit, save, source_of, tool_axes,
+    write_text)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.io.report import residual_lines
 from inclino_ros.report.common import Fitted
@@ -57,23 +58,13 @@ def register(subparsers):
         'precision asked, an implausible G-total, a bench that is not level, or a temperature '
         'far from that of the other stages. Exit 2: unusable input.')
     add_common_arguments(parser)
-    parser.add_argument('--start-s', type=float, default=0.0, metavar='S',
-                        help='bag: first sample, seconds after the first message (default: 0)')
-    parser.add_argument('--end-s', type=float, metavar='S',
-                        help='bag: samples before S seconds after the first message (default: '
-                             'to the last message)')
+    add_window_arguments(parser)
     parser.add_argument('--axes', type=int, choices=(2, 3),
                         help='accelerometer axes (default: those of the file, else 3)')
     add_still_options(parser, 'level_capture.max_sem_deg', 'axis tilts', 'a capture')
     node_option(parser, '--max-tilt-deg', 'level_capture.max_tilt_deg',
                 'largest false tilt accepted as a mounting error [deg]')
-    node_option(parser, '--g-total-tolerance-mps2', 'level_capture.g_total_tolerance_mps2',
-                'largest deviation of G-total from gravity [m/s^2]')
-    node_option(parser, '--max-temperature-difference-c', 'temperature.max_stage_difference_c',
-                'without a temperature stage, a capture further in temperature [deg C] from '
-                'the stand stage is refused')
-    parser.add_argument('--gravity-mps2', type=float, default=NODE_DEFAULTS['gravity_mps2'],
-                        help='local gravity [m/s^2] (default: %(default)s)')
+    add_capture_checks(parser, 'stand stage')
     parser.set_defaults(func=run)
 
 
@@ -88,7 +79,7 @@ def fit(args, lines, outputs):
                              maps=axes_maps(args))
     axes = args.axes or existing.accelerometer_axes
     readings, temperature_c, times_s, note = level_input(source_of(args), segment_limits(
-        args.max_drift_deg_per_s, args.max_sem_deg))
+        args.max_drift_deg_per_s, args.max_sem_deg, max_motion_deg=args.max_motion_deg))
     if note:
         print(f'inclino fit-level: {note}', file=sys.stderr)
     readings = tool_axes(args, readings)
@@ -99,7 +90,8 @@ def fit(args, lines, outputs):
     limits = LevelLimits(
         max_tilt_deg=args.max_tilt_deg, gravity_mps2=args.gravity_mps2,
         g_total_tolerance_mps2=args.g_total_tolerance_mps2,
-        still=segment_limits(args.max_drift_deg_per_s, args.max_sem_deg).still)
+        still=segment_limits(args.max_drift_deg_per_s, args.max_sem_deg,
+                             max_motion_deg=args.max_motion_deg).still)
     stood_for_c = readings_temperature_c(
         existing.temperature, None if temperature_c is None else float(np.mean(temperature_c)))
     reason = temperature_conflict(existing, stood_for_c, args.max_temperature_difference_c,
@@ -119,7 +111,8 @@ def fit(args, lines, outputs):
     png, txt = report_paths(args, REPORT_NAME)
     plot_level(outputs.path(png), level, installation, g_mps2)
     # The level bench measures the whole mount: a tool axis on top would count twice.
-    model = save(args, replace(existing, installation=installation, tool_axis=None), outputs)
+    model = save(args, replace(existing, installation=installation, tool_axis=None), outputs,
+                 lines)
     lines += [f'wrote {args.calibration}: installation stage'
               + (f', {" and ".join(applied)} stage kept' if applied else ''),
               f'report: {png}, {txt}']

@@ -5,9 +5,11 @@ Input: a CSV with the columns ``ax, ay, az`` (m/s^2, REP 145 specific
 force, tool frame, z along the tool axis), ``bx, by, bz`` (nT, same frame)
 and optionally ``roll_group`` (rows with the same non-empty value were
 taken with the tool axis held in one direction and the tool turned about
-it) and ``temperature_c``; one row per still shot.  Or a bag: the still
-segments of ``--raw-topic`` and ``--mag-topic`` are found by the one still
-rule of every stream (``stillness.find_still_segments``, as for a
+it) and ``temperature_c``; one row per still shot.  Or a continuous log (a
+CSV with a ``time_s`` column [s] and no ``roll_group``; the gyro ``wx, wy,
+wz`` [rad/s] optional), or a bag: the still segments of the log, or of
+``--raw-topic`` and ``--mag-topic``, are found by the one still rule of every
+stream (``stillness.find_still_segments``, as for a
 continuous log: windows of ``--still-window-s`` in which neither triad's
 direction moves, significantly and by more than ``--max-still-deg`` or
 faster than ``--max-drift-deg-per-s``, joined while neighbours agree, the
@@ -20,9 +22,12 @@ full soft iron), the accelerometer's when the file has no stand stage, the
 rotation between the triads (the dip is constant) and, from the roll
 groups, the tool axis (seed 000's installation without a level bench).  The
 file gets the stages ``magnetometer``, ``magnetometer_alignment``,
-``tool_axis`` (with roll groups) and ``stand`` (method sphere, when fitted);
-its other stages are kept; the installation (level bench) too, carried
-into a new accelerometer frame, unless roll groups measure the tool axis.
+``tool_axis`` (with roll groups) and ``stand`` (method sphere, when fitted),
+and ``magnetometer_nonlinear`` when the roll sets support it
+(``magnetometer.nonlinear_stage``: ``--non-linear``, the held-out gate's
+figures and decision in the report and on stdout); its other stages are
+kept; the installation (level bench) too, carried into a new accelerometer
+frame, unless roll groups measure the tool axis.
 Nothing measuring the mount (a bag has no roll groups) is said loudly, on
 stderr too.  The field is scaled to
 ``--reference-total-nT`` (or ``--site``) if given, else to the sensor's own
@@ -49,8 +54,8 @@ from dataclasses import replace
 import sys
 
 from inclino_ros.calibration.continuous_log import segment_limits
-from inclino_ros.calibration.inputs import bag_shots
-from inclino_ros.calibration.magnetometer import calibrate_from_shots
+from inclino_ros.calibration.inputs import bag_shots, shots_input
+from inclino_ros.calibration.magnetometer import calibrate_from_shots, NONLINEAR_CHOICES
 from inclino_ros.calibration.plausibility import check_field_unit, Implausible
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
@@ -68,8 +73,6 @@ from inclino_ros.report.magnetometer import (
     fit_table_lines, plot_report, robust_lines, shot_residuals, summary_lines)
 
 REPORT_NAME = 'fit_magnetometer'
-ACCEL_COLUMNS = ('ax', 'ay', 'az')
-FIELD_COLUMNS = ('bx', 'by', 'bz')
 GROUP_COLUMN = 'roll_group'
 
 
@@ -79,7 +82,8 @@ def register(subparsers):
         'fit-magnetometer',
         help='calibrate magnetometer and accelerometer from shots in many orientations '
              '(no stand, no reference)', description=__doc__.split('\n\n', 1)[1])
-    add_file_arguments(parser, 'CSV file (ax, ay, az, bx, by, bz [, roll_group])')
+    add_file_arguments(parser, 'CSV file (ax, ay, az, bx, by, bz [, roll_group]; with time_s: '
+                               'a log)')
     parser.add_argument('--gravity-mps2', type=node_parameter('gravity_mps2'),
                         default=NODE_DEFAULTS['gravity_mps2'],
                         help='local gravity [m/s^2] (default: %(default)s)')
@@ -97,6 +101,11 @@ def register(subparsers):
                         default=ShotLimits.max_b_rms_fraction,
                         help='largest RMS of |B| the fit may leave, a fraction of the field '
                              '(default: %(default)s)')
+    parser.add_argument('--non-linear', choices=NONLINEAR_CHOICES, default='auto',
+                        help='the smooth non-linear stage fitted from the roll sets: auto (kept '
+                        'only when it improves the azimuth agreement of roll sets held out of '
+                        'its fit, each in turn, by more than 2 sigma), off, or on (kept '
+                        'whatever that judgement says)')
     bag = parser.add_argument_group('bag input')
     bag.add_argument('--raw-topic', default='/imu/data_raw',
                      help='sensor_msgs/Imu topic (default: %(default)s)')
@@ -130,16 +139,19 @@ def run(args):
     return run_fit('fit-magnetometer', args, fit)
 
 
+def still_limits(args):
+    """Return the SegmentLimits of the command's still options (a bag's, a log's)."""
+    return segment_limits(args.max_drift_deg_per_s, args.max_still_deg, '--max-still-deg',
+                          window_s=args.still_window_s, min_s=args.min_still_s)
+
+
 def read_bag_shots(args, lines):
     """Return the shots of a bag's still segments (``inputs.bag_shots``; roll groups: none)."""
-    accel, field, paired = bag_shots(source_of(args), args.max_pairing_s,
-                                     MAG_PAIRING_TOLERANCE_NT, segment_limits(
-                                         args.max_drift_deg_per_s, args.max_still_deg,
-                                         '--max-still-deg', window_s=args.still_window_s,
-                                         min_s=args.min_still_s))
+    accel, field, temperature_c, paired = bag_shots(
+        source_of(args), args.max_pairing_s, MAG_PAIRING_TOLERANCE_NT, still_limits(args))
     lines.append(f'{accel.shape[0]} still segment(s) found in {args.input} '
                  f'({paired} paired samples)')
-    return accel, field, None, None
+    return accel, field, None, temperature_c
 
 
 def fit(args, lines, outputs):
@@ -153,10 +165,11 @@ def fit(args, lines, outputs):
         accel, field, labels, temperature_c = read_bag_shots(args, lines)
     else:
         try:
-            accel, field, labels, temperature_c = tables.read_shots(
-                args.input, ACCEL_COLUMNS, FIELD_COLUMNS, GROUP_COLUMN)
+            accel, field, labels, temperature_c, found = shots_input(
+                args.input, still_limits(args), GROUP_COLUMN)
         except tables.TableError as err:
             raise Refused(str(err)) from None
+        lines += found
     if accel.shape[0]:
         try:
             check_field_unit(field, 'bx, by, bz')
@@ -167,7 +180,7 @@ def fit(args, lines, outputs):
                      max_g_rms_fraction=args.max_g_rms_fraction)
     try:
         result = calibrate_from_shots(existing, accel, field, labels, temperature_c,
-                                      args.gravity_mps2, total_nT, limits)
+                                      args.gravity_mps2, total_nT, limits, args.non_linear)
     except ShotFitRefused as err:
         if err.fit is not None:
             # A refused fit reports beside, not over, the report of the fit in the file.
@@ -179,9 +192,10 @@ def fit(args, lines, outputs):
     for note in result.notes:
         if note.startswith('WARNING'):
             print(f'inclino fit-magnetometer: {note}', file=sys.stderr)
-    before, after = (magnetics.survey_of(model.apply(accel, temperature_c),
-                                         model.apply_magnetic(field, before='magnetic'))
-                     for model in (existing, result.model))
+    # G in the frame of B before seed 002's stage: before the toolface mark.
+    before, after = (magnetics.survey_of(
+        model.apply(accel, temperature_c, before='toolface_mark'),
+        model.apply_magnetic(field, before='magnetic')) for model in (existing, result.model))
     lines += summary_lines(result, labels, before, after, total_nT, dip_ref, source)
     rows = shot_residuals(result.fit, labels)
     lines += residual_lines(rows, '|B| of each shot after the fit minus the fitted field')
@@ -189,10 +203,11 @@ def fit(args, lines, outputs):
     if args.plot:
         plot_report(outputs.path(png), labels, before, after, result.fit.field_nT,
                     args.gravity_mps2)
-    model = save(args, result.model, outputs)
+    model = save(args, result.model, outputs, lines)
     written = ['magnetometer', 'magnetometer_alignment'] + (
         ['tool_axis'] if result.fit.tool_axis is not None else []) + (
-        ['stand (method sphere)'] if result.fit.accel_matrix is not None else [])
+        ['stand (method sphere)'] if result.fit.accel_matrix is not None else []) + (
+        ['magnetometer_nonlinear'] if result.model.magnetometer_nonlinear is not None else [])
     lines += [f'wrote the stages {", ".join(written)} to {args.calibration}',
               f'report: {txt}' + (f', {png}' if args.plot else '')]
     write_text(outputs.path(txt), lines)

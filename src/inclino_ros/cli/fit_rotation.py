@@ -96,7 +96,7 @@ def fit(args, lines, outputs):
     lines += residual_lines(rows, 'radial residual per 45 deg sector of the turn')
     png, txt = report_paths(args, REPORT_NAME)
     plot_rotation(outputs.path(png), readings, corrected, result)
-    model = save(args, solution.model, outputs)
+    model = save(args, solution.model, outputs, lines)
     stood_for_c = solution.model.magnetic.rotation_temperature_c
     lines += [f'wrote the magnetic stage (hard and soft iron) to {args.calibration}'
               + ('' if existing.magnetic is None or existing.magnetic.msa_method is None else

@@ -142,11 +142,11 @@ def fit(args, lines, outputs):
     png, txt = report_paths(args, REPORT_NAME + ('_refused' if refusal else ''))
     draw(outputs.path(png))
     lines.append(f'report: {png}')
-    write_text(outputs.path(txt), lines + ([f'REFUSED: {refusal}'] if refusal else []))
     if refusal:
+        write_text(outputs.path(txt), lines + [f'REFUSED: {refusal}'])
         raise Refused(refusal)
     dropped = existing.installation is not None
-    model = save(args, with_stand(existing, stage, field), outputs)
+    model = save(args, with_stand(existing, stage, field), outputs, lines)
     lines.append(f'wrote {args.calibration}: stand stage ({args.method}, {stage.positions} '
                  f'{"positions" if args.method == "stand" else "readings"})'
                  + (', temperature stage kept' if existing.temperature else ''))
@@ -158,6 +158,7 @@ def fit(args, lines, outputs):
     elif args.method == 'sphere':
         lines.append('a sphere fit cannot see the mounting rotation: calibrate the level bench '
                      '(inclino calibrate) next')
+    write_text(outputs.path(txt), lines)
     return Fitted(model, tuple(rows))
 
 
@@ -171,7 +172,8 @@ def still_samples(args, readings, gyro, temperature_c, times_s, lines):
     """
     try:
         found = log_segments(times_s, readings, gyro, temperature_c,
-                             segment_limits(args.max_drift_deg_per_s, args.max_sem_deg))
+                             segment_limits(args.max_drift_deg_per_s, args.max_sem_deg,
+                                            max_motion_deg=args.max_motion_deg))
     except ValueError as err:
         raise CommandError(f'{args.input}: {err}') from None
     lines.extend(found.lines(f'log {args.input}'))
@@ -187,7 +189,8 @@ def still_samples(args, readings, gyro, temperature_c, times_s, lines):
 
 def still_limits(args):
     """Return the still test of a position from --max-drift-deg-per-s and --max-sem-deg."""
-    return segment_limits(args.max_drift_deg_per_s, args.max_sem_deg).still
+    return segment_limits(args.max_drift_deg_per_s, args.max_sem_deg,
+                          max_motion_deg=args.max_motion_deg).still
 
 
 def fit_positions(args, readings, attitude_deg, times_s, stood_c, lines):

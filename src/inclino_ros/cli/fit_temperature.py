@@ -129,7 +129,7 @@ def fit(args, lines, outputs):
     lines += residual_lines(rows, f'{what} per {TEMPERATURE_BIN_C:g} C of the run, compensated')
     plot(outputs.path(png), temperature_c, result, before, after, what)
     lines.append(f'report: {png}')
-    save(args, model, outputs)
+    save(args, model, outputs, lines)
     kept = [name for name in later if getattr(model, name) is not None]
     lines.append(f'wrote {args.calibration}: {section} stage (order {args.order}, '
                  f'{result.attitudes} attitude(s), compensating to '

@@ -53,6 +53,19 @@ def add_file_arguments(parser, csv_help='CSV file with a header row'):
     add_sensor_argument(parser)
     parser.add_argument('--report-dir', metavar='DIR',
                         help='folder of the PNG and text report (default: that of FILE)')
+    add_history_option(parser)
+
+
+def add_history_option(parser):
+    """Add --history-keep: how many versions the calibration file's history keeps."""
+    node_option(parser, '--history-keep', 'calibration.history_keep',
+                'versions kept in the history of the calibration file (FILE.history); a write '
+                'removes the older ones and says which, never the one in use', metavar='N')
+
+
+def history_report(command):
+    """Return the ``report`` of ``model.save_model``: its line on stderr, a note of ``command``."""
+    return lambda line: print(f'{command}: note: {line}', file=sys.stderr)
 
 
 def add_common_arguments(parser):
@@ -96,7 +109,7 @@ def read_csv(path, required, optional=(), text=(), max_rows=tables.MAX_ROWS):
 
 
 def node_option(parser, flag, parameter, help_text, **kwargs):
-    """Add the float option ``flag`` defaulting to the node's ``parameter`` (said in its help)."""
+    """Add the option ``flag`` of the type, range and default of the node's ``parameter``."""
     parser.add_argument(flag, type=node_parameter(parameter), default=NODE_DEFAULTS[parameter],
                         help=f'{help_text} (default: %(default)s, as {parameter})', **kwargs)
 
@@ -114,15 +127,39 @@ def add_bias_instability_arguments(parser, magnetic):
 
 def add_still_options(parser, sem_parameter, mean_of, capture):
     """
-    Add --max-sem-deg and --max-drift-deg-per-s: the still test of a capture (``still_capture``).
+    Add --max-sem-deg, --max-drift-deg-per-s, --max-motion-deg: a capture's still test.
 
-    ``sem_parameter``: the node parameter of the precision limit; ``mean_of``
-    and ``capture`` name what is averaged and what may move in the help texts.
+    The test is ``still_capture``'s; ``sem_parameter``: the node parameter of
+    the precision limit; ``mean_of`` and ``capture`` name what is averaged
+    and what may move in the help texts.
     """
     node_option(parser, '--max-sem-deg', sem_parameter,
                 f'largest standard error of the mean {mean_of} [deg]')
     node_option(parser, '--max-drift-deg-per-s', 'still.max_drift_deg_per_s',
                 f'{capture} whose mean drifts faster [deg/s], significantly for its noise, moved')
+    node_option(parser, '--max-motion-deg', 'still.max_motion_deg',
+                f'{capture} whose attitude at a part lies further from its mean [deg], '
+                'significantly for its noise, moved; a smaller motion is in the 1 sigma')
+
+
+def add_window_arguments(parser):
+    """Add --start-s and --end-s: the window of a bag a still capture is read from."""
+    parser.add_argument('--start-s', type=float, default=0.0, metavar='S',
+                        help='bag: first sample, seconds after the first message (default: 0)')
+    parser.add_argument('--end-s', type=float, metavar='S',
+                        help='bag: samples before S seconds after the first message (default: '
+                             'to the last message)')
+
+
+def add_capture_checks(parser, other_stages):
+    """Add the G-total, temperature and gravity options of a still capture's fit."""
+    node_option(parser, '--g-total-tolerance-mps2', 'level_capture.g_total_tolerance_mps2',
+                'largest deviation of G-total from gravity [m/s^2]')
+    node_option(parser, '--max-temperature-difference-c', 'temperature.max_stage_difference_c',
+                'without a temperature stage, a capture further in temperature [deg C] from '
+                f'the {other_stages} is refused')
+    parser.add_argument('--gravity-mps2', type=float, default=NODE_DEFAULTS['gravity_mps2'],
+                        help='local gravity [m/s^2] (default: %(default)s)')
 
 
 def add_sensor_argument(parser):
@@ -177,20 +214,26 @@ def begin_update(args, command):
         raise CommandError(f'cannot read {args.calibration}: {err}') from None
 
 
-def save(args, model, outputs):
+def save(args, model, outputs, lines=None):
     """
     Write ``model`` to ``args.calibration`` among ``outputs`` (``model.save_model``); return it.
+
+    The toolface zero the saved model gives (``CalibrationModel.toolface_zero_lines``)
+    is appended to the fit's report ``lines`` (issue 19 item 6; None: said elsewhere).
 
     Refused when the fitted model is one load_model would refuse (an
     implausible result) or the file changed since ``begin_update``,
     CommandError when the file cannot be written.
     """
     try:
-        save_model(args.calibration, model, args.writer, outputs, args.calibration_sha256)
+        save_model(args.calibration, model, args.writer, outputs, args.calibration_sha256,
+                   args.history_keep, history_report(args.writer))
     except ValueError as err:
         raise Refused(f'the result is not a plausible calibration: {err}') from None
     except OSError as err:
         raise CommandError(f'cannot write {args.calibration}: {err}') from None
+    if lines is not None:
+        lines.extend(model.toolface_zero_lines)
     return model
 
 

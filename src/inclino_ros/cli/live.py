@@ -22,6 +22,8 @@ SERVICES = {
     'capture_position': 'tool on the stand at the attitude set in stand.*: one position',
     'solve_stand_calibration': 'fit the stand calibration K, b to the positions captured',
     'clear_positions': 'forget the stand positions captured',
+    'capture_high_side_mark': 'tool still on a tilted bench, high-side mark up: tie the '
+                              'toolface zero',
     'capture_rotation': 'record the tool turning about its axis: magnetometer hard/soft iron',
     'take_survey': 'average a still station and store it for the multi-station analysis',
     'solve_msa': 'multi-station analysis of the stored stations: the drill-string field',

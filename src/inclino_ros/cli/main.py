@@ -29,7 +29,7 @@ from inclino_ros.io.tables import TableError
 
 COMMANDS = ('simulate', 'process', 'compare', 'play', 'calibrate', 'call', 'param', 'monitor',
             'demo', 'fit-level', 'fit-stand', 'fit-temperature', 'msa', 'simulate-well',
-            'fit-rotation', 'fit-magnetometer', 'survey', 'calibration')
+            'fit-rotation', 'fit-magnetometer', 'survey', 'calibration', 'fit-toolface-mark')
 #: Errors of an input, option or output that cannot be used: exit code 2.
 USAGE_ERRORS = (CommandError, BagError, OutputError, TableError, OSError)
 #: Exit code of a command stopped by Ctrl-C (128 + SIGINT, as a shell reports it).

@@ -64,13 +64,15 @@ the calibration file untouched), 2 unusable input.
 import json
 import sys
 
-from inclino_ros.calibration.model import CalibrationChanged, STANDARD_GRAVITY_MPS2
+from inclino_ros.calibration.model import (
+    CalibrationChanged, CalibrationModel, STANDARD_GRAVITY_MPS2)
 from inclino_ros.calibration.plausibility import check_field_readings, Implausible
 from inclino_ros.calibration.stations import (
     raw_survey_inputs, solve_interference, with_interference)
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
-    add_sensor_argument, begin_update, load_existing, read_csv, Refused, save, write_certificate)
+    add_history_option, add_sensor_argument, begin_update, load_existing, read_csv, Refused, save,
+    write_certificate)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.options import add_force_argument, between, non_negative, report_path
 from inclino_ros.cli.process import add_limit_arguments
@@ -122,6 +124,7 @@ def register(subparsers):
                         help='calibration file: its cross-axial correction is applied first, '
                              'the solved interference stored in its magnetic stage')
     add_sensor_argument(parser)
+    add_history_option(parser)
     parser.add_argument('--method', choices=METHODS, default='improved',
                         help='correction method (default: %(default)s)')
     parser.add_argument('--cross-axial-nT', nargs=2, metavar=('EX', 'EY'),
@@ -160,7 +163,8 @@ def run(args):
             check_field_readings(table['B'], "the stations' B")
             model = None if args.calibration is None else calibrated_field(args, table, lines)
             output = correct(args, table, lines)
-            write_outputs(args, table, output, lines, outputs)
+            write_outputs(args, table, output, lines, outputs,
+                          model or CalibrationModel(len(GRAVITY_COLUMNS)))
             if model is not None:
                 fitted = store(args, model, output[0], lines, outputs)
                 write_certificate('msa', args, lines, outputs, fitted, certificate)
@@ -230,7 +234,7 @@ def store(args, model, result, lines, outputs):
     Return what was saved (``report.common.Fitted``: the model, the station residual rows).
     """
     model = with_interference(model, result, (args.reference_total_nT, args.reference_dip_deg))
-    model = save(args, model, outputs)
+    model = save(args, model, outputs)   # the zero is said by write_outputs
     lines.append('wrote the interference (tool x, y, z: '
                  + ', '.join(f'{v:.1f}' for v in model.magnetic.interference_nT)
                  + f' nT) to {args.calibration}')
@@ -257,8 +261,14 @@ def correct(args, table, lines):
     return result, source
 
 
-def write_outputs(args, table, output, lines, outputs):
-    """Write OUT, OUT.msa.json and the report to their temporaries in ``outputs``."""
+def write_outputs(args, table, output, lines, outputs, model):
+    """
+    Write OUT, OUT.msa.json and the report to their temporaries in ``outputs``.
+
+    OUT's toolface zero (``toolface_zero`` in OUT.msa.json, and printed) is that
+    of ``model`` (the calibration applied to G; without one the empty model:
+    the zero of G as given, the board's).
+    """
     result, source = output
     reference = (args.reference_total_nT, args.reference_dip_deg)
     columns = station_columns(table, result, args.toolface_max_std_deg,
@@ -266,10 +276,12 @@ def write_outputs(args, table, output, lines, outputs):
     write_csv(outputs.path(args.output), columns)
     json_path = f'{args.output}.msa.json'
     with open(outputs.path(json_path), 'x') as stream:
-        json.dump(summary(result, source, args.method, args.stations, reference,
-                          args.declination_deg), stream, indent=2)
+        json.dump(dict(summary(result, source, args.method, args.stations, reference,
+                               args.declination_deg), toolface_zero=model.toolface_zero,
+                       toolface_zero_meaning=model.toolface_zero_meaning), stream, indent=2)
         stream.write('\n')
     lines.append(f'wrote {args.output} ({table["G"].shape[0]} stations) and {json_path}')
+    lines += model.toolface_zero_lines
     if args.report:
         plot_report(outputs.path(args.report), table, result, args.method, reference)
         lines.append(f'report: {args.report}')

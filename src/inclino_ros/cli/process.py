@@ -210,8 +210,9 @@ def run(args):
     print(f'wrote {args.output} ({args.storage}): {summary.written} messages on each of '
           f'{SURVEY_TOPIC} and {IMU_TOPIC}')
     print('\n'.join(summary.lines(magnetometer)))
-    # 'board': the toolface written is the sensor board's, not the tool's (issue 19 item 6).
-    print(f'toolface_zero: {model.toolface_zero}')
+    # 'board': the toolface written is the sensor board's, not the tool's (issue 19 item 6);
+    # the bag's metadata says so too (stream.TOOLFACE_ZERO_KEYS).
+    print('\n'.join(model.toolface_zero_lines))
     loud = summary.mostly_dropped()
     if loud is not None:
         print(f'inclino process: ERROR: {loud}', file=sys.stderr)

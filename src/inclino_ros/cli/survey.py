@@ -19,7 +19,8 @@ Output: the input columns (one whose name the output uses is kept as
 and the calibration's tilt, as ``pipeline.run`` propagates them),
 ``toolface_zero`` (``stand``: the toolface is the tool's, its zero
 calibrated on a stand; ``board``: measured from the sensor board's x axis,
-off the tool's high side by the board's unknown roll) and ``status`` (``ok`` or why
+off the tool's high side by the board's unknown roll; said on stdout too,
+with its meaning) and ``status`` (``ok`` or why
 the row gave no angles: ``non_finite``, ``saturated``, ``zero``; or
 ``temperature_outside_fit``: a temperature outside the calibration's fitted
 range).  The
@@ -93,9 +94,10 @@ def run(args):
                       force=args.force)
     outputs.check(args.output)
     with outputs:
-        rows, written = survey(args, outputs)
+        rows, written, model = survey(args, outputs)
     print(f'wrote {args.output}: {rows} rows'
           + ('' if written is None else f', {written} with an azimuth'))
+    print('\n'.join(model.toolface_zero_lines))
     return 0
 
 
@@ -128,7 +130,7 @@ def _model(path):
 
 
 def survey(args, outputs):
-    """Compute and write the survey; return (rows, rows with an azimuth or None: no field)."""
+    """Compute and write the survey; return (rows, rows with an azimuth or None, the model)."""
     header, rows, raw, field, averaged = survey_input(args.input, args.gravity_mps2)
     if field is None:
         print(f'inclino survey: no bx, by, bz in {args.input}: inclination and toolface '
@@ -166,8 +168,8 @@ def survey(args, outputs):
     outside = outside_fit(model, temperature_c)
     write(outputs.path(args.output), header, rows, result.codes, columns, outside)
     if field is None:
-        return len(rows), None
-    return len(rows), int(np.isfinite(columns['azimuth_deg'][1]).sum())
+        return len(rows), None, model
+    return len(rows), int(np.isfinite(columns['azimuth_deg'][1]).sum()), model
 
 
 def write(path, header, rows, codes, columns, outside=None):

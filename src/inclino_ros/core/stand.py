@@ -102,6 +102,9 @@ class SphereFit(_LinearSensor):
 
     residual_mps2: np.ndarray  # (N,) |K^-1 (A - b)| - g
     rms_residual_mps2: float
+    # (12, 12) of (K^-1 row-major, b), as StandFit's (``sphere_covariance``); the elements
+    # below K^-1's diagonal are fixed at zero (no variance)
+    parameter_covariance: np.ndarray = None
 
 
 def stand_specific_force(inclination_deg, toolface_deg, g):
@@ -396,7 +399,38 @@ def _fit_sphere(readings, g):
     bias = g * (centre + offset)
     residual = np.linalg.norm(correct_stand(readings, scale_matrix, bias), axis=1) - g
     return SphereFit(scale_matrix=scale_matrix, bias_mps2=bias, condition_number=condition,
-                     residual_mps2=residual, rms_residual_mps2=_rms(residual))
+                     residual_mps2=residual, rms_residual_mps2=_rms(residual),
+                     parameter_covariance=sphere_covariance(readings, upper, bias, residual))
+
+
+#: Row-major indices of an upper-triangular 3x3 matrix's free elements.
+_UPPER = [3 * row + column for row in range(3) for column in range(row, 3)]
+
+
+def sphere_covariance(readings, inverse, bias, residual):
+    """
+    Return the (12, 12) covariance of (K^-1 row-major, b) of a sphere fit (Gauss-Newton).
+
+    The fit minimises r_i = |K^-1 (A_i - b)| - g over the six free elements of
+    the upper-triangular K^-1 and b (its algebraic solution is the
+    least-squares one to first order): with u_i = K^-1 (A_i - b) / |...|,
+    dr_i / dK^-1_jk = u_ij (A_i - b)_k and dr_i / db = -K^-T u_i; the
+    covariance is s^2 (J^T J)^-1, s^2 = sum r^2 / (N - 9).  ``inverse``:
+    K^-1 (upper triangular).
+    """
+    centred = readings - bias
+    corrected = centred @ inverse.T
+    unit = corrected / np.linalg.norm(corrected, axis=1, keepdims=True)
+    jacobian = np.column_stack([
+        (unit[:, :, None] * centred[:, None, :]).reshape(-1, 9)[:, _UPPER],
+        -unit @ inverse])
+    count = readings.shape[0]
+    free = np.linalg.pinv(jacobian.T @ jacobian) * (
+        float(np.sum(residual ** 2)) / max(count - 9, 1))
+    index = _UPPER + [9, 10, 11]
+    covariance = np.zeros((12, 12))
+    covariance[np.ix_(index, index)] = free
+    return covariance
 
 
 def consecutive_poses(readings, min_samples=6, jump_ratio=10.0, min_jump_deg=1.0):

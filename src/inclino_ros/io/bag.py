@@ -503,6 +503,13 @@ def list_topics(path):
         return found
 
 
+def custom_data(path):
+    """Return the ``custom_data`` of the bag's metadata (``{}``: none); BagError if unreadable."""
+    with _open(path) as reader:
+        metadata = getattr(reader.storage, 'metadata', None)   # rosbags' reader of a bag folder
+        return dict(getattr(metadata, 'custom', None) or {})
+
+
 def topic_info(path, topic):
     """Return (msgtype, message count) of ``topic``; BagError if it cannot be read."""
     with _open(path) as reader:
@@ -576,6 +583,10 @@ class BagWriter:
     def __exit__(self, *exc_info):
         """Close the bag, or abort it on an exception."""
         return self._writer.__exit__(*exc_info)
+
+    def set_custom_data(self, key, value):
+        """Note ``key: value`` (text) in the bag's metadata (rosbag2's ``custom_data``)."""
+        self._writer.set_custom_data(key, value)
 
     def add_topic(self, topic, msgtype):
         """Declare ``topic`` of ``msgtype`` (a supported type: IMU, MAGNETIC_FIELD, ...)."""

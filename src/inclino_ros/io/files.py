@@ -218,7 +218,7 @@ def _fsync_written(path):
         _fsync(root, os.O_RDONLY | os.O_DIRECTORY)
 
 
-def _fsync_folder(folder):
+def fsync_folder(folder):
     """Flush a folder's entries (a rename into it) to disk; best effort."""
     try:
         _fsync(folder, os.O_RDONLY | os.O_DIRECTORY)
@@ -308,10 +308,15 @@ class Outputs:
         self._new = set()
         self._updates = set()
         self._conditions = []
+        self._afterwards = []
 
     def require(self, condition):
         """Call ``condition()`` at the commit, before any rename: what it raises aborts it."""
         self._conditions.append(condition)
+
+    def after(self, action):
+        """Call ``action()`` once every output has landed (not when the commit fails)."""
+        self._afterwards.append(action)
 
     def check(self, final, new=False, update=False):
         """
@@ -407,12 +412,14 @@ class Outputs:
                 _put_back(final, aside)
             raise
         for folder in {os.path.dirname(final) for final in written}:
-            _fsync_folder(folder)
+            fsync_folder(folder)
         for _, aside in done:
             if aside is not None:
                 _remove(aside)
                 _IN_FLIGHT.discard(aside)
         self.discard()
+        for action in self._afterwards:
+            action()
 
     @staticmethod
     def _replace(tmp, final):

@@ -107,6 +107,11 @@ def read_csv(path, required, optional=(), text=(), max_rows=MAX_ROWS):
                                                          text, max_rows))
 
 
+def header_of(path):
+    """Return the stripped column names of a CSV file's header row; TableError if unusable."""
+    return _open_reader(path, lambda reader: _header(reader, path))
+
+
 def read_rows(path, max_rows=MAX_ROWS):
     """
     Return (header names, data rows as lists of strings) of a CSV file.

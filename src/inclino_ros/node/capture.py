@@ -343,7 +343,9 @@ class Collector:
             check_for_sensor(model, node.settings.accelerometer_range_mps2)
             digest = save_model(node.calibration_file, model,
                                 f'node {node.get_fully_qualified_name()}/{self.service}',
-                                based_on=node.calibration_sha256)
+                                based_on=node.calibration_sha256,
+                                history_keep=node.param('calibration.history_keep'),
+                                report=node.get_logger().info)
         except CalibrationChanged as err:
             raise CaptureRefused(str(err)) from None
         except OSError as err:
@@ -356,7 +358,8 @@ class Collector:
     def answer(self, response, message, saved=True):
         """Fill a successful response (and log it)."""
         response.success = True
-        response.message = f'{message}; saved to {self.node.calibration_file}' if saved \
+        response.message = (f'{message}; saved to {self.node.calibration_file}; '
+                            + '; '.join(self.node.model.toolface_zero_lines)) if saved \
             else message
         self.node.get_logger().info(response.message)
         return response

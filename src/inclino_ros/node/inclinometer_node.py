@@ -171,6 +171,9 @@ class InclinometerNode(Node):
         self.calibration_pub.publish(String(data=json.dumps({
             'calibration_file': self.calibration_file, 'stages': list(model.stages),
             'magnetic': model.magnetic is not None, 'applied_at': utc_now_iso(),
+            # What the published toolface's zero is tied to (issue 19 item 6).
+            'toolface_zero': model.toolface_zero,
+            'toolface_zero_meaning': model.toolface_zero_meaning,
             'model': model.to_dict()})))
 
     def param(self, name):
@@ -377,7 +380,8 @@ class InclinometerNode(Node):
                   'tilt_std_deg': f'{math.degrees(model.tilt_std_rad):.5f}',
                   'uncertainty_notes': '; '.join(model.uncertainty_notes) or 'none',
                   # 'board': the published toolface is the board's (issue 19 item 6).
-                  'toolface_zero': model.toolface_zero}
+                  'toolface_zero': model.toolface_zero,
+                  'toolface_zero_meaning': model.toolface_zero_meaning}
         values.update({f'{name}_age_days': f'{age_s / 86400.0:.2f}'
                        for name, age_s, _ in stage_ages_s(model)})
         stale = stale_stages(model, self.param('calibration.max_age_days') * 86400.0,
@@ -392,7 +396,8 @@ class InclinometerNode(Node):
                 for name, age_s, limit_s in stale)
         else:
             status.level = DiagnosticStatus.OK
-            status.message = f'calibrated: {", ".join(model.stages)}'
+            status.message = (f'calibrated: {", ".join(model.stages)}; toolface zero: '
+                              f'{model.toolface_zero}')
         if model.temperature is not None:
             values.update(temperature_range_c=f'{model.temperature.t_min_c:g} .. '
                                               f'{model.temperature.t_max_c:g}',

@@ -105,7 +105,8 @@ class MagneticServices:
             return self.collector.refuse(response, 'the averaged station is not a valid '
                                          'reading', kept)
         station = Station(
-            specific_force_mps2=tuple(survey.corrected_mps2[0].tolist()),
+            # In the frame of the field: before the toolface mark (seed 002 comes first).
+            specific_force_mps2=tuple(node.model.before_mark(survey.corrected_mps2)[0].tolist()),
             field_nT=tuple(field_nT.tolist()),
             samples=int(paired.sum()), captured_at=utc_now_iso(),
             temperature_c=captured.temperature_c)

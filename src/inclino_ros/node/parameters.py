@@ -11,9 +11,11 @@ its ParameterDescriptor (``inclinometer_node.descriptor``).
 from dataclasses import dataclass
 import math
 
+from inclino_ros.calibration.history import DEFAULT_KEEP
 from inclino_ros.calibration.plausibility import EARTH_FIELD_NT
 from inclino_ros.core.averaging import MIN_OUTPUT_RATE_HZ
 from inclino_ros.core.constants import STANDARD_GRAVITY_MPS2
+from inclino_ros.core.stillness import StillLimits
 
 GRAVITY_MPS2 = STANDARD_GRAVITY_MPS2
 #: Longest frame_id [characters] the node stamps on its outputs.
@@ -48,6 +50,10 @@ PARAMETERS = (
     Parameter('calibration.max_age_days', 180.0,
               'Diagnostics WARN when a calibration stage is older than this [days].',
               0.01, 36500.0, read_only=False),
+    Parameter('calibration.history_keep', DEFAULT_KEEP,
+              'Versions of the calibration file kept in its history (FILE.history): at each '
+              'write the older ones are removed (and logged); never the newest, nor the one '
+              'in use.', 1, 1_000_000, read_only=False),
     Parameter('accelerometer_axes', 3,
               'Accelerometer axes: 3, or 2 for a two-axis sensor (z completed from '
               'gravity_mps2, tool upright).', 2, 3),
@@ -122,6 +128,12 @@ PARAMETERS = (
               'Every capture: a drift of its mean faster than this [deg/s] and significant '
               'against its own noise (chance below 1e-6 for a still tool) is motion, and '
               'refused.', 1e-4, 10.0, read_only=False),
+    Parameter('still.max_motion_deg', StillLimits.max_motion_deg,
+              'Every capture: a motion significant against its own noise (drift or unsteady '
+              'means) that puts a part of the capture further than this [deg] from its mean '
+              'is refused; a smaller one, or one the capture cannot tell from its noise, is '
+              'added to the stated 1 sigma of its mean (the fitted drift at its ends).',
+              1e-5, 10.0, read_only=False),
     Parameter('level_capture.samples', 500,
               'Samples a level capture collects after the service call.', 6, 1000000,
               read_only=False),

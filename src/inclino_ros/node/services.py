@@ -1,6 +1,9 @@
 """
 The node's accelerometer calibration services: level bench (seed 000), stand (seed 001).
 
+And the high-side mark (``calibration.toolface_mark``): the toolface's zero
+tied to the tool on a tilted bench, without a stand (issue 19 item 6).
+
 Captures go through the node's ``capture.Collector``.  A refused request
 changes nothing: the model, its file and the captured stand positions stay
 as they were.
@@ -15,6 +18,7 @@ from inclino_ros.calibration.plausibility import Implausible
 from inclino_ros.calibration.stand_capture import (
     average_position, repeated_position, solve_positions)
 from inclino_ros.calibration.stand_fit import with_stand
+from inclino_ros.calibration.toolface_mark import MarkLimits, solve_toolface_mark
 from inclino_ros.core.stand import StandFitRefused
 from inclino_ros.core.stillness import StillLimits
 import numpy as np
@@ -22,11 +26,11 @@ from rclpy.callback_groups import ReentrantCallbackGroup
 
 
 #: The services that change the calibration (refused in field mode: ``capture.change_refusal``).
-CHANGING = ('calibrate_level', 'solve_stand_calibration')
+CHANGING = ('calibrate_level', 'solve_stand_calibration', 'capture_high_side_mark')
 
 
 class CalibrationServices:
-    """~/calibrate_level, ~/capture_position, ~/solve_stand_calibration, ~/clear_positions."""
+    """~/calibrate_level, ~/capture_high_side_mark and the stand's services."""
 
     def __init__(self, node, collector):
         """Create the services on ``node`` (an InclinometerNode), capturing with ``collector``."""
@@ -39,7 +43,8 @@ class CalibrationServices:
         for name, callback in (('calibrate_level', self.calibrate_level),
                                ('capture_position', self.capture_position),
                                ('solve_stand_calibration', self.solve_stand_calibration),
-                               ('clear_positions', self.clear_positions)):
+                               ('clear_positions', self.clear_positions),
+                               ('capture_high_side_mark', self.capture_high_side_mark)):
             collector.create_service(name, callback, group, changes=name in CHANGING)
 
     def still_limits(self, prefix):
@@ -47,7 +52,9 @@ class CalibrationServices:
         return StillLimits(
             max_drift_deg_per_s=self.node.param('still.max_drift_deg_per_s'),
             max_sem_deg=self.node.param(f'{prefix}.max_sem_deg'),
-            drift_name='still.max_drift_deg_per_s', sem_name=f'{prefix}.max_sem_deg')
+            max_motion_deg=self.node.param('still.max_motion_deg'),
+            drift_name='still.max_drift_deg_per_s', sem_name=f'{prefix}.max_sem_deg',
+            motion_name='still.max_motion_deg')
 
     def stage_temperature(self, captured, names):
         """
@@ -89,6 +96,36 @@ class CalibrationServices:
             f'theta_deg={installation.theta_deg:.4f} (noise {installation.std_deg:.4f} deg per '
             f'sample, 1 sigma of the angles '
             f'{math.degrees(installation.tilt_std_rad):.4f} deg)'))
+
+    async def capture_high_side_mark(self, request, response):
+        """
+        Capture the tool still on a tilted bench, high-side mark up: tie the toolface's zero.
+
+        The level capture's settings (``level_capture.samples``, ``timeout_s``,
+        ``max_sem_deg``, ``g_total_tolerance_mps2``); the readings go through
+        every other stage first (``solve_toolface_mark``), the stage replaced.
+        """
+        node = self.node
+        if node.settings.accelerometer_axes != 3:
+            return self.collector.refuse(
+                response, 'a high-side mark needs a three-axis accelerometer')
+        limits = MarkLimits(
+            gravity_mps2=node.settings.gravity_mps2,
+            g_total_tolerance_mps2=node.param('level_capture.g_total_tolerance_mps2'),
+            still=self.still_limits('level_capture'))
+        try:
+            captured = await self.collector.collect('level_capture')
+            mark = solve_toolface_mark(
+                node.model.apply(captured.raw, captured.temperatures_c, before='toolface_mark'),
+                limits, node.settings.toolface_convention, captured.times_s,
+                self.stage_temperature(captured, ('stand', 'installation')))
+            self.collector.commit(replace(node.model, toolface_mark=mark))
+        except CaptureRefused as err:
+            return self.collector.refuse(response, str(err))
+        return self.collector.answer(response, (
+            f'high-side mark from {mark.sample_count} samples at inclination '
+            f'{mark.inclination_deg:.2f} deg: offset_deg={mark.offset_deg:.4f} (1 sigma '
+            f'{mark.std_deg:.4f} deg, {mark.toolface_convention} toolface)'))
 
     async def capture_position(self, request, response):
         """Average a still capture at the stand attitude held in the stand.* parameters."""

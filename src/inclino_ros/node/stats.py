@@ -198,7 +198,8 @@ class TemperatureInput:
 #: When each magnetometer stage was made: (stage, field of its time).
 STAGE_TIMES = (('magnetometer', 'fitted_at'), ('magnetometer_alignment', 'fitted_at'),
                ('installation', 'captured_at'), ('tool_axis', 'fitted_at'),
-               ('magnetic', 'rotation_fitted_at'), ('magnetic', 'msa_fitted_at'))
+               ('magnetometer_nonlinear', 'fitted_at'), ('magnetic', 'rotation_fitted_at'),
+               ('magnetic', 'msa_fitted_at'))
 
 
 def magnetometer_stage_values(model, now=None):

@@ -76,6 +76,9 @@ class View:
                                + (['magnetic'] if self.calibration['magnetic'] else []))
             lines.append(f'calibration   {stages or "none (raw angles)"}   '
                          f'{self.calibration["calibration_file"]}')
+            # The node's own statement of the toolface zero (issue 19 item 6).
+            lines.append(f'toolface zero {self.calibration["toolface_zero"]}: '
+                         f'{self.calibration["toolface_zero_meaning"]}')
         for index, (name, status) in enumerate(sorted(self.statuses.items())):
             level = status.level[0] if isinstance(status.level, bytes) else status.level
             lines.append(f'{"diagnostics" if index == 0 else "":<14}'

@@ -89,7 +89,7 @@ Triads (``Triad``, seed 001 Eqs. 5-10)
 --------------------------------------
 Per axis i, for the vector x at the triad (sensor frame) and temperature T::
 
-    reading_i = (1 + s_i(T)) (K x)_i + b_i + db_i(T) + n_i
+    reading_i = (1 + s_i(T)) (u_i + c_i u_i^3) + b_i + db_i(T) + n_i,   u = K x
     s_i(T) = sum_k scale_drift[i, k] (T - T_ref)^(k+1)
     db_i(T) = sum_k bias_drift[i, k] (T - T_ref)^(k+1)
 
@@ -99,6 +99,10 @@ diagonal, non-orthogonality off it).  ``1 + s_i(T)`` is seed 001's K_T(T)
 (Eqs. 6-7) normalised to 1 at T_ref, applied to the sensitivity; the bias
 drifts on its own (real-sensors.md: a scale-only model cannot absorb a
 bias drift).  n_i is Gaussian noise of ``noise_std`` per sample (below).
+``c_i`` (``cubic`` [1 / unit^2]) is the axis's odd non-linearity, the first
+term of a sensing element's saturating response (a fluxgate's core, an AMR
+or Hall element's transfer curve): a sensitivity that falls (c_i < 0) or
+rises with the field along the axis itself; zero: a linear sensor.
 
 Noise in time (``Triad.read``)
 ------------------------------
@@ -445,7 +449,8 @@ class Triad:
     vector); ``bias`` b and ``noise_std`` (one sigma per sample, scalar or
     per axis) are in the unit of the measured vector; ``bias_drift[i, k]``
     [unit / degC^(k+1)] and ``scale_drift[i, k]`` [1 / degC^(k+1)] are the
-    coefficients of ``(T - T_ref)^(k+1)``, shape (3, k), k >= 0.  The noise
+    coefficients of ``(T - T_ref)^(k+1)``, shape (3, k), k >= 0; ``cubic``
+    [1 / unit^2] each axis's odd non-linearity (zero: linear).  The noise
     in time (module docstring, "Noise in time"): ``noise_rho`` the AR(1)
     coefficient per sample (0: white), ``bias_instability`` B of the flicker
     noise [unit] synthesised over ``flicker_span`` times the record (slower
@@ -459,6 +464,7 @@ class Triad:
     bias_drift: tuple = ((), (), ())
     scale_drift: tuple = ((), (), ())
     noise_std: object = 0.0
+    cubic: tuple = (0.0, 0.0, 0.0)
     reference_temperature_c: float = 25.0
     noise_rho: float = 0.0
     bias_instability: float = 0.0
@@ -472,6 +478,7 @@ class Triad:
         object.__setattr__(self, 'bias', _vector(self.bias, 'bias'))
         object.__setattr__(self, 'bias_drift', _coefficients(self.bias_drift, 'bias_drift'))
         object.__setattr__(self, 'scale_drift', _coefficients(self.scale_drift, 'scale_drift'))
+        object.__setattr__(self, 'cubic', _vector(self.cubic, 'cubic'))
         noise = np.asarray(self.noise_std, dtype=float)
         if noise.shape not in ((), (3,)) or np.any(noise < 0) or not np.all(np.isfinite(noise)):
             raise ValueError('noise_std must be one or three finite values >= 0')
@@ -568,6 +575,7 @@ class Triad:
 
         noise = self._white(shape, rng)
         sensed = x @ np.array(self.matrix).T
+        sensed = sensed + np.array(self.cubic) * sensed ** 3
         signal = in_time((1.0 + self.scale_change(temperature_c)) * sensed
                          + self.bias_at(temperature_c))
         reading = self._lowpass(signal, noise, rng) if self.lowpass_hz else signal + noise
@@ -580,6 +588,7 @@ class Triad:
         return {'matrix': [list(row) for row in self.matrix], 'bias': list(self.bias),
                 'bias_drift': [list(row) for row in self.bias_drift],
                 'scale_drift': [list(row) for row in self.scale_drift],
+                'cubic': list(self.cubic),
                 'noise_std': (self.noise_std if isinstance(self.noise_std, float)
                               else list(self.noise_std)),
                 'reference_temperature_c': self.reference_temperature_c,
