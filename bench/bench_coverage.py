@@ -8,8 +8,9 @@ record (``sm.read(records=...)``: its own AR(1) start and its own flicker), so t
 draws are independent and a coverage is a binomial proportion.  Its mean goes through the
 rule of ``pipeline.capture_mean`` (``effective_count``: the capture's own noise with its
 effective sample size, the configured noise its floor, the configured bias instability's
-flicker added; a toolface defined where its 1 sigma at the configured noise is within the
-limit, ``pipeline.toolface_defined``; the angles of a cell's draws in one ``correct``) and, for comparison,
+flicker added; a toolface defined where its 1 sigma at the configured noise is within
+the limit, ``pipeline.toolface_defined``; the angles of a cell's draws in one
+``correct``) and, for comparison,
 through the former rule (configured noise / sqrt(samples), ``averaged`` = the samples).
 Per cell it counts the fraction of draws whose error lies within 1 and 2 published sigma,
 for the inclination, the toolface and the azimuth (a toolface or an azimuth the chain

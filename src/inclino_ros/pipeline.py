@@ -337,6 +337,7 @@ def correct(tool_mps2, model, settings, temperature_c=None, field_nT=None,
                               else np.asarray(field_averaged)[good])
     elif field_nT is not None:
         field_nT = np.asarray(field_nT, dtype=float).reshape(-1, 3)
+
     def noise_covariance_of(count):
         noise_mps2 = settings.noise_std_mps2 / np.sqrt(count)
         return specific_force_covariance(sensor, np.reshape(noise_mps2, (-1, 1, 1)),
