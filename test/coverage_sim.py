@@ -56,7 +56,9 @@ import shots_sim
 from test_magnetometer_stand import POSITIONS_DEG, REFERENCE, stand_positions
 
 STATION_SAMPLES = 100
-CALIBRATIONS = ('fit-magnetometer', 'stand', 'fit-stand', 'sphere + level', 'rotation')
+#: The range of the stations' inclinations [deg].
+STATION_INCLINATION_DEG = (10.0, 80.0)
+CALIBRATIONS = ('fit-magnetometer', 'stand', 'fit-stand', 'rotation', 'sphere + level')
 #: The calibrations that read no field (inclination and toolface only).
 ACCELEROMETER_ONLY = ('fit-stand', 'sphere + level')
 #: Readings a stand position of ``fit-stand`` averages, and its station.
@@ -132,7 +134,7 @@ def without_covariance(model):
     return model
 
 
-def ratios(kind, preset, shot_samples, draws, rng, inclination_deg=(10.0, 80.0)):
+def ratios(kind, preset, shot_samples, draws, rng, inclination_deg=STATION_INCLINATION_DEG):
     """
     Return |error| / sigma (draws, 3, 2): [azimuth, inclination, toolface] x [with, without].
 
@@ -157,8 +159,9 @@ def ratios(kind, preset, shot_samples, draws, rng, inclination_deg=(10.0, 80.0))
                                       interference_nT=(0.0, 0.0, 0.0) if kind == 'rotation'
                                       else shots_sim.INTERFERENCE_NT)
         for column, used in enumerate((model, without_covariance(model))):
-            survey = run(accel, used, settings, None, None if kind in ACCELEROMETER_ONLY else field,
-                         magnetic, averaged=samples)
+            survey = run(accel, used, settings, None,
+                         None if kind in ACCELEROMETER_ONLY else field, magnetic,
+                         averaged=samples)
             if survey.magnetic is not None:
                 out[k, 0, column] = abs(shots_sim.angle_error_deg(
                     survey.magnetic.defined_azimuth_deg[0], azim)
