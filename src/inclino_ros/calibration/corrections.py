@@ -266,8 +266,9 @@ class CalibrationModel:
                 and self.stand.parameter_covariance is None and 'stand' not in
                 self.covariance_stages):
             notes.append('stand: the file holds no parameter covariance of the fit (schema < 9, '
-                         "or a stand at several temperatures): the tilt 1 sigma takes the fit's "
-                         'residual instead (over-stated); fit the stand again to record it')
+                         'or a stand at several temperatures written before it was recorded): '
+                         "the tilt 1 sigma takes the fit's residual instead (over-stated); fit "
+                         'the stand again to record it')
         if self.magnetometer is not None and self.magnetometer.parameter_covariance is None:
             notes.append('magnetometer: the file holds no parameter covariance of the fit '
                          "(schema < 7): the azimuth 1 sigma leaves the fit's own error out "
@@ -420,10 +421,33 @@ class CalibrationModel:
         return blocks
 
     def _stand_jacobian(self, sensor, temperature_c):
-        """Return d f / d(K^-1 row-major, b) (M, 3, 12) of the corrected specific force."""
-        inputs = self.apply(sensor, temperature_c, before='stand') - self.stand.arrays[1]
+        """
+        Return d f / d(the stand's parameters) (M, 3, p) of the corrected specific force.
+
+        One temperature: (K^-1 row-major, b), p = 12.  K(T), b(T) of a stand
+        at several plateaus: their coefficients power by power (``Stand``),
+        p = 12 (order + 1), at each reading's temperature as ``Stand.apply``
+        takes it (clamped to the range; None or NaN: the stage's own): with
+        ``g = K^-1 (x - b)``, ``dg = -K^-1 (dK g + db)``, times ``(T - T_c)^k``.
+        """
+        inputs = self.apply(sensor, temperature_c, before='stand')
         layout = self._fit_layout
-        return layout['mark'] @ layout['mount'] @ affine_jacobian(inputs, layout['stand'])
+        stand = self.stand
+        if not stand.temperature_dependent:
+            return layout['mark'] @ layout['mount'] @ affine_jacobian(
+                inputs - stand.arrays[1], layout['stand'])
+        held = np.broadcast_to(np.asarray(stand.temperature_c if temperature_c is None
+                                          else temperature_c, dtype=float), inputs.shape[:1])
+        held = np.clip(np.where(np.isfinite(held), held, stand.temperature_c), stand.t_min_c,
+                       stand.t_max_c)
+        scale, bias = stand.at(held)
+        inverse = np.linalg.inv(scale)
+        corrected = np.einsum('nij,nj->ni', inverse, inputs - bias)
+        by_value = -inverse @ affine_jacobian(corrected, -np.eye(3))
+        powers = np.power.outer(held - stand.temperature_c,
+                                np.arange(len(stand.scale_coefficients)))
+        jacobian = np.einsum('nk,nie->nike', powers, by_value).reshape(len(held), 3, -1)
+        return layout['mark'] @ layout['mount'] @ jacobian
 
     def temperature_covariance(self, readings, temperature_c=None, triad='accelerometer'):
         """

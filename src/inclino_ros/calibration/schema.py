@@ -244,6 +244,19 @@ def _magnetometer_covariance(values, name):
     values['parameter_covariance'] = _covariance(values, name, 'parameter_covariance', size)
 
 
+def _stand_covariance(values, name):
+    """
+    Read the stand's covariance: 12 square, or 12 (order + 1) with K(T), b(T) (``Stand``).
+
+    After ``_stand_polynomial`` (the coefficients checked); None stays None.
+    """
+    if values['parameter_covariance'] is not None:
+        terms = (1 if values['scale_coefficients'] is None
+                 else len(values['scale_coefficients']))
+        values['parameter_covariance'] = _covariance(values, name, 'parameter_covariance',
+                                                     12 * terms)
+
+
 def _square_covariance(size):
     """Return the reader of a size x size covariance (``_covariance``)."""
     def read_covariance(section, name, key):
@@ -367,7 +380,7 @@ STAGE_FIELDS = {
         'positions': _count, 'fitted_at': _time, 'temperature_c': _temperature,
         'scale_coefficients': _kept, 'bias_coefficients_mps2': _kept,
         't_min_c': _optional(_number), 't_max_c': _optional(_number),
-        'parameter_covariance': _optional(_square_covariance(12))}, (_stand_polynomial,),
+        'parameter_covariance': _kept}, (_stand_polynomial, _stand_covariance),
         plausibility.check_stand),
     'magnetometer': (Magnetometer, {
         'scale_matrix': _array(3, 3), 'bias_nT': _array(3), 'condition_number': _number,

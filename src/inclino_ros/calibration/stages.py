@@ -200,8 +200,12 @@ class Stand(_PolynomialOfTemperature):
     bias_coefficients_mps2: tuple = None  # b(T), likewise
     t_min_c: float = None                 # the plateaus' range; None: constant K, b
     t_max_c: float = None
-    # (12, 12) of (K^-1 row-major, b) (``stand.fit_stand``); None: a sphere fit, a stand at
-    # several temperatures or a file before schema 9 (then the residual stands for it)
+    # The fit's parameter covariance.  One temperature: (12, 12) of (K^-1 row-major, b)
+    # (``stand.fit_stand``).  K(T), b(T): (12 (order + 1)) square, of the coefficients as
+    # stored, power by power: scale_coefficients[k] row-major (9) then
+    # bias_coefficients_mps2[k] (3), k = 0 .. order (``stand.coefficient_covariance``).
+    # None: a sphere fit, or a file before schema 9 or from before a multi-temperature
+    # stand recorded it (then the residual stands for it).
     parameter_covariance: tuple = None
 
     @property

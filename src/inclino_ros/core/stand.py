@@ -551,6 +551,9 @@ class TemperatureStandFit:
     bias_coefficients: np.ndarray    # (order + 1, 3)
     element_sigma: np.ndarray        # (P, 12) 1 sigma of K and b of each plateau fit
     chi_square: tuple                # per order tried: (order, chi-square, degrees of freedom)
+    # (12 (order + 1), 12 (order + 1)) of the coefficients, power by power: K row-major (9)
+    # then b (3) of (T - centre_c)^0, then of ^1, ... (``coefficient_covariance``)
+    parameter_covariance: np.ndarray = None
 
     @property
     def range_c(self):
@@ -595,8 +598,10 @@ def fit_stand_plateaus(readings, truth, temperatures_c, gap_c=PLATEAU_GAP_C,
     not divide by zero).  Order k = 0, 1, ..., P - 1 of the polynomial in T
     is tried in turn (weighted least squares over the plateaus); the first
     whose chi-square stays below its ``1 - significance`` quantile is taken
-    (P - 1 interpolates and always passes).  Raises StandFitRefused for fewer
-    than two plateaus.
+    (P - 1 interpolates and always passes).  The coefficients carry their
+    covariance from the plateau fits' parameter covariances
+    (``coefficient_covariance``).  Raises StandFitRefused for fewer than two
+    plateaus.
     """
     from scipy.stats import chi2
 
@@ -609,7 +614,7 @@ def fit_stand_plateaus(readings, truth, temperatures_c, gap_c=PLATEAU_GAP_C,
             f'the positions stand at one temperature plateau ({temperatures_c.min():.1f} .. '
             f'{temperatures_c.max():.1f} C): a temperature-dependent stand needs two or more '
             f'plateaus more than {gap_c:g} C apart')
-    fits, values, sigma, centres = [], [], [], []
+    fits, values, sigma, centres, covariances, squares = [], [], [], [], [], []
     for number in range(count):
         mine = plateau == number
         try:
@@ -625,6 +630,8 @@ def fit_stand_plateaus(readings, truth, temperatures_c, gap_c=PLATEAU_GAP_C,
         sigma.append(np.concatenate([(noise[:, None] * spread[None, :3] / g_scale).ravel(),
                                      noise * spread[3]]))
         values.append(np.concatenate([fit.scale_matrix.ravel(), fit.bias_mps2]))
+        covariances.append(scale_bias_covariance(fit))
+        squares.append((float(np.sum(fit.residual_mps2 ** 2)), 3 * (mine.sum() - 4)))
         fits.append(fit)
         centres.append(temperatures_c[mine].mean())
     values, sigma, centres = np.array(values), np.array(sigma), np.array(centres)
@@ -633,11 +640,12 @@ def fit_stand_plateaus(readings, truth, temperatures_c, gap_c=PLATEAU_GAP_C,
     for order in range(count):
         design = np.power.outer(centres - centre, np.arange(order + 1))
         coefficients = np.empty((order + 1, 12))
+        estimator = np.empty((12, order + 1, count))   # coefficients = estimator @ values
         chi_square = 0.0
         for element in range(12):
             weights = 1.0 / sigma[:, element]
-            solution = np.linalg.lstsq(design * weights[:, None], values[:, element] * weights,
-                                       rcond=None)[0]
+            estimator[element] = np.linalg.pinv(design * weights[:, None]) * weights[None, :]
+            solution = estimator[element] @ values[:, element]
             coefficients[:, element] = solution
             chi_square += float(np.sum(((design @ solution - values[:, element]) * weights)
                                        ** 2))
@@ -648,7 +656,49 @@ def fit_stand_plateaus(readings, truth, temperatures_c, gap_c=PLATEAU_GAP_C,
     return TemperatureStandFit(
         plateaus_c=centres, fits=tuple(fits), order=order, centre_c=centre,
         scale_coefficients=coefficients[:, :9].reshape(-1, 3, 3),
-        bias_coefficients=coefficients[:, 9:], element_sigma=sigma, chi_square=tuple(tried))
+        bias_coefficients=coefficients[:, 9:], element_sigma=sigma, chi_square=tuple(tried),
+        parameter_covariance=coefficient_covariance(estimator, np.array(covariances), squares))
+
+
+def scale_bias_covariance(fit):
+    """
+    Return the (12, 12) covariance of (K row-major, b) of a StandFit.
+
+    Its ``parameter_covariance`` is of (K^-1, b); ``dK = -K dK^-1 K``
+    (row-major: ``-K kron K^T``) turns it back.
+    """
+    turn = np.eye(12)
+    turn[:9, :9] = -np.kron(fit.scale_matrix, fit.scale_matrix.T)
+    return turn @ fit.parameter_covariance @ turn.T
+
+
+def coefficient_covariance(estimator, covariances, squares=None):
+    """
+    Return the (12 (n + 1), 12 (n + 1)) covariance of K(T), b(T)'s coefficients, power by power.
+
+    The coefficients of element e are ``estimator[e] @ v_e`` (``estimator``
+    (12, n + 1, P): the weighted least squares over the plateaus), v_e that
+    element of the P plateau fits, independent fits of covariances
+    ``covariances`` (P, 12, 12) of (K row-major, b) each: so
+    ``cov(c_ke, c_lf) = sum_p E_e[k, p] C_p[e, f] E_f[l, p]`` (the sandwich of
+    the estimator used: the elements' correlation within a plateau fit kept,
+    which the per-element weights leave out).  ``squares`` (P, 2): each plateau
+    fit's sum of squared residuals and degrees of freedom; given, every C_p
+    takes their pooled mean square for its own (the plateaus measure one
+    sensor's noise, as one stand fit pools its axes: nine positions leave a
+    plateau 15 degrees of freedom, whose Student t puts 0.936 within 2 sigma,
+    three pool 45: 0.949).
+    """
+    if squares is not None:
+        squares = np.array(squares, dtype=float)
+        own = squares[:, 0] / np.maximum(squares[:, 1], 1.0)
+        pooled = squares[:, 0].sum() / max(squares[:, 1].sum(), 1.0)
+        covariances = covariances * np.where(own > 0, pooled / np.where(own > 0, own, 1.0),
+                                             0.0)[:, None, None]
+    terms = estimator.shape[1]
+    joint = np.einsum('ekp,pef,flp->kelf', estimator, covariances, estimator)
+    joint = joint.reshape(12 * terms, 12 * terms)
+    return 0.5 * (joint + joint.T)
 
 
 def plateau_stand_fit(plateaus, readings, truth, temperatures_c):
