@@ -338,7 +338,8 @@ class CalibrationModel:
                 mount = stage.inverse_matrix @ mount
         names, covariance = self.covariance_stages, None
         if names:
-            sizes = {'stand': 12, 'magnetometer': 12, 'tool_axis': 2}
+            sizes = {'stand': 12, 'magnetometer': self.magnetometer.coefficient_count,
+                     'tool_axis': 2}
             covered = self.magnetometer.covariance_stages
             start = dict(zip(covered, np.cumsum([0] + [sizes[n] for n in covered])))
             index = np.concatenate([np.arange(start[n], start[n] + sizes[n]) for n in names])
@@ -384,13 +385,16 @@ class CalibrationModel:
                     j_f.append(self._stand_jacobian(sensor, temperature_c))
                     j_b.append(np.zeros((count, 3, 12)))
                 elif name == 'magnetometer':
-                    j_f.append(np.zeros((count, 3, 12)))
+                    stage = self.magnetometer
+                    j_f.append(np.zeros((count, 3, stage.coefficient_count)))
                     if field_nT is not None:
-                        inputs = (self.apply_magnetic(field_nT, temperature_c,
-                                                      before='magnetometer')
-                                  - self.magnetometer.arrays[1])
-                        j_b.append(soft_iron @ mount @ affine_jacobian(
-                            inputs, layout['magnetometer']))
+                        inputs = self.apply_magnetic(field_nT, temperature_c,
+                                                     before='magnetometer')
+                        j_b.append(soft_iron @ mount @ (
+                            self.magnetometer_rotation @ stage.coefficient_jacobian(
+                                inputs, temperature_c) if stage.temperature_dependent
+                            else affine_jacobian(inputs - stage.arrays[1],
+                                                 layout['magnetometer'])))
                 else:   # the tool axis turns both triads
                     j_f.append(layout['mark'] @ tilt_jacobian(self.apply(
                         sensor, temperature_c, before='tool_axis'), *layout['angles']))
@@ -425,29 +429,16 @@ class CalibrationModel:
         Return d f / d(the stand's parameters) (M, 3, p) of the corrected specific force.
 
         One temperature: (K^-1 row-major, b), p = 12.  K(T), b(T) of a stand
-        at several plateaus: their coefficients power by power (``Stand``),
-        p = 12 (order + 1), at each reading's temperature as ``Stand.apply``
-        takes it (clamped to the range; None or NaN: the stage's own): with
-        ``g = K^-1 (x - b)``, ``dg = -K^-1 (dK g + db)``, times ``(T - T_c)^k``.
+        at several plateaus: their coefficients, p = 12 (order + 1), at each
+        reading's temperature (``Stand.coefficient_jacobian``).
         """
         inputs = self.apply(sensor, temperature_c, before='stand')
         layout = self._fit_layout
-        stand = self.stand
-        if not stand.temperature_dependent:
-            return layout['mark'] @ layout['mount'] @ affine_jacobian(
-                inputs - stand.arrays[1], layout['stand'])
-        held = np.broadcast_to(np.asarray(stand.temperature_c if temperature_c is None
-                                          else temperature_c, dtype=float), inputs.shape[:1])
-        held = np.clip(np.where(np.isfinite(held), held, stand.temperature_c), stand.t_min_c,
-                       stand.t_max_c)
-        scale, bias = stand.at(held)
-        inverse = np.linalg.inv(scale)
-        corrected = np.einsum('nij,nj->ni', inverse, inputs - bias)
-        by_value = -inverse @ affine_jacobian(corrected, -np.eye(3))
-        powers = np.power.outer(held - stand.temperature_c,
-                                np.arange(len(stand.scale_coefficients)))
-        jacobian = np.einsum('nk,nie->nike', powers, by_value).reshape(len(held), 3, -1)
-        return layout['mark'] @ layout['mount'] @ jacobian
+        if self.stand.temperature_dependent:
+            return layout['mark'] @ layout['mount'] @ self.stand.coefficient_jacobian(
+                inputs, temperature_c)
+        return layout['mark'] @ layout['mount'] @ affine_jacobian(
+            inputs - self.stand.arrays[1], layout['stand'])
 
     def temperature_covariance(self, readings, temperature_c=None, triad='accelerometer'):
         """
