@@ -24,26 +24,24 @@ first).  With the coefficients' covariance: 0.68 / 0.94, 0.685 / 0.95, 0.69 / 0.
 from dataclasses import replace
 import json
 
+from coverage_sim import plateau_stand_model
 from inclino_ros.calibration.model import (
     CalibrationFileError, CalibrationModel, load_model, save_model)
-from inclino_ros.calibration.magnetometer import fit_field_stand
 from inclino_ros.calibration.stand_fit import solve_stand
 from inclino_ros.core.uncertainty import parameter_covariance
 from inclino_ros.pipeline import MagneticSettings, run, Settings
 from inclino_ros.sim import sensor_model as sm
 from inclino_ros.sim.bench import (
-    drifting_magnetometer_tool, drifting_mount_tool, FIELD_STAND_POSITIONS_DEG,
-    STAND_POSITIONS_DEG)
+    drifting_magnetometer_tool, drifting_mount_tool, STAND_POSITIONS_DEG)
 import numpy as np
 import pytest
+from shots_sim import read
 
 G = sm.STANDARD_GRAVITY_MPS2
 TOOL = drifting_mount_tool()
 PLATEAUS_C = (28.0, 44.0, 60.0)
 HELD_C = (28.0, 36.0, 44.0, 52.0, 60.0)
 DRAWS, STAND_SAMPLES, STATION_SAMPLES = 400, 50, 500
-#: The reference field (total nT, dip deg): ``sim.sensor_model.Field``'s.
-REFERENCE = (50000.0, 60.0)
 #: 3 binomial sigma of DRAWS around 0.683 and 0.954.
 ONE_SIGMA_BAND, TWO_SIGMA_BAND = (0.613, 0.753), (0.923, 0.985)
 
@@ -188,32 +186,12 @@ def test_plateau_stand_sigma_is_the_coefficients_propagated():
         run(reading[None, :], model, settings, 44.0).inclination_std_deg[0]
 
 
-#: The magnetometer's plateau stand: both triads, twelve positions with azimuths, per draw.
+#: The magnetometer's plateau stand: both triads, twelve positions with azimuths, per draw
+#: (``coverage_sim.plateau_stand_model``, as bench_coverage's ``plateau-stand`` cells).
 FIELD_TOOL = drifting_magnetometer_tool()
 FIELD_DRAWS = 300
 #: 3 binomial sigma of FIELD_DRAWS around 0.683 and 0.954.
 FIELD_ONE_SIGMA_BAND, FIELD_TWO_SIGMA_BAND = (0.602, 0.764), (0.918, 0.990)
-
-
-def field_means(inclination_deg, toolface_deg, azimuth_deg, temperature_c, samples, rng):
-    """Return the means of ``samples`` readings of FIELD_TOOL: accelerometer, field (P, 3)."""
-    readings = sm.read(FIELD_TOOL, *(np.repeat(angle, samples) for angle in (
-        inclination_deg, toolface_deg, azimuth_deg)), temperature_c=temperature_c, rng=rng)
-    return tuple(values.reshape(-1, samples, 3).mean(axis=1)
-                 for values in (readings.accel_mps2, readings.mag_nT))
-
-
-def field_plateau_model(rng):
-    """Return (the model of both triads' stand at PLATEAUS_C, the FieldStandFit)."""
-    positions = np.array(FIELD_STAND_POSITIONS_DEG, dtype=float)
-    accel, field = zip(*(field_means(*positions.T, temperature, STAND_SAMPLES, rng)
-                         for temperature in PLATEAUS_C))
-    attitudes = np.tile(positions, (len(PLATEAUS_C), 1))
-    temperatures = np.repeat(PLATEAUS_C, len(positions))
-    stand = solve_stand(np.vstack(accel), attitudes, G, 1.0, temperatures).stage
-    fit = fit_field_stand(np.vstack(field), attitudes, *REFERENCE, stand, 1.0, temperatures)
-    return CalibrationModel(3, stand=stand, magnetometer=fit.magnetometer,
-                            magnetometer_alignment=fit.alignment), fit
 
 
 def test_plateau_magnetometer_azimuth_sigma_covers_its_error():
@@ -225,7 +203,7 @@ def test_plateau_magnetometer_azimuth_sigma_covers_its_error():
     order 1 here), each then a station at every HELD_C (azimuth N, E or W): 3 binomial sigma
     of 300 draws.  Before (no covariance for either stand), these seeds: azimuth 1 / 2 sigma
     0.51-0.65 / 0.85-0.95 at 28, 36, 44, 52, 60 deg C (under-covered; failed first); now
-    0.67-0.74 / 0.94-0.97.
+    0.68-0.75 / 0.94-0.98.
     """
     settings = Settings(noise_std_mps2=FIELD_TOOL.accelerometer.noise_std)
     magnetic = MagneticSettings(noise_std_nT=FIELD_TOOL.magnetometer.noise_std,
@@ -233,13 +211,14 @@ def test_plateau_magnetometer_azimuth_sigma_covers_its_error():
     rng = np.random.default_rng(18)
     ratios = np.empty((FIELD_DRAWS, len(HELD_C)))
     for draw in range(FIELD_DRAWS):
-        model = field_plateau_model(rng)[0]
+        model = plateau_stand_model(FIELD_TOOL, rng, STAND_SAMPLES)[0]
         inclination = rng.uniform(10.0, 80.0, len(HELD_C))
         toolface = rng.uniform(0.0, 360.0, len(HELD_C))
         azimuth = rng.choice([0.0, 90.0, 270.0], len(HELD_C))
         for index, temperature in enumerate(HELD_C):
-            accel, field = field_means(inclination[index], toolface[index], azimuth[index],
-                                       temperature, STATION_SAMPLES, rng)
+            accel, field = read(FIELD_TOOL, [inclination[index]], [toolface[index]],
+                                [azimuth[index]], rng, STATION_SAMPLES, (0.0, 0.0, 0.0),
+                                temperature)
             survey = run(accel, model, settings, temperature, field, magnetic,
                          averaged=STATION_SAMPLES).magnetic
             turn = (survey.defined_azimuth_deg[0] - azimuth[index] + 180.0) % 360.0 - 180.0
@@ -252,7 +231,7 @@ def test_plateau_magnetometer_azimuth_sigma_covers_its_error():
 
 def test_plateau_magnetometer_covariance_round_trip(tmp_path):
     """K_m(T)'s covariance, 12 (order + 1) square, written and read back; a wrong size refused."""
-    model, fit = field_plateau_model(np.random.default_rng(4))
+    model = plateau_stand_model(FIELD_TOOL, np.random.default_rng(4), STAND_SAMPLES)[0]
     stage = model.magnetometer
     size = 12 * len(stage.scale_coefficients)
     assert stage.covariance_stages == ('magnetometer',)
@@ -267,3 +246,42 @@ def test_plateau_magnetometer_covariance_round_trip(tmp_path):
     path.write_text(json.dumps(document))
     with pytest.raises(CalibrationFileError, match='parameter_covariance'):
         load_model(path)
+
+
+def test_lack_of_fit_scales_the_coefficients_covariance():
+    """
+    A polynomial below the plateaus' count scales its covariance by its chi-square (Birge).
+
+    Four plateaus (12 elements, their covariances random, one design), order 1: the
+    residuals' generalised chi-square has 24 degrees of freedom, so over 2000 draws of
+    values from an order-1 truth the factor ``max(1, chi2 / 24)`` averages
+    ``E max(1, X / 24)``, X chi-square(24) (by quadrature 1.114; the mean's 1 sigma 0.004,
+    the tolerance 3.6 of them; measured 1.1146);
+    a quadratic drift the order left out (4 sigma of a plateau's element at the ends) raises
+    it.  Before: no coefficient_covariance (failed first).
+    """
+    from inclino_ros.core.stand import coefficient_covariance
+    from scipy import integrate, stats
+
+    rng = np.random.default_rng(11)
+    centres = np.array([20.0, 30.0, 40.0, 50.0]) - 35.0
+    design = np.power.outer(centres, np.arange(2))
+    roots = rng.normal(size=(4, 12, 12)) * 1e-3
+    covariances = roots @ roots.transpose(0, 2, 1) + 1e-7 * np.eye(12)
+    sigma = np.sqrt(np.einsum('pee->pe', covariances))
+    estimator = np.stack([np.linalg.pinv(design / sigma[:, e, None]) / sigma[None, :, e]
+                          for e in range(12)])
+    plain = coefficient_covariance(estimator, covariances)
+    truth = design @ rng.normal(size=(2, 12))
+    factors = []
+    for _ in range(2000):
+        values = truth + np.einsum('pij,pj->pi', np.linalg.cholesky(covariances),
+                                   rng.standard_normal((4, 12)))
+        scaled = coefficient_covariance(estimator, covariances, None, design, values)
+        factors.append(float(np.trace(scaled) / np.trace(plain)))
+    expected = integrate.quad(lambda x: max(1.0, x / 24.0) * stats.chi2.pdf(x, 24), 0,
+                              np.inf)[0]
+    assert abs(np.mean(factors) - expected) < 0.015, (np.mean(factors), expected)
+    drift = truth + 4.0 * sigma * (centres[:, None] ** 2 - 125.0) / 100.0
+    scaled = coefficient_covariance(estimator, covariances, None, design, drift)
+    assert np.trace(scaled) / np.trace(plain) > 2.0

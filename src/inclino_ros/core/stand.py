@@ -657,7 +657,8 @@ def fit_stand_plateaus(readings, truth, temperatures_c, gap_c=PLATEAU_GAP_C,
         plateaus_c=centres, fits=tuple(fits), order=order, centre_c=centre,
         scale_coefficients=coefficients[:, :9].reshape(-1, 3, 3),
         bias_coefficients=coefficients[:, 9:], element_sigma=sigma, chi_square=tuple(tried),
-        parameter_covariance=coefficient_covariance(estimator, np.array(covariances), squares))
+        parameter_covariance=coefficient_covariance(estimator, np.array(covariances), squares,
+                                                    design, values))
 
 
 def scale_bias_covariance(fit):
@@ -672,7 +673,7 @@ def scale_bias_covariance(fit):
     return turn @ fit.parameter_covariance @ turn.T
 
 
-def coefficient_covariance(estimator, covariances, squares=None):
+def coefficient_covariance(estimator, covariances, squares=None, design=None, values=None):
     """
     Return the (12 (n + 1), 12 (n + 1)) covariance of K(T), b(T)'s coefficients, power by power.
 
@@ -688,6 +689,14 @@ def coefficient_covariance(estimator, covariances, squares=None):
     sensor's noise, as one stand fit pools its axes: nine positions leave a
     plateau 15 degrees of freedom, whose Student t puts 0.936 within 2 sigma,
     three pool 45: 0.949).
+
+    A polynomial of lower order than the plateaus allow (``design`` (P, n + 1)
+    of the plateaus' powers, n + 1 < P) leaves residuals against the plateau
+    fits' ``values`` (P, 12): their chi-square under their own covariance
+    (generalised: the residuals' covariance ``(I - H) V (I - H)^T``, of rank
+    12 (P - n - 1)) per degree of freedom, when above 1, scales the
+    covariance (a Birge ratio): a drift the order left out, unseen under the
+    test's significance, still shows in it.
     """
     if squares is not None:
         squares = np.array(squares, dtype=float)
@@ -695,10 +704,31 @@ def coefficient_covariance(estimator, covariances, squares=None):
         pooled = squares[:, 0].sum() / max(squares[:, 1].sum(), 1.0)
         covariances = covariances * np.where(own > 0, pooled / np.where(own > 0, own, 1.0),
                                              0.0)[:, None, None]
-    terms = estimator.shape[1]
+    terms, count = estimator.shape[1:]
     joint = np.einsum('ekp,pef,flp->kelf', estimator, covariances, estimator)
     joint = joint.reshape(12 * terms, 12 * terms)
+    if design is not None and terms < count:
+        joint = joint * max(1.0, _lack_of_fit_ratio(estimator, covariances, design, values))
     return 0.5 * (joint + joint.T)
+
+
+def _lack_of_fit_ratio(estimator, covariances, design, values):
+    """Return the chi-square per degree of freedom of the plateaus' polynomial residuals."""
+    terms, count = estimator.shape[1:]
+    # Every element and plateau at once: v (P 12,), theta = E v (terms 12,), fitted X theta.
+    element = np.arange(12)
+    whole = np.zeros((terms, 12, count, 12))
+    whole[:, element, :, element] = estimator
+    whole = whole.reshape(12 * terms, 12 * count)
+    powers = np.kron(design, np.eye(12))                     # (P 12, terms 12)
+    residual_map = np.eye(12 * count) - powers @ whole
+    stacked = np.zeros((count, 12, count, 12))
+    stacked[np.arange(count), :, np.arange(count), :] = covariances
+    spread = residual_map @ stacked.reshape(12 * count, 12 * count) @ residual_map.T
+    residual = residual_map @ np.asarray(values, dtype=float).reshape(-1)
+    freedom = 12 * (count - terms)
+    return float(residual @ np.linalg.pinv(spread, rcond=1e-10, hermitian=True) @ residual
+                 / freedom)
 
 
 def plateau_stand_fit(plateaus, readings, truth, temperatures_c):
