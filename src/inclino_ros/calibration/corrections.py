@@ -271,8 +271,9 @@ class CalibrationModel:
                          'the stand again to record it')
         if self.magnetometer is not None and self.magnetometer.parameter_covariance is None:
             notes.append('magnetometer: the file holds no parameter covariance of the fit '
-                         "(schema < 7): the azimuth 1 sigma leaves the fit's own error out "
-                         '(under-stated several times); run fit-magnetometer again to record it')
+                         '(schema < 7, or a stand at several temperatures written before it was '
+                         "recorded): the azimuth 1 sigma leaves the fit's own error out "
+                         '(under-stated several times); fit the magnetometer again to record it')
         if (self.magnetic is not None and self.magnetic.rotation_fitted_at is not None
                 and self.magnetic.rotation_covariance is None):
             notes.append('magnetic: the file holds no parameter covariance of the rotation fit '

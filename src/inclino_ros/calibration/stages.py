@@ -183,7 +183,8 @@ class _PolynomialOfTemperature:
         by_value = -inverse @ affine_jacobian(corrected, -np.eye(3))
         powers = np.power.outer(np.clip(held, self.t_min_c, self.t_max_c) - self.temperature_c,
                                 np.arange(len(self.scale_coefficients)))
-        return np.einsum('nk,nie->nike', powers, by_value).reshape(len(held), 3, -1)
+        return np.einsum('nk,nie->nike', powers, by_value).reshape(len(held), 3,
+                                                                   self.coefficient_count)
 
     @property
     def coefficient_count(self):
