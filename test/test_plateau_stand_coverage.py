@@ -285,3 +285,34 @@ def test_lack_of_fit_scales_the_coefficients_covariance():
     drift = truth + 4.0 * sigma * (centres[:, None] ** 2 - 125.0) / 100.0
     scaled = coefficient_covariance(estimator, covariances, None, design, drift)
     assert np.trace(scaled) / np.trace(plain) > 2.0
+
+
+def test_plateau_sigma_at_a_plateau_is_its_own_fit_s_and_reported():
+    """
+    At a plateau, K(T), b(T) of order plateaus - 1 has that plateau fit's 1 sigma, pooled s.
+
+    Closed form: row i of a plateau's (K g, b) has covariance ``s^2 (X^T X)^-1``,
+    ``X = [G / g, 1]``, s^2 the residuals' sum of squares over their degrees of freedom
+    pooled over the three plateaus (3 (9 - 4) each).  The stand's report gives the 1 sigma
+    at the plateaus and between them.  Before: no ``sigma_at`` (failed first).
+    """
+    from inclino_ros.report.stand import plateau_lines
+
+    _, solution = plateau_model(np.random.default_rng(7))
+    plateaus = solution.plateaus
+    positions = np.array(STAND_POSITIONS_DEG)
+    truth = np.column_stack([np.sin(np.radians(positions[:, 0])) * np.cos(np.radians(
+        positions[:, 1])), np.sin(np.radians(positions[:, 0])) * np.sin(np.radians(
+            positions[:, 1])), np.cos(np.radians(positions[:, 0]))])
+    spread = np.diag(np.linalg.inv(np.column_stack([truth, np.ones(9)]).T
+                                   @ np.column_stack([truth, np.ones(9)])))
+    pooled = sum(float(np.sum(fit.residual_mps2 ** 2)) for fit in plateaus.fits) / (3 * 15)
+    expected = np.sqrt(pooled) * np.concatenate([np.tile(np.sqrt(spread[:3]) / G, 3),
+                                                 np.full(3, np.sqrt(spread[3]))])
+    for temperature in PLATEAUS_C:
+        np.testing.assert_allclose(plateaus.sigma_at(temperature), expected, rtol=1e-9)
+    assert np.all(plateaus.sigma_at(36.0) < plateaus.sigma_at(28.0))
+    line = plateau_lines(plateaus)[-1]
+    assert "fit's own 1 sigma of K(T), b(T)" in line
+    assert [part.split(' C: ')[0] for part in line.split(' angles) at ')[1].split('; ')] == [
+        '28.0', '36.0', '44.0', '52.0', '60.0']

@@ -567,6 +567,17 @@ class TemperatureStandFit:
         return (np.tensordot(powers, self.scale_coefficients, axes=1),
                 np.tensordot(powers, self.bias_coefficients, axes=1))
 
+    def sigma_at(self, temperature_c):
+        """
+        Return the 1 sigma of K(T), b(T)'s 12 elements (K row-major, b) at ``temperature_c``.
+
+        The coefficients' ``parameter_covariance`` through the powers of
+        ``T - centre_c``: ``sqrt(diag(P C P^T))``, ``P = powers kron I_12``.
+        """
+        powers = np.power.outer(float(temperature_c) - self.centre_c, np.arange(self.order + 1))
+        change = np.kron(powers[None, :], np.eye(12))
+        return np.sqrt(np.diag(change @ self.parameter_covariance @ change.T))
+
     def apply(self, readings, temperature_c):
         """Return ``K(T)^-1 (A - b(T))`` of readings (N, 3) at their temperatures (N,)."""
         readings = as_vectors(readings, 'readings')
