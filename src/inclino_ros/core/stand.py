@@ -737,9 +737,13 @@ def _lack_of_fit_ratio(estimator, covariances, design, values):
     stacked[np.arange(count), :, np.arange(count), :] = covariances
     spread = residual_map @ stacked.reshape(12 * count, 12 * count) @ residual_map.T
     residual = residual_map @ np.asarray(values, dtype=float).reshape(-1)
-    freedom = 12 * (count - terms)
-    return float(residual @ np.linalg.pinv(spread, rcond=1e-10, hermitian=True) @ residual
-                 / freedom)
+    # Each element in its own 1 sigma (K's and a bias in nT lie 1e5 apart), so that the
+    # pseudo-inverse cuts the residuals' null space only.
+    unit = np.sqrt(np.diag(spread))
+    unit = np.where(unit > 0.0, unit, 1.0)
+    scaled = residual / unit
+    inverse = np.linalg.pinv(spread / np.outer(unit, unit), rcond=1e-9, hermitian=True)
+    return float(scaled @ inverse @ scaled / (12 * (count - terms)))
 
 
 def plateau_stand_fit(plateaus, readings, truth, temperatures_c):
