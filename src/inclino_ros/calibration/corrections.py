@@ -266,12 +266,14 @@ class CalibrationModel:
                 and self.stand.parameter_covariance is None and 'stand' not in
                 self.covariance_stages):
             notes.append('stand: the file holds no parameter covariance of the fit (schema < 9, '
-                         "or a stand at several temperatures): the tilt 1 sigma takes the fit's "
-                         'residual instead (over-stated); fit the stand again to record it')
+                         'or a stand at several temperatures written before it was recorded): '
+                         "the tilt 1 sigma takes the fit's residual instead (over-stated); fit "
+                         'the stand again to record it')
         if self.magnetometer is not None and self.magnetometer.parameter_covariance is None:
             notes.append('magnetometer: the file holds no parameter covariance of the fit '
-                         "(schema < 7): the azimuth 1 sigma leaves the fit's own error out "
-                         '(under-stated several times); run fit-magnetometer again to record it')
+                         '(schema < 7, or a stand at several temperatures written before it was '
+                         "recorded): the azimuth 1 sigma leaves the fit's own error out "
+                         '(under-stated several times); fit the magnetometer again to record it')
         if (self.magnetic is not None and self.magnetic.rotation_fitted_at is not None
                 and self.magnetic.rotation_covariance is None):
             notes.append('magnetic: the file holds no parameter covariance of the rotation fit '
@@ -338,7 +340,8 @@ class CalibrationModel:
                 mount = stage.inverse_matrix @ mount
         names, covariance = self.covariance_stages, None
         if names:
-            sizes = {'stand': 12, 'magnetometer': 12, 'tool_axis': 2}
+            sizes = {'stand': 12, 'magnetometer': self.magnetometer.coefficient_count,
+                     'tool_axis': 2}
             covered = self.magnetometer.covariance_stages
             start = dict(zip(covered, np.cumsum([0] + [sizes[n] for n in covered])))
             index = np.concatenate([np.arange(start[n], start[n] + sizes[n]) for n in names])
@@ -376,9 +379,12 @@ class CalibrationModel:
             return None
         gamma, beta = math.radians(stage.gamma_deg), math.radians(stage.beta_deg)
         reading = stage.g_total_mps2 * stage.inverse_matrix.T[:, 2]     # C e_z |v|
-        matrix = self.stand.arrays[0]
-        response = level_angles_jacobian(gamma, beta, stage.g_total_mps2) @ affine_jacobian(
-            (matrix @ reading)[None], np.linalg.inv(matrix))[0]
+        # K(T), b(T) at the temperature the bench's readings stood for (None: the stand's).
+        held = self.stand.temperature_c if stage.temperature_c is None else stage.temperature_c
+        matrix, bias = self.stand.at(held) if held is not None else self.stand.arrays
+        inputs = (matrix @ reading + bias)[None]
+        response = level_angles_jacobian(gamma, beta, stage.g_total_mps2) @ (
+            self._stand_parameter_jacobian(inputs, stage.temperature_c)[0])
         after = np.eye(3) if self.tool_axis is None else self.tool_axis.inverse_matrix
         return gamma, beta, self._mark @ after, response
 
@@ -410,13 +416,16 @@ class CalibrationModel:
                     j_f.append(self._stand_jacobian(sensor, temperature_c))
                     j_b.append(np.zeros((count, 3, 12)))
                 elif name == 'magnetometer':
-                    j_f.append(np.zeros((count, 3, 12)))
+                    stage = self.magnetometer
+                    j_f.append(np.zeros((count, 3, stage.coefficient_count)))
                     if field_nT is not None:
-                        inputs = (self.apply_magnetic(field_nT, temperature_c,
-                                                      before='magnetometer')
-                                  - self.magnetometer.arrays[1])
-                        j_b.append(soft_iron @ mount @ affine_jacobian(
-                            inputs, layout['magnetometer']))
+                        inputs = self.apply_magnetic(field_nT, temperature_c,
+                                                     before='magnetometer')
+                        j_b.append(soft_iron @ mount @ (
+                            self.magnetometer_rotation @ stage.coefficient_jacobian(
+                                inputs, temperature_c) if stage.temperature_dependent
+                            else affine_jacobian(inputs - stage.arrays[1],
+                                                 layout['magnetometer'])))
                 else:   # the tool axis turns both triads
                     j_f.append(layout['mark'] @ tilt_jacobian(self.apply(
                         sensor, temperature_c, before='tool_axis'), *layout['angles']))
@@ -448,20 +457,30 @@ class CalibrationModel:
 
     def _stand_jacobian(self, sensor, temperature_c):
         """
-        Return d f / d(K^-1 row-major, b) (M, 3, 12) of the corrected specific force.
+        Return d f / d(the stand's parameters) (M, 3, p) of the corrected specific force.
 
-        The stand's own turn of the reading, and, after a level bench read
-        through it, the installation angles' response (``_installation_response``):
-        at the level bench's attitude the two cancel across the tool axis.
+        One temperature: (K^-1 row-major, b), p = 12.  K(T), b(T) of a stand
+        at several plateaus: their coefficients, p = 12 (order + 1), at each
+        reading's temperature (``Stand.coefficient_jacobian``).  The stand's
+        own turn of the reading, and, after a level bench read through it, the
+        installation angles' response (``_installation_response``): at the
+        bench's attitude the two cancel across the tool axis.
         """
-        inputs = self.apply(sensor, temperature_c, before='stand') - self.stand.arrays[1]
         layout = self._fit_layout
-        jacobian = layout['mark'] @ layout['mount'] @ affine_jacobian(inputs, layout['stand'])
+        jacobian = layout['mark'] @ layout['mount'] @ self._stand_parameter_jacobian(
+            self.apply(sensor, temperature_c, before='stand'), temperature_c)
         if layout['installation'] is not None:
             gamma, beta, after, response = layout['installation']
             corrected = self.apply(sensor, temperature_c, before='installation')
             jacobian = jacobian + after @ tilt_jacobian(corrected, gamma, beta) @ response
         return jacobian
+
+    def _stand_parameter_jacobian(self, inputs, temperature_c):
+        """Return d(the stand's output) / d(its parameters) (N, 3, p) at its ``inputs`` (N, 3)."""
+        stand = self.stand
+        if stand.temperature_dependent:
+            return stand.coefficient_jacobian(inputs, temperature_c)
+        return affine_jacobian(inputs - stand.arrays[1], np.linalg.inv(stand.arrays[0]))
 
     def temperature_covariance(self, readings, temperature_c=None, triad='accelerometer'):
         """
