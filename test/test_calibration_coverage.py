@@ -18,6 +18,7 @@ from dataclasses import replace
 import json
 
 import coverage_sim
+from inclino_ros.calibration.level_capture import solve_level_capture
 from inclino_ros.calibration.model import CalibrationModel
 from inclino_ros.calibration.schema import model_from_dict
 from inclino_ros.calibration.stand_fit import solve_sphere
@@ -170,6 +171,52 @@ def test_a_level_bench_after_the_sphere_carries_its_error_through_the_installati
     (_, jacobian, _), = model.parameter_blocks(stations)
     assert np.allclose(jacobian, numeric, rtol=1e-6, atol=1e-5 * np.abs(numeric).max())
     assert np.abs(jacobian[0, :2]).max() < 1e-12 * np.abs(jacobian).max()
+
+
+def test_a_level_bench_after_a_stand_at_several_temperatures_carries_its_error_too():
+    """
+    K(T), b(T) of a plateau stand, then a level bench at 40 deg C: the same derivative.
+
+    The chain: the stored coefficients moved one at a time (+-1e-7), the model's own
+    ``apply`` at 40 deg C (no Jacobian) of the bench's raw mean and of the stations,
+    gamma, beta of the bench's reading (seed 000 Eqs. 11-14), Eq. 9; central
+    differences against the stand block's Jacobian (main: no installation response).
+    """
+    rng = np.random.default_rng(4)
+    tool = coverage_sim.plateau_tool(sm.MEMS)
+    stand = coverage_sim.plateau_stand_model(tool, rng)[0].stand
+    assert stand.temperature_dependent and stand.parameter_covariance is not None
+    temperature = 40.0
+    level = sm.read(tool, np.zeros(500), np.zeros(500), np.zeros(500), field=shots_sim.FIELD,
+                    rng=rng, temperature_c=temperature).accel_mps2
+    model = CalibrationModel(3, stand=stand)
+    model = replace(model, installation=solve_level_capture(
+        model.apply(level, temperature, before='installation'), 3, coverage_sim.LEVEL_LIMITS,
+        temperature_c=temperature))
+    level_mean = level.mean(axis=0)
+    stations = np.vstack([level_mean, shots_sim.read(tool, [35.0, 80.0], [20.0, 250.0],
+                                                     [0.0, 90.0], rng, 1,
+                                                     temperature_c=temperature)[0]])
+    shapes = (np.shape(stand.scale_coefficients), np.shape(stand.bias_coefficients_mps2))
+
+    def chain(parameters):
+        per_power = parameters.reshape(-1, 12)
+        moved = replace(stand, scale_coefficients=per_power[:, :9].reshape(shapes[0]).tolist(),
+                        bias_coefficients_mps2=per_power[:, 9:].reshape(shapes[1]).tolist())
+        reading = CalibrationModel(3, stand=moved).apply(level_mean[None], temperature)[0]
+        angles = installation_angles(*level_axis_angles(reading, np.linalg.norm(reading)))
+        return correct_installation(CalibrationModel(3, stand=moved).apply(
+            stations, temperature), *angles)
+
+    start = np.hstack([np.reshape(stand.scale_coefficients, (-1, 9)),
+                       np.reshape(stand.bias_coefficients_mps2, (-1, 3))]).ravel()
+    steps = np.eye(start.size) * 1e-7
+    numeric = np.stack([(chain(start + step) - chain(start - step)) / 2e-7 for step in steps],
+                       axis=2)
+    (_, jacobian, _), = [block for block in model.parameter_blocks(stations, None, temperature)
+                         if block[1] is not None]
+    assert np.allclose(jacobian, numeric, rtol=1e-5, atol=1e-5 * np.abs(numeric).max())
+    assert np.abs(jacobian[0, :2]).max() < 1e-9 * np.abs(jacobian).max()
 
 
 @pytest.mark.parametrize('inclination_deg', [(0.5, 3.0), (60.0, 90.0)], ids=str)
