@@ -265,15 +265,22 @@ def _weighted_coefficients(design, readings, weights):
     ``weights`` (N, 3, 3), its inverse covariance; the parameters ordered
     axis by axis (``C[:, 0], C[:, 1], C[:, 2]``), their covariance ``N^-1``
     times the reduced chi-square (as the unweighted fit scales by its pooled
-    residual).
+    residual).  Solved whitened (``W = L L^T``: least squares of ``L^T J`` by
+    QR, ``N^-1 = R^-1 R^-T``), not by the normal equations: a mean's noise
+    along gravity and a face's tilt across it weigh ~1e8 apart, whose normal
+    matrix would square that condition (K off by 1e-8 from rounding alone).
     """
-    jacobian = np.einsum('ab,nj->nabj', np.eye(3), design).reshape(design.shape[0], 3, 12)
-    normal = np.einsum('nai,nab,nbj->ij', jacobian, weights, jacobian)
-    theta = np.linalg.solve(normal, np.einsum('nai,nab,nb->i', jacobian, weights, readings))
-    residual = readings - np.einsum('nai,i->na', jacobian, theta)
-    chi_square = float(np.einsum('na,nab,nb->', residual, weights, residual))
-    freedom = max(3 * design.shape[0] - 12, 1)
-    return theta.reshape(3, 4).T, np.linalg.inv(normal) * chi_square / freedom
+    count = design.shape[0]
+    jacobian = np.einsum('ab,nj->nabj', np.eye(3), design).reshape(count, 3, 12)
+    root = np.linalg.cholesky(weights)
+    whitened = np.einsum('nba,nbj->naj', root, jacobian).reshape(3 * count, 12)
+    target = np.einsum('nba,nb->na', root, readings).reshape(3 * count)
+    theta = np.linalg.lstsq(whitened, target, rcond=None)[0]
+    residual = target - whitened @ theta
+    freedom = max(3 * count - 12, 1)
+    spread = np.linalg.inv(np.linalg.qr(whitened, mode='r'))
+    covariance = spread @ spread.T * float(residual @ residual) / freedom
+    return theta.reshape(3, 4).T, covariance
 
 
 def _fit_stand(readings, truth, g_scale, weights=None):
