@@ -5,7 +5,10 @@ Every option of the writing and processing commands whose meaning is a node para
 built from the node's table (``cli.fitting.node_option``): its default, its range (or its
 choices) and its meaning are the parameter's.  A twin written separately could drift (main:
 fit-stand's --max-rms-deg took 1e-6 .. 90 deg where the node takes 1e-4 .. 10; fit-level's
---gravity-mps2 any number where the node takes 9.7 .. 9.9); this test names any that does.
+--gravity-mps2 any number where the node takes 9.7 .. 9.9; msa's reference sigmas any
+non-negative number; the node's reference dip +-90 where the commands refuse a vertical
+field); this test names any that does.  An option given or not (default none) of a node
+parameter's meaning takes its range (``options.node_parameter``).
 """
 
 import argparse
@@ -23,8 +26,8 @@ NOT_TWINS = {
     'method': "fit-stand's stand/sphere and msa's four methods (short-collar too): not the "
               "node's msa.method choices",
     'reference_total_nT': 'given or not (default none: --site, or no reference), never 0',
-    'reference_dip_deg': 'given or not (default none), with --reference-total-nT',
-    'declination_deg': 'given or not (default none: --site)',
+    'reference_dip_deg': "given or not (default none: --site); the range is the node's",
+    'declination_deg': "given or not (default none: --site); the range is the node's",
     'sensor_id': 'given or not (default none: a new file unnamed)',
     'accelerometer_axes_map': 'cli.mounting: a map parsed by the rule of the node',
     'magnetometer_axes_map': 'cli.mounting: a map parsed by the rule of the node',
@@ -42,8 +45,7 @@ def command_actions():
 
 def twin_of(action):
     """Return the node parameter an option's name says it is (``dest`` = its last part)."""
-    names = [name for name in BY_NAME if name.split('.')[-1] == action.dest]
-    return names
+    return [name for name in BY_NAME if name.split('.')[-1] == action.dest]
 
 
 def accepts(action, value):
@@ -55,6 +57,15 @@ def accepts(action, value):
     return True
 
 
+def in_range_as_the_node(action, parameter):
+    """Assert the option takes both ends of the parameter's range and refuses just beyond."""
+    assert accepts(action, parameter.low) and accepts(action, parameter.high)
+    step = 1 if isinstance(parameter.default, int) else 1e-9 * max(
+        1.0, abs(parameter.low), abs(parameter.high))
+    assert not accepts(action, parameter.low - step)
+    assert not accepts(action, parameter.high + step)
+
+
 @pytest.mark.parametrize('command, action', [
     pytest.param(command, action, id=f'{command} {action.option_strings[-1]}')
     for command, action in command_actions() if hasattr(action, 'node_parameter')])
@@ -62,16 +73,21 @@ def test_an_option_built_from_the_node_has_its_default_and_range(command, action
     """Default, range (both ends taken, just beyond refused) or choices: the parameter's."""
     parameter = BY_NAME[action.node_parameter]
     assert action.default == parameter.default
+    assert action.node_parameter in action.help
     if parameter.choices:
         assert tuple(action.choices) == parameter.choices
-        return
-    if parameter.low is not None:
-        assert accepts(action, parameter.low) and accepts(action, parameter.high)
-        step = 1 if isinstance(parameter.default, int) else 1e-9 * max(
-            1.0, abs(parameter.low), abs(parameter.high))
-        assert not accepts(action, parameter.low - step)
-        assert not accepts(action, parameter.high + step)
-    assert action.node_parameter in action.help
+    elif parameter.low is not None:
+        in_range_as_the_node(action, parameter)
+
+
+@pytest.mark.parametrize('command, action', [
+    pytest.param(command, action, id=f'{command} {action.option_strings[-1]}')
+    for command, action in command_actions()
+    if hasattr(action.type, 'parameter') and not hasattr(action, 'node_parameter')])
+def test_an_optional_option_takes_the_range_of_its_node_parameter(command, action):
+    """An option given or not (default none) of a node parameter's type: its range."""
+    assert action.default is None
+    in_range_as_the_node(action, BY_NAME[action.type.parameter])
 
 
 def test_no_option_twins_a_node_parameter_on_its_own():

@@ -191,7 +191,9 @@ PARAMETERS = (
               '70000); 0: unknown, azimuth QC off and ~/solve_msa refused.', 0.0, 100000.0,
               read_only=False),
     Parameter('magnetic.reference_dip_deg', 0.0,
-              'Reference dip [deg], positive down.', -90.0, 90.0, read_only=False),
+              'Reference dip [deg], positive down; short of +-90 (a vertical field has no '
+              'horizontal part to point an azimuth or fit an MSA to).', -89.999, 89.999,
+              read_only=False),
     Parameter('magnetic.reference_total_std_nT', 138.0,
               '1 sigma of the reference total field itself [nT] (WMM 2025: 138; an IFR model '
               'about half): enters the 1 sigma of the MSA interference and of every azimuth.',
