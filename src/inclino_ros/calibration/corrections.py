@@ -266,12 +266,14 @@ class CalibrationModel:
                 and self.stand.parameter_covariance is None and 'stand' not in
                 self.covariance_stages):
             notes.append('stand: the file holds no parameter covariance of the fit (schema < 9, '
-                         "or a stand at several temperatures): the tilt 1 sigma takes the fit's "
-                         'residual instead (over-stated); fit the stand again to record it')
+                         'or a stand at several temperatures written before it was recorded): '
+                         "the tilt 1 sigma takes the fit's residual instead (over-stated); fit "
+                         'the stand again to record it')
         if self.magnetometer is not None and self.magnetometer.parameter_covariance is None:
             notes.append('magnetometer: the file holds no parameter covariance of the fit '
-                         "(schema < 7): the azimuth 1 sigma leaves the fit's own error out "
-                         '(under-stated several times); run fit-magnetometer again to record it')
+                         '(schema < 7, or a stand at several temperatures written before it was '
+                         "recorded): the azimuth 1 sigma leaves the fit's own error out "
+                         '(under-stated several times); fit the magnetometer again to record it')
         if (self.magnetic is not None and self.magnetic.rotation_fitted_at is not None
                 and self.magnetic.rotation_covariance is None):
             notes.append('magnetic: the file holds no parameter covariance of the rotation fit '
@@ -337,7 +339,8 @@ class CalibrationModel:
                 mount = stage.inverse_matrix @ mount
         names, covariance = self.covariance_stages, None
         if names:
-            sizes = {'stand': 12, 'magnetometer': 12, 'tool_axis': 2}
+            sizes = {'stand': 12, 'magnetometer': self.magnetometer.coefficient_count,
+                     'tool_axis': 2}
             covered = self.magnetometer.covariance_stages
             start = dict(zip(covered, np.cumsum([0] + [sizes[n] for n in covered])))
             index = np.concatenate([np.arange(start[n], start[n] + sizes[n]) for n in names])
@@ -383,13 +386,16 @@ class CalibrationModel:
                     j_f.append(self._stand_jacobian(sensor, temperature_c))
                     j_b.append(np.zeros((count, 3, 12)))
                 elif name == 'magnetometer':
-                    j_f.append(np.zeros((count, 3, 12)))
+                    stage = self.magnetometer
+                    j_f.append(np.zeros((count, 3, stage.coefficient_count)))
                     if field_nT is not None:
-                        inputs = (self.apply_magnetic(field_nT, temperature_c,
-                                                      before='magnetometer')
-                                  - self.magnetometer.arrays[1])
-                        j_b.append(soft_iron @ mount @ affine_jacobian(
-                            inputs, layout['magnetometer']))
+                        inputs = self.apply_magnetic(field_nT, temperature_c,
+                                                     before='magnetometer')
+                        j_b.append(soft_iron @ mount @ (
+                            self.magnetometer_rotation @ stage.coefficient_jacobian(
+                                inputs, temperature_c) if stage.temperature_dependent
+                            else affine_jacobian(inputs - stage.arrays[1],
+                                                 layout['magnetometer'])))
                 else:   # the tool axis turns both triads
                     j_f.append(layout['mark'] @ tilt_jacobian(self.apply(
                         sensor, temperature_c, before='tool_axis'), *layout['angles']))
@@ -420,10 +426,20 @@ class CalibrationModel:
         return blocks
 
     def _stand_jacobian(self, sensor, temperature_c):
-        """Return d f / d(K^-1 row-major, b) (M, 3, 12) of the corrected specific force."""
-        inputs = self.apply(sensor, temperature_c, before='stand') - self.stand.arrays[1]
+        """
+        Return d f / d(the stand's parameters) (M, 3, p) of the corrected specific force.
+
+        One temperature: (K^-1 row-major, b), p = 12.  K(T), b(T) of a stand
+        at several plateaus: their coefficients, p = 12 (order + 1), at each
+        reading's temperature (``Stand.coefficient_jacobian``).
+        """
+        inputs = self.apply(sensor, temperature_c, before='stand')
         layout = self._fit_layout
-        return layout['mark'] @ layout['mount'] @ affine_jacobian(inputs, layout['stand'])
+        if self.stand.temperature_dependent:
+            return layout['mark'] @ layout['mount'] @ self.stand.coefficient_jacobian(
+                inputs, temperature_c)
+        return layout['mark'] @ layout['mount'] @ affine_jacobian(
+            inputs - self.stand.arrays[1], layout['stand'])
 
     def temperature_covariance(self, readings, temperature_c=None, triad='accelerometer'):
         """

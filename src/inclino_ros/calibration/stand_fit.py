@@ -242,7 +242,8 @@ def solve_stand(readings, attitudes_deg, gravity_mps2, max_rms_deg, temperatures
                         stood_for_c(temperatures_c))
     if plateaus is not None:
         stage = replace(
-            stage, temperature_c=plateaus.centre_c, parameter_covariance=None,
+            stage, temperature_c=plateaus.centre_c,
+            parameter_covariance=tuple(map(tuple, plateaus.parameter_covariance.tolist())),
             scale_coefficients=tuple(tuple(map(tuple, term))
                                      for term in plateaus.scale_coefficients.tolist()),
             bias_coefficients_mps2=tuple(map(tuple, plateaus.bias_coefficients.tolist())),
