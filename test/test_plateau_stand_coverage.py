@@ -277,13 +277,13 @@ def test_lack_of_fit_scales_the_coefficients_covariance():
     for _ in range(2000):
         values = truth + np.einsum('pij,pj->pi', np.linalg.cholesky(covariances),
                                    rng.standard_normal((4, 12)))
-        scaled = coefficient_covariance(estimator, covariances, None, design, values)
+        scaled = coefficient_covariance(estimator, covariances, design, values)
         factors.append(float(np.trace(scaled) / np.trace(plain)))
     expected = integrate.quad(lambda x: max(1.0, x / 24.0) * stats.chi2.pdf(x, 24), 0,
                               np.inf)[0]
     assert abs(np.mean(factors) - expected) < 0.015, (np.mean(factors), expected)
     drift = truth + 4.0 * sigma * (centres[:, None] ** 2 - 125.0) / 100.0
-    scaled = coefficient_covariance(estimator, covariances, None, design, drift)
+    scaled = coefficient_covariance(estimator, covariances, design, drift)
     assert np.trace(scaled) / np.trace(plain) > 2.0
 
 
