@@ -27,11 +27,12 @@ def tool(preset):
 
 
 def read(the_tool, inclination_deg, toolface_deg, azimuth_deg, rng, samples=1,
-         interference_nT=INTERFERENCE_NT):
+         interference_nT=INTERFERENCE_NT, temperature_c=25.0):
     """
     Return (accel, field) of the tool at the attitudes, each a mean of ``samples`` readings.
 
-    ``interference_nT``: (3,) for every shot, or (N, 3) one per shot.
+    ``interference_nT``: (3,) for every shot, or (N, 3) one per shot; the tool at
+    ``temperature_c`` [deg C].
     """
     n = np.size(inclination_deg)
     interference = np.asarray(interference_nT, dtype=float)
@@ -39,7 +40,8 @@ def read(the_tool, inclination_deg, toolface_deg, azimuth_deg, rng, samples=1,
         interference = np.repeat(interference, samples, axis=0)
     readings = sensor_model.read(
         the_tool, np.repeat(inclination_deg, samples), np.repeat(toolface_deg, samples),
-        np.repeat(azimuth_deg, samples), field=FIELD, interference_nT=interference, rng=rng)
+        np.repeat(azimuth_deg, samples), temperature_c=temperature_c, field=FIELD,
+        interference_nT=interference, rng=rng)
     return (readings.accel_mps2.reshape(n, samples, 3).mean(axis=1),
             readings.mag_nT.reshape(n, samples, 3).mean(axis=1))
 

@@ -263,6 +263,19 @@ STAND_KT = Stand(scale_matrix=K, bias_mps2=BIAS_MPS2, method='stand', condition_
                  bias_coefficients_mps2=(BIAS_MPS2, (1e-4, -2e-4, 5e-5)), t_min_c=20.0,
                  t_max_c=80.0)
 THREE_AXES = Settings(noise_std_mps2=0.02)
+
+
+def covariance(sigmas, seed):
+    """Return a random symmetric positive definite matrix of about ``sigmas`` 1 sigma."""
+    size = len(sigmas)
+    root = np.random.default_rng(seed).normal(size=(size, size)) / np.sqrt(size)
+    root *= np.asarray(sigmas)[:, None]
+    return tuple(map(tuple, (root @ root.T).tolist()))
+
+
+#: The covariance of STAND_KT's 24 coefficients (power by power: K row-major, then b
+#: [m/s^2]; per deg C for the second power).
+STAND_KT_COVARIANCE = covariance([1e-5] * 9 + [3e-4] * 3 + [1e-6] * 9 + [3e-5] * 3, 24)
 #: (model, settings) of the float chain's cases: every stage, both sensors, both toolfaces,
 #: a turned mounting; the temperature stage with and without its fit's covariance.
 CASES = {
@@ -272,6 +285,9 @@ CASES = {
             ALL_STAGES.temperature, parameter_covariance=DRIFT_COVARIANCE)),
         Settings(noise_std_mps2=0.02, accelerometer_axes_map='rpy:3,-2,91',
                  toolface_convention='iscwsa_highside')),
+    'K(T) stand with its coefficients covariance': (
+        replace(ALL_STAGES, stand=replace(STAND_KT, parameter_covariance=STAND_KT_COVARIANCE)),
+        THREE_AXES),
     'two axes': (CalibrationModel(accelerometer_axes=2, installation=ALL_STAGES.installation,
                                   tool_axis=ALL_STAGES.tool_axis),
                  Settings(accelerometer_axes=2, noise_std_mps2=0.1,

@@ -61,3 +61,50 @@ def test_stated_attitude_uncertainty_improves_held_out(seed, tmp_path):
         figures.append(held_out(load_model(target).stand))
     (angle_before, size_before), (angle_after, size_after) = figures
     assert angle_after < angle_before and size_after < size_before
+
+
+def test_a_multi_temperature_stand_with_an_attitude_sigma_is_refused_by_both_doors(tmp_path):
+    """
+    Positions at two temperature plateaus and an attitude sigma: refused, saying why and what.
+
+    The K(T), b(T) fit (``core.stand.fit_stand_plateaus``) weighs every position alike; main
+    took --attitude-sigma-deg and silently fitted unweighted.  Refused by fit-stand (exit 1,
+    no file written) and by the node's solve (``stand_capture.solve_positions``, as
+    ``~/solve_stand_calibration`` calls it), each naming its own option or parameter; without
+    the sigma, the same positions give K(T), b(T) as before.
+    """
+    from inclino_ros.calibration.stand_capture import Position, solve_positions
+    from inclino_ros.core.stand import StandFitRefused
+    from inclino_ros.sim.bench import drifting_mount_tool
+
+    tool = drifting_mount_tool()
+    rows = []
+    for seed, temperature in enumerate((28.0, 44.0)):
+        run = simulate_stand(StandRun(tool, seed=seed), temperature_c=temperature)
+        rows += zip(run.inclination_deg, run.toolface_deg, run.temperature_c, *run.raw_mps2.T)
+    with open(tmp_path / 'plateaus.csv', 'w', newline='') as stream:
+        writer = csv.writer(stream)
+        writer.writerow(['inclination_deg', 'toolface_deg', 'temperature_c', 'ax', 'ay', 'az'])
+        writer.writerows(rows)
+    code, _, err = quiet(['fit-stand', tmp_path / 'plateaus.csv', '--calibration',
+                          tmp_path / 'sigma.json', '--attitude-sigma-deg', '0.3'])
+    assert code == 1
+    assert ('--attitude-sigma-deg 0.3 deg with positions at 2 temperature plateaus: the '
+            'K(T), b(T) fit weighs every position alike') in err
+    assert not (tmp_path / 'sigma.json').exists()
+    code, out, err = quiet(['fit-stand', tmp_path / 'plateaus.csv', '--calibration',
+                            tmp_path / 'plain.json'])
+    assert code == 0, err
+    assert load_model(tmp_path / 'plain.json').stand.t_max_c == 44.0
+
+    readings = np.array([row[3:] for row in rows], dtype=float)
+    attitude = np.array([row[:3] for row in rows], dtype=float)
+    starts = np.flatnonzero(np.r_[True, np.any(np.diff(attitude, axis=0) != 0, axis=1)])
+    positions = [Position(inclination_deg=attitude[a, 0], toolface_deg=attitude[a, 1],
+                          reading_mps2=tuple(readings[a:b].mean(axis=0)), std_deg=0.01,
+                          samples=b - a, temperature_c=attitude[a, 2], noise_deg=0.01)
+                 for a, b in zip(starts, np.r_[starts[1:], len(rows)])]
+    with pytest.raises(StandFitRefused, match='stand.attitude_sigma_deg 0.3 deg with positions '
+                                              'at 2 temperature plateaus'):
+        solve_positions(positions, G, 2.0, attitude_sigma_deg=0.3)
+    assert solve_positions(positions, G, 2.0)[0].t_max_c == 44.0

@@ -49,7 +49,7 @@ from inclino_ros.calibration.stages import (
 from inclino_ros.core.constants import STANDARD_GRAVITY_MPS2
 from inclino_ros.core.installation import to_tool_frame
 from inclino_ros.core.nonlinear import correction_jacobian
-from inclino_ros.core.uncertainty import affine_jacobian, tilt_jacobian
+from inclino_ros.core.uncertainty import affine_jacobian, level_angles_jacobian, tilt_jacobian
 import numpy as np
 
 #: The accelerometer's stages, in the order they are applied.
@@ -266,12 +266,14 @@ class CalibrationModel:
                 and self.stand.parameter_covariance is None and 'stand' not in
                 self.covariance_stages):
             notes.append('stand: the file holds no parameter covariance of the fit (schema < 9, '
-                         "or a stand at several temperatures): the tilt 1 sigma takes the fit's "
-                         'residual instead (over-stated); fit the stand again to record it')
+                         'or a stand at several temperatures written before it was recorded): '
+                         "the tilt 1 sigma takes the fit's residual instead (over-stated); fit "
+                         'the stand again to record it')
         if self.magnetometer is not None and self.magnetometer.parameter_covariance is None:
             notes.append('magnetometer: the file holds no parameter covariance of the fit '
-                         "(schema < 7): the azimuth 1 sigma leaves the fit's own error out "
-                         '(under-stated several times); run fit-magnetometer again to record it')
+                         '(schema < 7, or a stand at several temperatures written before it was '
+                         "recorded): the azimuth 1 sigma leaves the fit's own error out "
+                         '(under-stated several times); fit the magnetometer again to record it')
         if (self.magnetic is not None and self.magnetic.rotation_fitted_at is not None
                 and self.magnetic.rotation_covariance is None):
             notes.append('magnetic: the file holds no parameter covariance of the rotation fit '
@@ -326,7 +328,8 @@ class CalibrationModel:
         when the magnetometer's does not cover it, K^-1 of the stand, the
         magnetometer's map into the accelerometer frame, the mount's C^-1,
         seed 002's W as 3x3, the tool axis's angles [rad], the rotation fit's
-        covariance).
+        covariance, and what the stand's error does to the installation angles:
+        ``_installation_response``).
         """
         soft_iron = self._mark.copy()   # what follows the mount: W, then the mark's turn
         if self.magnetic is not None:
@@ -337,7 +340,8 @@ class CalibrationModel:
                 mount = stage.inverse_matrix @ mount
         names, covariance = self.covariance_stages, None
         if names:
-            sizes = {'stand': 12, 'magnetometer': 12, 'tool_axis': 2}
+            sizes = {'stand': 12, 'magnetometer': self.magnetometer.coefficient_count,
+                     'tool_axis': 2}
             covered = self.magnetometer.covariance_stages
             start = dict(zip(covered, np.cumsum([0] + [sizes[n] for n in covered])))
             index = np.concatenate([np.arange(start[n], start[n] + sizes[n]) for n in names])
@@ -353,7 +357,36 @@ class CalibrationModel:
             'angles': None if self.tool_axis is None else (
                 math.radians(self.tool_axis.gamma_deg), math.radians(self.tool_axis.beta_deg)),
             'rotation': (None if self.magnetic is None or self.magnetic.rotation_covariance is None
-                         else np.array(self.magnetic.rotation_covariance))}
+                         else np.array(self.magnetic.rotation_covariance)),
+            'installation': self._installation_response()}
+
+    def _installation_response(self):
+        """
+        Return (gamma, beta [rad], the mount after them, d(gamma, beta)/dp (2, 12)), or None.
+
+        A level bench measured after the stand (``solve_level_capture`` of
+        ``apply(before='installation')``; one carried into a new stand's frame,
+        ``magnetometer.installation_in_new_frame``, is the same reading through
+        it: ``with_stand`` drops the installation otherwise) reads the stand's
+        correction of the vertical tool's reading, ``v = |v| C e_z = K^-1 (a_L
+        - b)``: the stand's error there moves gamma and beta by
+        ``level_angles_jacobian`` times ``affine_jacobian(K v)`` (seed 000 Eqs.
+        11-14), so that both stages' errors are one block, correlated.  None
+        without an installation or a stand.
+        """
+        stage = self.installation
+        if stage is None or self.stand is None:
+            return None
+        gamma, beta = math.radians(stage.gamma_deg), math.radians(stage.beta_deg)
+        reading = stage.g_total_mps2 * stage.inverse_matrix.T[:, 2]     # C e_z |v|
+        # K(T), b(T) at the temperature the bench's readings stood for (None: the stand's).
+        held = self.stand.temperature_c if stage.temperature_c is None else stage.temperature_c
+        matrix, bias = self.stand.at(held) if held is not None else self.stand.arrays
+        inputs = (matrix @ reading + bias)[None]
+        response = level_angles_jacobian(gamma, beta, stage.g_total_mps2) @ (
+            self._stand_parameter_jacobian(inputs, stage.temperature_c)[0])
+        after = np.eye(3) if self.tool_axis is None else self.tool_axis.inverse_matrix
+        return gamma, beta, self._mark @ after, response
 
     def parameter_blocks(self, sensor, field_nT=None, temperature_c=None):
         """
@@ -383,13 +416,16 @@ class CalibrationModel:
                     j_f.append(self._stand_jacobian(sensor, temperature_c))
                     j_b.append(np.zeros((count, 3, 12)))
                 elif name == 'magnetometer':
-                    j_f.append(np.zeros((count, 3, 12)))
+                    stage = self.magnetometer
+                    j_f.append(np.zeros((count, 3, stage.coefficient_count)))
                     if field_nT is not None:
-                        inputs = (self.apply_magnetic(field_nT, temperature_c,
-                                                      before='magnetometer')
-                                  - self.magnetometer.arrays[1])
-                        j_b.append(soft_iron @ mount @ affine_jacobian(
-                            inputs, layout['magnetometer']))
+                        inputs = self.apply_magnetic(field_nT, temperature_c,
+                                                     before='magnetometer')
+                        j_b.append(soft_iron @ mount @ (
+                            self.magnetometer_rotation @ stage.coefficient_jacobian(
+                                inputs, temperature_c) if stage.temperature_dependent
+                            else affine_jacobian(inputs - stage.arrays[1],
+                                                 layout['magnetometer'])))
                 else:   # the tool axis turns both triads
                     j_f.append(layout['mark'] @ tilt_jacobian(self.apply(
                         sensor, temperature_c, before='tool_axis'), *layout['angles']))
@@ -420,10 +456,31 @@ class CalibrationModel:
         return blocks
 
     def _stand_jacobian(self, sensor, temperature_c):
-        """Return d f / d(K^-1 row-major, b) (M, 3, 12) of the corrected specific force."""
-        inputs = self.apply(sensor, temperature_c, before='stand') - self.stand.arrays[1]
+        """
+        Return d f / d(the stand's parameters) (M, 3, p) of the corrected specific force.
+
+        One temperature: (K^-1 row-major, b), p = 12.  K(T), b(T) of a stand
+        at several plateaus: their coefficients, p = 12 (order + 1), at each
+        reading's temperature (``Stand.coefficient_jacobian``).  The stand's
+        own turn of the reading, and, after a level bench read through it, the
+        installation angles' response (``_installation_response``): at the
+        bench's attitude the two cancel across the tool axis.
+        """
         layout = self._fit_layout
-        return layout['mark'] @ layout['mount'] @ affine_jacobian(inputs, layout['stand'])
+        jacobian = layout['mark'] @ layout['mount'] @ self._stand_parameter_jacobian(
+            self.apply(sensor, temperature_c, before='stand'), temperature_c)
+        if layout['installation'] is not None:
+            gamma, beta, after, response = layout['installation']
+            corrected = self.apply(sensor, temperature_c, before='installation')
+            jacobian = jacobian + after @ tilt_jacobian(corrected, gamma, beta) @ response
+        return jacobian
+
+    def _stand_parameter_jacobian(self, inputs, temperature_c):
+        """Return d(the stand's output) / d(its parameters) (N, 3, p) at its ``inputs`` (N, 3)."""
+        stand = self.stand
+        if stand.temperature_dependent:
+            return stand.coefficient_jacobian(inputs, temperature_c)
+        return affine_jacobian(inputs - stand.arrays[1], np.linalg.inv(stand.arrays[0]))
 
     def temperature_covariance(self, readings, temperature_c=None, triad='accelerometer'):
         """

@@ -48,6 +48,21 @@ def split_correction(correction, accelerometer_rotation):
     return np.linalg.inv(0.5 * (own + own.T)), accelerometer_rotation.T @ turn
 
 
+def stored_coefficient_covariance(covariance, turn):
+    """
+    Return the covariance of K_m(T), b_m(T)'s coefficients as stored, from the fit's.
+
+    ``covariance``: of the fitted K(T), b(T)'s coefficients, power by power
+    (``stand.coefficient_covariance``); the stage stores each K term times
+    the constant ``turn`` (``fit_field_stand``): row-major,
+    ``vec(X turn) = (I kron turn^T) vec(X)``, b unchanged.
+    """
+    block = np.eye(12)
+    block[:9, :9] = np.kron(np.eye(3), turn.T)
+    change = np.kron(np.eye(np.shape(covariance)[0] // 12), block)
+    return change @ covariance @ change.T
+
+
 def accelerometer_rotation(stand):
     """Return the turn of the accelerometer's own correction (identity without a stand stage)."""
     return np.eye(3) if stand is None else stand.rotation
@@ -116,8 +131,9 @@ def fit_field_stand(fields_nT, attitudes_deg, reference_total_nT, reference_dip_
     now = utc_now_iso()
     rms_nT = float(np.sqrt(np.mean(np.sum((corrected - truth) ** 2, axis=1))))
     polynomial, plateau_rms_deg = {}, None
-    # The fit's own error (one temperature: the stand fit's covariance; K_m(T): not yet).
-    covariance = ({} if plateaus is not None or fit.parameter_covariance is None else
+    # The fit's own error: one temperature, the stand fit's covariance; K_m(T), that of its
+    # coefficients as stored (``stored_coefficient_covariance``).
+    covariance = ({} if fit.parameter_covariance is None else
                   {'parameter_covariance': _matrix(fit.parameter_covariance),
                    'covariance_stages': ('magnetometer',)})
     temperature_c = stood_for_c(temperatures_c)
@@ -125,6 +141,8 @@ def fit_field_stand(fields_nT, attitudes_deg, reference_total_nT, reference_dip_
         turn = accelerometer_rotation(stand) @ rotation
         scale = plateaus.scale_coefficients @ turn
         scale[0] = k_m
+        covariance = {'parameter_covariance': _matrix(stored_coefficient_covariance(
+            plateaus.parameter_covariance, turn)), 'covariance_stages': ('magnetometer',)}
         polynomial = {'scale_coefficients': tuple(map(_matrix, scale)),
                       'bias_coefficients_nT': tuple(map(tuple, plateaus.bias_coefficients
                                                         .tolist())),

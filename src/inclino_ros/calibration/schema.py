@@ -218,7 +218,8 @@ def _covariance(section, name, key, size):
     return tuple(map(tuple, value.tolist()))
 
 
-#: The stages a magnetometer fit's covariance may cover, in its order, with their sizes.
+#: The stages a magnetometer fit's covariance may cover, in its order, with their sizes
+#: (the magnetometer's times the terms of K_m(T), b_m(T): ``_coefficient_count``).
 COVARIANCE_STAGE_SIZES = {'stand': 12, 'magnetometer': 12, 'tool_axis': 2}
 
 
@@ -240,8 +241,26 @@ def _magnetometer_covariance(values, name):
                          'stand, before tool_axis, each once) with parameter_covariance, or '
                          'both be null')
     values['covariance_stages'] = tuple(stages)
-    size = sum(COVARIANCE_STAGE_SIZES[stage] for stage in stages)
+    sizes = dict(COVARIANCE_STAGE_SIZES, magnetometer=_coefficient_count(values))
+    size = sum(sizes[stage] for stage in stages)
     values['parameter_covariance'] = _covariance(values, name, 'parameter_covariance', size)
+
+
+def _stand_covariance(values, name):
+    """
+    Read the stand's covariance: 12 square, 12 (order + 1) with K(T), b(T) (``Stand``).
+
+    After ``_stand_polynomial`` (the coefficients checked); None stays None.
+    """
+    if values['parameter_covariance'] is not None:
+        values['parameter_covariance'] = _covariance(values, name, 'parameter_covariance',
+                                                     _coefficient_count(values))
+
+
+def _coefficient_count(values):
+    """Return the parameters of a checked K, b: 12, times the terms of K(T), b(T)."""
+    return 12 * (1 if values['scale_coefficients'] is None
+                 else len(values['scale_coefficients']))
 
 
 def _square_covariance(size):
@@ -367,7 +386,7 @@ STAGE_FIELDS = {
         'positions': _count, 'fitted_at': _time, 'temperature_c': _temperature,
         'scale_coefficients': _kept, 'bias_coefficients_mps2': _kept,
         't_min_c': _optional(_number), 't_max_c': _optional(_number),
-        'parameter_covariance': _optional(_square_covariance(12))}, (_stand_polynomial,),
+        'parameter_covariance': _kept}, (_stand_polynomial, _stand_covariance),
         plausibility.check_stand),
     'magnetometer': (Magnetometer, {
         'scale_matrix': _array(3, 3), 'bias_nT': _array(3), 'condition_number': _number,

@@ -19,7 +19,7 @@ from inclino_ros.core.stand import correct_stand, rotation_part
 from inclino_ros.core.temperature import (
     compensate_temperature, in_range, normalised_temperature, TemperatureFit,
     unknown_temperature_covariance)
-from inclino_ros.core.uncertainty import temperature_compensation_covariance
+from inclino_ros.core.uncertainty import affine_jacobian, temperature_compensation_covariance
 import numpy as np
 
 
@@ -162,6 +162,35 @@ class _PolynomialOfTemperature:
         return (np.tensordot(powers, np.array(self.scale_coefficients), axes=1),
                 np.tensordot(powers, np.array(self.bias_coefficients), axes=1))
 
+    def coefficient_jacobian(self, inputs, temperature_c=None):
+        """
+        Return d(K(T)^-1 (x - b(T))) / d(the coefficients) (N, 3, 12 (order + 1)) at ``inputs``.
+
+        The coefficients as stored, power by power: ``scale_coefficients[k]``
+        row-major then the bias's ``[k]`` (the order of a multi-temperature
+        stand's ``parameter_covariance``).  With ``g = K^-1 (x - b)``,
+        ``dg = -K^-1 (dK g + db)``, times ``(T - temperature_c)^k`` at each
+        reading's temperature as ``apply`` takes it (clamped to the range;
+        None or NaN: the stage's own).
+        """
+        inputs = np.asarray(inputs, dtype=float).reshape(-1, 3)
+        held = np.broadcast_to(np.asarray(self.temperature_c if temperature_c is None
+                                          else temperature_c, dtype=float), inputs.shape[:1])
+        held = np.where(np.isfinite(held), held, self.temperature_c)
+        scale, bias = self.at(held)
+        inverse = np.linalg.inv(scale)
+        corrected = np.einsum('nij,nj->ni', inverse, inputs - bias)
+        by_value = -inverse @ affine_jacobian(corrected, -np.eye(3))
+        powers = np.power.outer(np.clip(held, self.t_min_c, self.t_max_c) - self.temperature_c,
+                                np.arange(len(self.scale_coefficients)))
+        return np.einsum('nk,nie->nike', powers, by_value).reshape(len(held), 3,
+                                                                   self.coefficient_count)
+
+    @property
+    def coefficient_count(self):
+        """Return the parameters of K and b: 12, times the terms of a polynomial of T."""
+        return 12 * (1 if self.scale_coefficients is None else len(self.scale_coefficients))
+
     def outside_range(self, temperature_c):
         """Return which temperatures lie outside a multi-temperature stand's range (bool)."""
         temperature_c = np.asarray(temperature_c, dtype=float)
@@ -200,8 +229,12 @@ class Stand(_PolynomialOfTemperature):
     bias_coefficients_mps2: tuple = None  # b(T), likewise
     t_min_c: float = None                 # the plateaus' range; None: constant K, b
     t_max_c: float = None
-    # (12, 12) of (K^-1 row-major, b) (``stand.fit_stand``); None: a sphere fit, a stand at
-    # several temperatures or a file before schema 9 (then the residual stands for it)
+    # The fit's parameter covariance.  One temperature: (12, 12) of (K^-1 row-major, b)
+    # (``stand.fit_stand``).  K(T), b(T): (12 (order + 1)) square, of the coefficients as
+    # stored, power by power: scale_coefficients[k] row-major (9) then
+    # bias_coefficients_mps2[k] (3), k = 0 .. order (``stand.coefficient_covariance``).
+    # None: a sphere fit, or a file before schema 9 or from before a multi-temperature
+    # stand recorded it (then the residual stands for it).
     parameter_covariance: tuple = None
 
     @property
@@ -269,8 +302,9 @@ class Magnetometer(_PolynomialOfTemperature):
     # The fit's parameter covariance (None: not recorded, schema < 7): square, over the
     # stages of ``covariance_stages`` fitted with it, in this order: 'stand' (K^-1
     # row-major, b [m/s^2]: 12), 'magnetometer' (the map taking readings less b_m into the
-    # accelerometer frame, Stand.rotation R K_m^-1 row-major, then b_m [nT]: 12),
-    # 'tool_axis' (gamma, beta [rad]: 2).
+    # accelerometer frame, Stand.rotation R K_m^-1 row-major, then b_m [nT]: 12; K_m(T),
+    # b_m(T): their coefficients as stored, as Stand's, 12 (order + 1)), 'tool_axis'
+    # (gamma, beta [rad]: 2).
     parameter_covariance: tuple = None
     covariance_stages: tuple = None
 

@@ -16,7 +16,7 @@ import math
 
 from inclino_ros.calibration.magnetometer import fit_field_stand
 from inclino_ros.calibration.plausibility import check_accelerometer_readings
-from inclino_ros.calibration.stand_fit import repeatability_note, solve_stand
+from inclino_ros.calibration.stand_fit import mean_noise_mps2, repeatability_note, solve_stand
 from inclino_ros.calibration.still_capture import (
     CaptureRefused, require_still, require_still_vectors)
 from inclino_ros.core.attitude import angle_between
@@ -41,6 +41,8 @@ class Position:
     field_std_deg: float = None  # per-sample noise of the field's direction
     temperature_c: float = None  # what the readings stood for; None: unknown
     field_temperature_c: float = None  # what the field stood for (its own temperature stage)
+    noise_deg: float = math.nan  # per-sample noise within blocks (Stillness.noise_deg): what
+    #                              the mean is weighed by (stand_fit.mean_noise_mps2), as fit-stand
 
 
 def repeated_position(positions, inclination_deg, toolface_deg, azimuth_deg=0.0,
@@ -106,13 +108,15 @@ def average_position(samples, inclination_deg, toolface_deg, limits, times_s=Non
             field_std_deg = field_still.white_noise_deg
     return Position(inclination_deg=float(inclination_deg), toolface_deg=float(toolface_deg),
                     reading_mps2=tuple(samples.mean(axis=0).tolist()),
-                    std_deg=stillness.white_noise_deg, samples=int(samples.shape[0]),
+                    std_deg=stillness.white_noise_deg, noise_deg=stillness.noise_deg,
+                    samples=int(samples.shape[0]),
                     azimuth_deg=float(azimuth_deg), field_nT=field, field_std_deg=field_std_deg,
                     temperature_c=temperature_c, field_temperature_c=field_temperature_c)
 
 
 def solve_positions(positions, gravity_mps2, max_rms_deg, reference=None,
-                    max_field_rms_deg=None, max_temperature_difference_c=None):
+                    max_field_rms_deg=None, max_temperature_difference_c=None,
+                    attitude_sigma_deg=0.0):
     """
     Return (Stand, FieldStandFit or None, note, repeats) of ``positions``; StandFitRefused.
 
@@ -123,13 +127,18 @@ def solve_positions(positions, gravity_mps2, max_rms_deg, reference=None,
     magnetometer is fitted too (``magnetometer.fit_field_stand``, refused
     beyond ``max_field_rms_deg``; positions at two or more temperature
     plateaus give K_m(T), b_m(T) as they give K(T), b(T)); the note says why
-    it was not otherwise.
+    it was not otherwise.  ``attitude_sigma_deg`` > 0: the attitudes are
+    known only to that (``stand.fit_stand``), each position's mean of the
+    noise it was captured with (``stand_fit.mean_noise_mps2``).
     """
     readings = np.array([p.reading_mps2 for p in positions]).reshape(-1, 3)
     attitudes = np.array([(p.inclination_deg, p.toolface_deg, p.azimuth_deg)
                           for p in positions]).reshape(-1, 3)
+    noise_mps2 = mean_noise_mps2([p.noise_deg for p in positions],
+                                 [p.samples for p in positions], gravity_mps2)
     solution = solve_stand(readings, attitudes, gravity_mps2, max_rms_deg,
-                           [p.temperature_c for p in positions], max_temperature_difference_c)
+                           [p.temperature_c for p in positions], max_temperature_difference_c,
+                           attitude_sigma_deg=attitude_sigma_deg, mean_noise_mps2=noise_mps2)
     if solution.refusal:
         raise StandFitRefused(solution.refusal)
     stand = solution.stage

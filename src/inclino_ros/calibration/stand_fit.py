@@ -109,6 +109,10 @@ def position_noise_deg(readings, times_s, position, count, limits, what=''):
     """
     Return each position's per-sample noise [deg] (NaN: too few samples to test).
 
+    ``Stillness.noise_deg`` (within blocks), what a node's captured position
+    keeps too (``stand_capture.Position.noise_deg``): both weigh a mean alike
+    (``mean_noise_mps2``).
+
     CaptureRefused at the first position that moved or misses the precision
     of ``limits`` (``still_capture.require_still_vectors``); ``what`` names
     the triad in the reason.
@@ -120,7 +124,8 @@ def position_noise_deg(readings, times_s, position, count, limits, what=''):
             continue
         try:
             noise_deg[number] = require_still_vectors(
-                readings[mine], None if times_s is None else times_s[mine], limits).noise_deg
+                readings[mine], None if times_s is None else times_s[mine],
+                limits).noise_deg
         except CaptureRefused as err:
             raise CaptureRefused(f'position {number + 1}{what}: {err}') from None
     return noise_deg
@@ -168,9 +173,24 @@ def stand_stage(result, method, rms_inclination_deg, positions, temperature_c):
                                                               .tolist()))))
 
 
+def mean_noise_mps2(noise_deg, samples, gravity_mps2):
+    """
+    Return the 1 sigma [m/s^2] of each position's mean reading, per axis.
+
+    ``noise_deg`` (P,): each position's per-sample noise
+    (``Stillness.noise_deg``, NaN: unknown), ``samples`` (P,) its
+    count: ``g noise / sqrt(samples)``, the ``mean_noise_mps2`` that
+    ``stand.fit_stand`` weighs the positions by; one rule for the node's
+    captured positions and the command's.
+    """
+    return (gravity_mps2 * np.radians(np.asarray(noise_deg, dtype=float))
+            / np.sqrt(np.asarray(samples, dtype=float)))
+
+
 def solve_stand(readings, attitudes_deg, gravity_mps2, max_rms_deg, temperatures_c=None,
                 max_temperature_difference_c=None,
-                names=('stand.max_rms_deg', 'temperature.max_stage_difference_c'),
+                names=('stand.max_rms_deg', 'temperature.max_stage_difference_c',
+                       'stand.attitude_sigma_deg'),
                 attitude_sigma_deg=0.0, mean_noise_mps2=None):
     """
     Return the StandSolution of stand positions (seed 001 Eq. 10 with a bias).
@@ -186,16 +206,23 @@ def solve_stand(readings, attitudes_deg, gravity_mps2, max_rms_deg, temperatures
     fit whose inclination residual RMS over its own positions exceeds
     ``max_rms_deg`` (a position mislabelled, the tool moved or not seated the
     same way) comes back with its ``refusal``.  ``names``: how the reasons
-    name the two limits.  ``attitude_sigma_deg``, ``mean_noise_mps2``: the
-    positions' attitudes known only to that, the noise of each mean
-    (``stand.fit_stand``: a tool set on its faces by hand).
+    name the two limits and the attitude sigma.  ``attitude_sigma_deg``,
+    ``mean_noise_mps2``: the positions' attitudes known only to that, the
+    noise of each mean (``stand.fit_stand``: a tool set on its faces by
+    hand); refused (StandFitRefused) with positions at two or more
+    temperature plateaus, whose K(T) fit weighs every position alike.
     """
-    rms_name, temperature_name = names
+    rms_name, temperature_name, sigma_name = names
     readings = np.asarray(readings, dtype=float).reshape(-1, 3)
     attitudes = np.asarray(attitudes_deg, dtype=float).reshape(-1, 3)[:, :2]
     truth = np.reshape(stand_specific_force(attitudes[:, 0], attitudes[:, 1], gravity_mps2),
                        (-1, 3))
     plateaus = temperature_plateaus(readings, truth, temperatures_c)
+    if plateaus is not None and attitude_sigma_deg > 0.0:
+        raise StandFitRefused(
+            f'{sigma_name} {attitude_sigma_deg:g} deg with positions at '
+            f'{len(plateaus.plateaus_c)} temperature plateaus: the K(T), b(T) fit weighs '
+            f'every position alike; set {sigma_name} to 0, or fit one plateau at a time')
     if plateaus is not None:
         fit = plateau_stand_fit(plateaus, readings, truth, temperatures_c)
     else:
@@ -215,7 +242,8 @@ def solve_stand(readings, attitudes_deg, gravity_mps2, max_rms_deg, temperatures
                         stood_for_c(temperatures_c))
     if plateaus is not None:
         stage = replace(
-            stage, temperature_c=plateaus.centre_c, parameter_covariance=None,
+            stage, temperature_c=plateaus.centre_c,
+            parameter_covariance=tuple(map(tuple, plateaus.parameter_covariance.tolist())),
             scale_coefficients=tuple(tuple(map(tuple, term))
                                      for term in plateaus.scale_coefficients.tolist()),
             bias_coefficients_mps2=tuple(map(tuple, plateaus.bias_coefficients.tolist())),
@@ -243,10 +271,10 @@ def solve_sample_positions(readings, attitude_deg, times_s, stood_c, still, grav
     temperatures_c = (None if stood_c is None else
                       np.bincount(position, weights=stood_c) / counts)
     noise_deg = position_noise_deg(readings, times_s, position, len(means), still)
-    mean_noise_mps2 = gravity_mps2 * np.radians(noise_deg) / np.sqrt(counts)
     return (solve_stand(means, attitudes, gravity_mps2, max_rms_deg, temperatures_c,
                         max_temperature_difference_c, names, attitude_sigma_deg,
-                        mean_noise_mps2), attitudes, counts, noise_deg)
+                        mean_noise_mps2(noise_deg, counts, gravity_mps2)),
+            attitudes, counts, noise_deg)
 
 
 def temperature_plateaus(readings, truth, temperatures_c):

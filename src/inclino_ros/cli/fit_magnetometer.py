@@ -59,9 +59,9 @@ from inclino_ros.calibration.magnetometer import calibrate_from_shots, NONLINEAR
 from inclino_ros.calibration.plausibility import check_field_unit, Implausible
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
-    add_file_arguments, is_bag, load_existing, MAG_PAIRING_TOLERANCE_NT, NODE_DEFAULTS,
+    add_file_arguments, add_gravity_option, is_bag, load_existing, MAG_PAIRING_TOLERANCE_NT,
     node_option, Refused, report_paths, run_fit, save, source_of, TEMPERATURE_TOPIC, write_text)
-from inclino_ros.cli.options import between, node_parameter, positive
+from inclino_ros.cli.options import between, positive
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core import magnetics
 from inclino_ros.core.shots import ShotFitRefused, ShotLimits
@@ -84,9 +84,7 @@ def register(subparsers):
              '(no stand, no reference)', description=__doc__.split('\n\n', 1)[1])
     add_file_arguments(parser, 'CSV file (ax, ay, az, bx, by, bz [, roll_group]; with time_s: '
                                'a log)')
-    parser.add_argument('--gravity-mps2', type=node_parameter('gravity_mps2'),
-                        default=NODE_DEFAULTS['gravity_mps2'],
-                        help='local gravity [m/s^2] (default: %(default)s)')
+    add_gravity_option(parser)
     parser.add_argument('--plot', action='store_true',
                         help='also draw the report as fit_magnetometer.png')
     parser.add_argument('--max-dip-rms-deg', type=between(1e-6, 90.0),
@@ -125,10 +123,8 @@ def register(subparsers):
     bag.add_argument('--min-still-s', type=positive, default=SegmentLimits.min_s,
                      help='shortest still segment taken as a shot, its first and last window '
                           'left out [s] (default: %(default)s)')
-    bag.add_argument('--max-pairing-s', type=node_parameter('magnetic.max_pairing_s'),
-                     default=0.05,
-                     help='largest time between an Imu sample and its magnetometer message '
-                          '[s] (default: %(default)s)')
+    node_option(bag, '--max-pairing-s', 'magnetic.max_pairing_s',
+                'largest time between an Imu sample and its magnetometer message [s]')
     add_reference_arguments(parser.add_argument_group(
         'reference field (optional: scales |B| and checks the dip found)'))
     parser.set_defaults(func=run)

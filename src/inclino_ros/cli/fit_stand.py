@@ -25,11 +25,10 @@ from inclino_ros.calibration.stand_fit import (
 from inclino_ros.calibration.still_capture import CaptureRefused
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
-    add_common_arguments, add_still_options, axes_maps, load_existing, MAG_PAIRING_TOLERANCE_NT,
-    NODE_DEFAULTS, node_option, Refused, report_paths, run_fit, save, source_of, tool_axes,
-    write_text)
+    add_common_arguments, add_gravity_option, add_still_options, axes_maps, load_existing,
+    MAG_PAIRING_TOLERANCE_NT, node_option, Refused, report_paths, run_fit, save, source_of,
+    tool_axes, write_text)
 from inclino_ros.cli.helptext import add_command
-from inclino_ros.cli.options import between, node_parameter
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core.stand import StandFitRefused
 from inclino_ros.report.common import Fitted
@@ -74,16 +73,8 @@ def register(subparsers):
     parser.add_argument('--method', choices=('stand', 'sphere'), default='stand',
                         help='stand: known attitudes; sphere: |G| = g only (default: '
                              '%(default)s)')
-    parser.add_argument('--max-rms-deg', type=between(1e-6, 90.0), default=0.05,
-                        help='largest RMS inclination residual accepted [deg] (default: '
-                             '%(default)s)')
-    parser.add_argument('--attitude-sigma-deg', type=between(0.0, 10.0), default=0.0,
-                        help="the positions' attitudes are known only to this [deg, 1 sigma "
-                             'per tilt axis]: a tool set on its faces by hand, not a stand. Each '
-                             "position's reading across gravity, which a tilt moves, is weighed "
-                             "by it and the mean's noise; along gravity a tilt moves it only to "
-                             'second order (default: %(default)s, a stand that sets its '
-                             'attitudes)')
+    node_option(parser, '--max-rms-deg', 'stand.max_rms_deg')
+    node_option(parser, '--attitude-sigma-deg', 'stand.attitude_sigma_deg')
     add_still_options(parser, 'stand.max_sem_deg', 'direction of one position', 'a position')
     node_option(parser, '--max-temperature-difference-c', 'temperature.max_stage_difference_c',
                 'without a temperature stage, positions further apart in temperature [deg C] '
@@ -91,16 +82,11 @@ def register(subparsers):
     parser.add_argument('--attitude-topic', default=ATTITUDE_TOPIC,
                         help='Vector3Stamped stand attitude topic of a bag (default: '
                              '%(default)s)')
-    parser.add_argument('--gravity-mps2', type=node_parameter('gravity_mps2'),
-                        default=NODE_DEFAULTS['gravity_mps2'],
-                        help='local gravity [m/s^2] (default: %(default)s)')
+    add_gravity_option(parser)
     magnetic = parser.add_argument_group('magnetometer (seed 001 Eq. 12)')
     magnetic.add_argument('--mag-topic', default='/imu/mag',
                           help='sensor_msgs/MagneticField topic of a bag (default: %(default)s)')
-    magnetic.add_argument('--max-field-rms-deg', type=node_parameter('stand.max_field_rms_deg'),
-                          default=NODE_DEFAULTS['stand.max_field_rms_deg'],
-                          help='largest RMS angle between the corrected and the expected field '
-                               '[deg] (default: %(default)s)')
+    node_option(magnetic, '--max-field-rms-deg', 'stand.max_field_rms_deg')
     add_reference_arguments(magnetic)
     parser.set_defaults(func=run)
 
@@ -205,7 +191,8 @@ def fit_positions(args, readings, attitude_deg, times_s, stood_c, lines):
         solution, attitudes, counts, spread_deg = solve_sample_positions(
             readings, attitude_deg, times_s, stood_c, still_limits(args), args.gravity_mps2,
             args.max_rms_deg, args.max_temperature_difference_c,
-            ('--max-rms-deg', '--max-temperature-difference-c'), args.attitude_sigma_deg)
+            ('--max-rms-deg', '--max-temperature-difference-c', '--attitude-sigma-deg'),
+            args.attitude_sigma_deg)
     except (CaptureRefused, StandFitRefused) as err:
         raise Refused(str(err)) from None
     report, rows, draw = position_report(solution, attitudes, counts, spread_deg,

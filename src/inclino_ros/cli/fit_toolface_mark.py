@@ -27,7 +27,7 @@ from inclino_ros.calibration.toolface_mark import (
     CaptureRefused, MarkLimits, solve_toolface_mark)
 from inclino_ros.cli.fitting import (
     add_capture_checks, add_common_arguments, add_still_options, add_window_arguments, axes_maps,
-    load_existing, NODE_DEFAULTS, Refused, report_paths, run_fit, save, source_of, tool_axes,
+    load_existing, node_option, Refused, report_paths, run_fit, save, source_of, tool_axes,
     write_text)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.report.common import Fitted
@@ -57,9 +57,8 @@ def register(subparsers):
     add_window_arguments(parser)
     add_still_options(parser, 'level_capture.max_sem_deg', 'tilts', 'a capture')
     add_capture_checks(parser, 'stand and level-bench stages')
-    parser.add_argument('--toolface-convention', choices=('seed000', 'iscwsa_highside'),
-                        default=NODE_DEFAULTS['toolface_convention'],
-                        help='the toolface whose zero the mark is (default: %(default)s)')
+    node_option(parser, '--toolface-convention', 'toolface_convention',
+                'the toolface whose zero the mark is')
     parser.set_defaults(func=run)
 
 

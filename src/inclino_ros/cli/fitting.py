@@ -108,10 +108,24 @@ def read_csv(path, required, optional=(), text=(), max_rows=tables.MAX_ROWS):
         raise CommandError(str(err)) from None
 
 
-def node_option(parser, flag, parameter, help_text, **kwargs):
-    """Add the option ``flag`` of the type, range and default of the node's ``parameter``."""
-    parser.add_argument(flag, type=node_parameter(parameter), default=NODE_DEFAULTS[parameter],
-                        help=f'{help_text} (default: %(default)s, as {parameter})', **kwargs)
+def node_option(parser, flag, parameter, help_text=None, **kwargs):
+    """
+    Add the option ``flag`` of the type, range (or choices), default of the node's ``parameter``.
+
+    The one definition of an option that is a node parameter too
+    (``node.parameters.PARAMETERS``); ``help_text`` None: the parameter's own
+    description.  The action records ``node_parameter`` (the name), which
+    test_option_parity checks every option against.
+    """
+    (declared,) = (p for p in PARAMETERS if p.name == parameter)
+    kind = ({'choices': declared.choices} if declared.choices else
+            {'type': node_parameter(parameter)})
+    text = declared.description if help_text is None else help_text
+    action = parser.add_argument(flag, default=declared.default, **kind, **kwargs,
+                                 help=f"{text.replace('%', '%%')} (default: %(default)s, as "
+                                      f'{parameter})')
+    action.node_parameter = parameter
+    return action
 
 
 def add_bias_instability_arguments(parser, magnetic):
@@ -158,8 +172,12 @@ def add_capture_checks(parser, other_stages):
     node_option(parser, '--max-temperature-difference-c', 'temperature.max_stage_difference_c',
                 'without a temperature stage, a capture further in temperature [deg C] from '
                 f'the {other_stages} is refused')
-    parser.add_argument('--gravity-mps2', type=float, default=NODE_DEFAULTS['gravity_mps2'],
-                        help='local gravity [m/s^2] (default: %(default)s)')
+    add_gravity_option(parser)
+
+
+def add_gravity_option(parser):
+    """Add --gravity-mps2: the local gravity, the node's ``gravity_mps2``."""
+    node_option(parser, '--gravity-mps2', 'gravity_mps2', 'local gravity [m/s^2]')
 
 
 def add_sensor_argument(parser):

@@ -71,13 +71,13 @@ from inclino_ros.calibration.stations import (
     raw_survey_inputs, solve_interference, with_interference)
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
-    add_history_option, add_sensor_argument, begin_update, load_existing, read_csv, Refused, save,
-    write_certificate)
+    add_history_option, add_sensor_argument, begin_update, load_existing, node_option, read_csv,
+    Refused, save, write_certificate)
 from inclino_ros.cli.helptext import add_command
-from inclino_ros.cli.options import add_force_argument, between, non_negative, report_path
+from inclino_ros.cli.options import add_force_argument, between, report_path
 from inclino_ros.cli.process import add_limit_arguments
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
-from inclino_ros.core.msa import MAX_INTERFERENCE_NT, MsaRefused, WMM_REFERENCE_STD
+from inclino_ros.core.msa import MAX_INTERFERENCE_NT, MsaRefused
 from inclino_ros.io import tables
 from inclino_ros.io.files import Outputs
 from inclino_ros.io.report import residual_lines
@@ -130,13 +130,10 @@ def register(subparsers):
     parser.add_argument('--cross-axial-nT', nargs=2, metavar=('EX', 'EY'),
                         type=between(-MAX_INTERFERENCE_NT, MAX_INTERFERENCE_NT),
                         help='improved: known cross-axial interference [nT] (rotation fit)')
-    parser.add_argument('--reference-total-std-nT', type=non_negative,
-                        default=WMM_REFERENCE_STD[0],
-                        help='1 sigma of the reference total field [nT] (default: WMM 2025, '
-                             '%(default)s; an IFR model ~half)')
-    parser.add_argument('--reference-dip-std-deg', type=non_negative, default=WMM_REFERENCE_STD[1],
-                        help='1 sigma of the reference dip [deg] (default: WMM 2025, '
-                             '%(default)s)')
+    node_option(parser, '--reference-total-std-nT', 'magnetic.reference_total_std_nT',
+                '1 sigma of the reference total field [nT] (WMM 2025: 138; an IFR model ~half)')
+    node_option(parser, '--reference-dip-std-deg', 'magnetic.reference_dip_std_deg',
+                '1 sigma of the reference dip [deg] (WMM 2025: 0.20)')
     add_limit_arguments(parser)
     parser.add_argument('--exclude-failing', action='store_true',
                         help='leave stations failing QC out of the solve (named) instead of '

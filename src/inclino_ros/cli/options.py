@@ -75,13 +75,14 @@ def node_parameter(name):
             raise argparse.ArgumentTypeError(reason)
         return value
     parse.__name__ = in_range.__name__
+    parse.parameter = name   # test_option_parity: the range is the node's
     return parse
 
 
 #: A reference field total [nT]: an Earth field.
 reference_total_nT = between(*EARTH_FIELD_NT, why=' nT (an Earth field)')
-#: A dip [deg].
-dip_deg = between(-89.999, 89.999)
+#: A reference dip [deg]: the node's range.
+dip_deg = node_parameter('magnetic.reference_dip_deg')
 #: An inclination [deg].
 inclination_deg = between(0.0, 180.0)
 

@@ -68,12 +68,12 @@ from inclino_ros.calibration.model import (
     CalibrationFileError, missing_temperature, MissingTemperature)
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
-    add_bias_instability_arguments, add_sensor_argument, load_calibration, NODE_DEFAULTS,
+    add_bias_instability_arguments, add_gravity_option, add_sensor_argument, load_calibration,
     node_option, warn_outside_range)
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.mounting import add_axes_map_arguments, settings_maps
 from inclino_ros.cli.options import (
-    add_force_argument, add_reference_temperature_argument, between, node_parameter)
+    add_force_argument, add_reference_temperature_argument, between)
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core.averaging import Averager
 from inclino_ros.io.bag import BagWriter, CHUNK_SIZE, STORAGES
@@ -121,18 +121,13 @@ def register(subparsers):
                         help='storage format of OUT (default: %(default)s)')
     add_force_argument(parser)
     add_reference_temperature_argument(parser)
-    parser.add_argument('--toolface-convention', choices=('seed000', 'iscwsa_highside'),
-                        default=NODE_DEFAULTS['toolface_convention'],
-                        help='gravity toolface definition (default: %(default)s)')
+    node_option(parser, '--toolface-convention', 'toolface_convention',
+                'gravity toolface definition')
     parser.add_argument('--axes', type=int, choices=(2, 3),
                         help='accelerometer axes (default: those of the calibration file)')
-    parser.add_argument('--gravity-mps2', type=node_parameter('gravity_mps2'),
-                        default=NODE_DEFAULTS['gravity_mps2'],
-                        help='local gravity [m/s^2] (default: %(default)s)')
-    parser.add_argument('--range-mps2', type=node_parameter('accelerometer_range_mps2'),
-                        default=NODE_DEFAULTS['accelerometer_range_mps2'],
-                        help='sensor full scale [m/s^2]; samples at or beyond are dropped '
-                             '(default: %(default)s)')
+    add_gravity_option(parser)
+    node_option(parser, '--range-mps2', 'accelerometer_range_mps2',
+                'sensor full scale [m/s^2]; samples at or beyond are dropped')
     node_option(parser, '--noise-mps2', 'accelerometer_noise_std_mps2',
                 'accelerometer noise per sample, 1 sigma [m/s^2]: the 1 sigma of the angles and '
                 'the /imu/data covariances', dest='noise_std_mps2', metavar='NOISE_MPS2')
@@ -157,10 +152,9 @@ def register(subparsers):
     magnetic.add_argument('--mag-topic', metavar='TOPIC',
                           help='sensor_msgs/MagneticField topic of IN (tesla, tool frame): '
                                'adds the azimuth on /survey z (default: none, z NaN)')
-    magnetic.add_argument('--max-pairing-s', type=node_parameter('magnetic.max_pairing_s'),
-                          default=NODE_DEFAULTS['magnetic.max_pairing_s'], metavar='S',
-                          help='largest time between an Imu sample and its magnetometer '
-                               'message [s]; beyond it the azimuth is NaN (default: %(default)s)')
+    node_option(magnetic, '--max-pairing-s', 'magnetic.max_pairing_s',
+                'largest time between an Imu sample and its magnetometer message [s]; beyond it '
+                'the azimuth is NaN', metavar='S')
     node_option(magnetic, '--mag-noise-nT', 'magnetometer_noise_std_nT',
                 'magnetometer noise per sample, 1 sigma [nT]')
     add_bias_instability_arguments(parser, magnetic)

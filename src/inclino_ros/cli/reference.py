@@ -12,7 +12,7 @@ so does ``--site`` without the optional pygeomag.
 
 import datetime
 
-from inclino_ros.cli.options import between, dip_deg, reference_total_nT
+from inclino_ros.cli.options import dip_deg, node_parameter, reference_total_nT
 from inclino_ros.core.reference_field import reference_from_model, REQUIREMENT
 
 
@@ -22,7 +22,8 @@ def add_reference_arguments(parser):
                         help='reference total field [nT] (e.g. WMM/IFR at the well)')
     parser.add_argument('--reference-dip-deg', type=dip_deg, metavar='D',
                         help='reference dip [deg], positive downward')
-    parser.add_argument('--declination-deg', type=between(-180.0, 180.0), metavar='X',
+    parser.add_argument('--declination-deg', type=node_parameter('magnetic.declination_deg'),
+                        metavar='X',
                         help='declination [deg], east positive: true azimuth = magnetic + X')
     parser.add_argument('--site', nargs=4, metavar=('LAT', 'LON', 'ALT_M', 'DATE'),
                         help='take F, D and the declination from the World Magnetic Model at '

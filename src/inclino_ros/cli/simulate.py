@@ -54,7 +54,8 @@ when all are complete, and refused when they exist unless ``--force``.
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.helptext import add_command
 from inclino_ros.cli.mounting import add_axes_map_arguments, settings_maps
-from inclino_ros.cli.options import add_force_argument, between, finite, reference_total_nT
+from inclino_ros.cli.options import (
+    add_force_argument, between, dip_deg, finite, reference_total_nT)
 from inclino_ros.core.msa import MAX_INTERFERENCE_NT
 from inclino_ros.io.files import Outputs
 from inclino_ros.pipeline import Settings
@@ -177,7 +178,7 @@ def add_magnetic_arguments(parser):
     group.add_argument('--reference-total-nT', type=reference_total_nT,
                        default=well.reference_total_nT,
                        metavar='F', help='reference total field [nT] (default: %(default)s)')
-    group.add_argument('--reference-dip-deg', type=between(-89.999, 89.999),
+    group.add_argument('--reference-dip-deg', type=dip_deg,
                        default=well.reference_dip_deg,
                        metavar='D', help='reference dip [deg] (default: %(default)s)')
     group.add_argument('--azimuth-deg', type=finite, nargs=2, default=well.azimuth_deg,

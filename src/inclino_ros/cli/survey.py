@@ -45,10 +45,10 @@ from inclino_ros.calibration.inputs import survey_input, survey_temperatures
 from inclino_ros.calibration.model import CalibrationModel
 from inclino_ros.cli.errors import CommandError
 from inclino_ros.cli.fitting import (
-    add_bias_instability_arguments, load_calibration, NODE_DEFAULTS, node_option,
-    warn_outside_range)
+    add_bias_instability_arguments, add_gravity_option, load_calibration, NODE_DEFAULTS,
+    node_option, warn_outside_range)
 from inclino_ros.cli.options import (
-    add_force_argument, add_reference_temperature_argument, node_parameter)
+    add_force_argument, add_reference_temperature_argument)
 from inclino_ros.cli.process import add_limit_arguments, refuse_missing_temperature
 from inclino_ros.cli.reference import add_reference_arguments, resolve_reference
 from inclino_ros.core.magnetics import QcLimits
@@ -69,12 +69,9 @@ def register(subparsers):
     parser.add_argument('-o', '--output', required=True, metavar='OUT', help='CSV file to write')
     parser.add_argument('--calibration', metavar='FILE',
                         help='calibration file to apply (default: none, the raw angles)')
-    parser.add_argument('--toolface-convention', choices=('seed000', 'iscwsa_highside'),
-                        default=NODE_DEFAULTS['toolface_convention'],
-                        help='gravity toolface definition (default: %(default)s)')
-    parser.add_argument('--gravity-mps2', type=node_parameter('gravity_mps2'),
-                        default=NODE_DEFAULTS['gravity_mps2'],
-                        help='local gravity [m/s^2] (default: %(default)s)')
+    node_option(parser, '--toolface-convention', 'toolface_convention',
+                'gravity toolface definition')
+    add_gravity_option(parser)
     node_option(parser, '--noise-mps2', 'accelerometer_noise_std_mps2',
                 'accelerometer noise per sample, 1 sigma [m/s^2]: the 1 sigma of the angles',
                 dest='noise_std_mps2', metavar='NOISE_MPS2')

@@ -265,15 +265,22 @@ def _weighted_coefficients(design, readings, weights):
     ``weights`` (N, 3, 3), its inverse covariance; the parameters ordered
     axis by axis (``C[:, 0], C[:, 1], C[:, 2]``), their covariance ``N^-1``
     times the reduced chi-square (as the unweighted fit scales by its pooled
-    residual).
+    residual).  Solved whitened (``W = L L^T``: least squares of ``L^T J`` by
+    QR, ``N^-1 = R^-1 R^-T``), not by the normal equations: a mean's noise
+    along gravity and a face's tilt across it weigh ~1e8 apart, whose normal
+    matrix would square that condition (K off by 1e-8 from rounding alone).
     """
-    jacobian = np.einsum('ab,nj->nabj', np.eye(3), design).reshape(design.shape[0], 3, 12)
-    normal = np.einsum('nai,nab,nbj->ij', jacobian, weights, jacobian)
-    theta = np.linalg.solve(normal, np.einsum('nai,nab,nb->i', jacobian, weights, readings))
-    residual = readings - np.einsum('nai,i->na', jacobian, theta)
-    chi_square = float(np.einsum('na,nab,nb->', residual, weights, residual))
-    freedom = max(3 * design.shape[0] - 12, 1)
-    return theta.reshape(3, 4).T, np.linalg.inv(normal) * chi_square / freedom
+    count = design.shape[0]
+    jacobian = np.einsum('ab,nj->nabj', np.eye(3), design).reshape(count, 3, 12)
+    root = np.linalg.cholesky(weights)
+    whitened = np.einsum('nba,nbj->naj', root, jacobian).reshape(3 * count, 12)
+    target = np.einsum('nba,nb->na', root, readings).reshape(3 * count)
+    theta = np.linalg.lstsq(whitened, target, rcond=None)[0]
+    residual = target - whitened @ theta
+    freedom = max(3 * count - 12, 1)
+    spread = np.linalg.inv(np.linalg.qr(whitened, mode='r'))
+    covariance = spread @ spread.T * float(residual @ residual) / freedom
+    return theta.reshape(3, 4).T, covariance
 
 
 def _fit_stand(readings, truth, g_scale, weights=None):
@@ -551,6 +558,9 @@ class TemperatureStandFit:
     bias_coefficients: np.ndarray    # (order + 1, 3)
     element_sigma: np.ndarray        # (P, 12) 1 sigma of K and b of each plateau fit
     chi_square: tuple                # per order tried: (order, chi-square, degrees of freedom)
+    # (12 (order + 1), 12 (order + 1)) of the coefficients, power by power: K row-major (9)
+    # then b (3) of (T - centre_c)^0, then of ^1, ... (``coefficient_covariance``)
+    parameter_covariance: np.ndarray = None
 
     @property
     def range_c(self):
@@ -563,6 +573,17 @@ class TemperatureStandFit:
                                 np.arange(self.order + 1))
         return (np.tensordot(powers, self.scale_coefficients, axes=1),
                 np.tensordot(powers, self.bias_coefficients, axes=1))
+
+    def sigma_at(self, temperature_c):
+        """
+        Return the 1 sigma of K(T), b(T)'s 12 elements (K row-major, b) at ``temperature_c``.
+
+        The coefficients' ``parameter_covariance`` through the powers of
+        ``T - centre_c``: ``sqrt(diag(P C P^T))``, ``P = powers kron I_12``.
+        """
+        powers = np.power.outer(float(temperature_c) - self.centre_c, np.arange(self.order + 1))
+        change = np.kron(powers[None, :], np.eye(12))
+        return np.sqrt(np.diag(change @ self.parameter_covariance @ change.T))
 
     def apply(self, readings, temperature_c):
         """Return ``K(T)^-1 (A - b(T))`` of readings (N, 3) at their temperatures (N,)."""
@@ -582,7 +603,7 @@ def plateau_numbers(temperatures_c, gap_c=PLATEAU_GAP_C):
 
 
 def fit_stand_plateaus(readings, truth, temperatures_c, gap_c=PLATEAU_GAP_C,
-                       significance=1e-3):
+                       significance=0.05):
     """
     Return the TemperatureStandFit of stand positions at two or more temperature plateaus.
 
@@ -590,15 +611,25 @@ def fit_stand_plateaus(readings, truth, temperatures_c, gap_c=PLATEAU_GAP_C,
     each position's temperature: positions closer than ``gap_c`` in
     temperature form one plateau, each fitted by ``fit_stand`` (its
     refusals, named with the plateau).  The 12 elements of K and b of each
-    plateau carry the least-squares 1 sigma ``s (X^T X)^-1/2`` of their fit
-    (s: its residual RMS per axis, at least 1e-9 of g so an exact fit does
-    not divide by zero).  Order k = 0, 1, ..., P - 1 of the polynomial in T
-    is tried in turn (weighted least squares over the plateaus); the first
-    whose chi-square stays below its ``1 - significance`` quantile is taken
-    (P - 1 interpolates and always passes).  Raises StandFitRefused for fewer
-    than two plateaus.
+    plateau carry the covariance of their fit with the residual noise pooled
+    over the plateaus (``pooled_covariances``: one sensor's noise, measured
+    with every plateau's degrees of freedom).  Order k = 0, 1, ..., P - 1 of
+    the polynomial in T is tried in turn (each element by weighted least
+    squares over the plateaus); the first whose residuals' generalised
+    chi-square per degree of freedom (``_lack_of_fit_ratio``, the elements'
+    correlation within a plateau fit kept) stays below the ``1 -
+    significance`` quantile of F(its freedom, the pooled noise's) is taken
+    (P - 1 interpolates and always passes).  0.05 rather than stricter: a
+    drift the test misses is in no 1 sigma but the Birge ratio's, while a
+    needless higher order costs only variance, which the covariance carries.
+    A per-element chi-square with
+    each plateau's own noise (5 degrees of freedom an axis of nine positions,
+    its mean square taken over 9) chose orders 0-4 about equally on a
+    temperature-independent sensor.  The coefficients carry their covariance
+    from the plateau fits' (``coefficient_covariance``).  Raises
+    StandFitRefused for fewer than two plateaus.
     """
-    from scipy.stats import chi2
+    from scipy.stats import f as fisher
 
     readings, truth = as_vectors(readings, 'readings'), as_vectors(truth, 'truth')
     plateau = plateau_numbers(temperatures_c, gap_c)
@@ -609,7 +640,7 @@ def fit_stand_plateaus(readings, truth, temperatures_c, gap_c=PLATEAU_GAP_C,
             f'the positions stand at one temperature plateau ({temperatures_c.min():.1f} .. '
             f'{temperatures_c.max():.1f} C): a temperature-dependent stand needs two or more '
             f'plateaus more than {gap_c:g} C apart')
-    fits, values, sigma, centres = [], [], [], []
+    fits, values, centres, covariances, squares = [], [], [], [], []
     for number in range(count):
         mine = plateau == number
         try:
@@ -617,38 +648,120 @@ def fit_stand_plateaus(readings, truth, temperatures_c, gap_c=PLATEAU_GAP_C,
         except StandFitRefused as err:
             raise StandFitRefused(f'plateau {number + 1} '
                                   f'({temperatures_c[mine].mean():.1f} C): {err.reason}') from None
-        g_scale = float(np.median(_norms(truth[mine])))
-        design = np.column_stack([truth[mine] / g_scale, np.ones(mine.sum())])
-        spread = np.sqrt(np.diag(np.linalg.inv(design.T @ design)))   # per unit residual
-        noise = np.maximum(np.sqrt(np.mean(fit.residual_mps2 ** 2, axis=0)), 1e-9 * g_scale)
-        # K row i = coefficients[:3, i] / g: its sigma noise_i * spread[:3] / g; b_i: spread[3].
-        sigma.append(np.concatenate([(noise[:, None] * spread[None, :3] / g_scale).ravel(),
-                                     noise * spread[3]]))
         values.append(np.concatenate([fit.scale_matrix.ravel(), fit.bias_mps2]))
+        covariances.append(scale_bias_covariance(fit))
+        squares.append((float(np.sum(fit.residual_mps2 ** 2)), 3 * (mine.sum() - 4)))
         fits.append(fit)
         centres.append(temperatures_c[mine].mean())
-    values, sigma, centres = np.array(values), np.array(sigma), np.array(centres)
+    values, centres = np.array(values), np.array(centres)
+    covariances = pooled_covariances(np.array(covariances), squares)
+    noise_freedom = max(sum(freedom for _, freedom in squares), 1)
+    # At least 1e-12 of the element's value, so that an exact fit does not divide by zero.
+    sigma = np.maximum(np.sqrt(np.diagonal(covariances, axis1=1, axis2=2)),
+                       1e-12 * np.abs(values).max(axis=0) + 1e-300)
     centre = float(centres.mean())
     tried = []
     for order in range(count):
         design = np.power.outer(centres - centre, np.arange(order + 1))
-        coefficients = np.empty((order + 1, 12))
-        chi_square = 0.0
+        estimator = np.empty((12, order + 1, count))   # coefficients = estimator @ values
         for element in range(12):
             weights = 1.0 / sigma[:, element]
-            solution = np.linalg.lstsq(design * weights[:, None], values[:, element] * weights,
-                                       rcond=None)[0]
-            coefficients[:, element] = solution
-            chi_square += float(np.sum(((design @ solution - values[:, element]) * weights)
-                                       ** 2))
+            estimator[element] = np.linalg.pinv(design * weights[:, None]) * weights[None, :]
+        coefficients = np.einsum('ekp,pe->ke', estimator, values)
         freedom = 12 * (count - order - 1)
-        tried.append((order, chi_square, freedom))
-        if freedom == 0 or chi_square <= chi2.ppf(1.0 - significance, freedom):
+        if freedom == 0:
+            tried.append((order, 0.0, 0))
+            break
+        ratio = _lack_of_fit_ratio(estimator, covariances, design, values)
+        tried.append((order, ratio * freedom, freedom))
+        if ratio <= fisher.ppf(1.0 - significance, freedom, noise_freedom):
             break
     return TemperatureStandFit(
         plateaus_c=centres, fits=tuple(fits), order=order, centre_c=centre,
         scale_coefficients=coefficients[:, :9].reshape(-1, 3, 3),
-        bias_coefficients=coefficients[:, 9:], element_sigma=sigma, chi_square=tuple(tried))
+        bias_coefficients=coefficients[:, 9:], element_sigma=sigma, chi_square=tuple(tried),
+        parameter_covariance=coefficient_covariance(estimator, covariances, design, values))
+
+
+def scale_bias_covariance(fit):
+    """
+    Return the (12, 12) covariance of (K row-major, b) of a StandFit.
+
+    Its ``parameter_covariance`` is of (K^-1, b); ``dK = -K dK^-1 K``
+    (row-major: ``-K kron K^T``) turns it back.
+    """
+    turn = np.eye(12)
+    turn[:9, :9] = -np.kron(fit.scale_matrix, fit.scale_matrix.T)
+    return turn @ fit.parameter_covariance @ turn.T
+
+
+def pooled_covariances(covariances, squares):
+    """
+    Return each plateau fit's (12, 12) covariance with the noise pooled over the plateaus.
+
+    ``covariances`` (P, 12, 12) of (K row-major, b), each scaled by its own
+    residual mean square; ``squares`` (P, 2): each plateau fit's sum of
+    squared residuals and degrees of freedom.  Every C_p takes their pooled
+    mean square for its own (the plateaus measure one sensor's noise, as one
+    stand fit pools its axes: nine positions leave a plateau 15 degrees of
+    freedom, whose Student t puts 0.936 within 2 sigma, three pool 45: 0.949).
+    """
+    squares = np.array(squares, dtype=float)
+    own = squares[:, 0] / np.maximum(squares[:, 1], 1.0)
+    pooled = squares[:, 0].sum() / max(squares[:, 1].sum(), 1.0)
+    return covariances * np.where(own > 0, pooled / np.where(own > 0, own, 1.0),
+                                  0.0)[:, None, None]
+
+
+def coefficient_covariance(estimator, covariances, design=None, values=None):
+    """
+    Return the (12 (n + 1), 12 (n + 1)) covariance of K(T), b(T)'s coefficients, power by power.
+
+    The coefficients of element e are ``estimator[e] @ v_e`` (``estimator``
+    (12, n + 1, P): the weighted least squares over the plateaus), v_e that
+    element of the P plateau fits, independent fits of covariances
+    ``covariances`` (P, 12, 12) of (K row-major, b) each (``pooled_covariances``):
+    so ``cov(c_ke, c_lf) = sum_p E_e[k, p] C_p[e, f] E_f[l, p]`` (the sandwich
+    of the estimator used: the elements' correlation within a plateau fit
+    kept, which the per-element weights leave out).
+
+    A polynomial of lower order than the plateaus allow (``design`` (P, n + 1)
+    of the plateaus' powers, n + 1 < P) leaves residuals against the plateau
+    fits' ``values`` (P, 12): their chi-square under their own covariance
+    (generalised: the residuals' covariance ``(I - H) V (I - H)^T``, of rank
+    12 (P - n - 1)) per degree of freedom, when above 1, scales the
+    covariance (a Birge ratio): a drift the order left out, unseen under the
+    test's significance, still shows in it.
+    """
+    terms, count = estimator.shape[1:]
+    joint = np.einsum('ekp,pef,flp->kelf', estimator, covariances, estimator)
+    joint = joint.reshape(12 * terms, 12 * terms)
+    if design is not None and terms < count:
+        joint = joint * max(1.0, _lack_of_fit_ratio(estimator, covariances, design, values))
+    return 0.5 * (joint + joint.T)
+
+
+def _lack_of_fit_ratio(estimator, covariances, design, values):
+    """Return the chi-square per degree of freedom of the plateaus' polynomial residuals."""
+    terms, count = estimator.shape[1:]
+    # Every element and plateau at once: v (P 12,), theta = E v (terms 12,), fitted X theta.
+    element = np.arange(12)
+    whole = np.zeros((terms, 12, count, 12))
+    whole[:, element, :, element] = estimator
+    whole = whole.reshape(12 * terms, 12 * count)
+    powers = np.kron(design, np.eye(12))                     # (P 12, terms 12)
+    residual_map = np.eye(12 * count) - powers @ whole
+    stacked = np.zeros((count, 12, count, 12))
+    stacked[np.arange(count), :, np.arange(count), :] = covariances
+    spread = residual_map @ stacked.reshape(12 * count, 12 * count) @ residual_map.T
+    residual = residual_map @ np.asarray(values, dtype=float).reshape(-1)
+    # Each element in its own 1 sigma (K's and a bias in nT lie 1e5 apart), so that the
+    # pseudo-inverse cuts the residuals' null space only.
+    unit = np.sqrt(np.diag(spread))
+    unit = np.where(unit > 0.0, unit, 1.0)
+    scaled = residual / unit
+    inverse = np.linalg.pinv(spread / np.outer(unit, unit), rcond=1e-9, hermitian=True)
+    return float(scaled @ inverse @ scaled / (12 * (count - terms)))
 
 
 def plateau_stand_fit(plateaus, readings, truth, temperatures_c):

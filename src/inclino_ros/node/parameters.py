@@ -170,12 +170,19 @@ PARAMETERS = (
               'Largest standard error [deg] of the mean direction of a stand position.',
               1e-5, 10.0, read_only=False),
     Parameter('stand.max_rms_deg', 0.05,
-              'Largest inclination residual RMS [deg] of a stand fit over its own positions: '
-              'beyond it ~/solve_stand_calibration refuses.', 1e-4, 10.0, read_only=False),
+              'Largest inclination residual RMS [deg] of a stand fit over its own positions '
+              '(of a sphere fit: its RMS |G| - g as an angle): beyond it the fit is refused.',
+              1e-4, 10.0, read_only=False),
+    Parameter('stand.attitude_sigma_deg', 0.0,
+              "The positions' attitudes are known only to this [deg, 1 sigma per tilt axis]: a "
+              'tool set on its faces by hand, not a stand. Each reading across gravity, which a '
+              "tilt moves, is weighed by it and its mean's noise; along gravity a tilt moves it "
+              'only to second order (generalised least squares). 0: a stand that sets its '
+              'attitudes (unweighted). Not with positions at two or more temperature plateaus '
+              '(refused).', 0.0, 10.0, read_only=False),
     Parameter('stand.max_field_rms_deg', 0.1,
               'Largest RMS angle [deg] between the corrected and the expected field over the '
-              'stand positions: beyond it ~/solve_stand_calibration refuses.', 1e-4, 10.0,
-              read_only=False),
+              'stand positions: beyond it the fit is refused.', 1e-4, 10.0, read_only=False),
     Parameter('stations_file', '~/.ros/inclino_ros/stations.json',
               'Survey stations of ~/take_survey for ~/solve_msa: loaded at start (a corrupt '
               'file stops the node), written atomically.'),
@@ -184,7 +191,9 @@ PARAMETERS = (
               '70000); 0: unknown, azimuth QC off and ~/solve_msa refused.', 0.0, 100000.0,
               read_only=False),
     Parameter('magnetic.reference_dip_deg', 0.0,
-              'Reference dip [deg], positive down.', -90.0, 90.0, read_only=False),
+              'Reference dip [deg], positive down; short of +-90 (a vertical field has no '
+              'horizontal part to point an azimuth or fit an MSA to).', -89.999, 89.999,
+              read_only=False),
     Parameter('magnetic.reference_total_std_nT', 138.0,
               '1 sigma of the reference total field itself [nT] (WMM 2025: 138; an IFR model '
               'about half): enters the 1 sigma of the MSA interference and of every azimuth.',

@@ -186,7 +186,8 @@ class CalibrationServices:
             stand, field, note, repeats = solve_positions(
                 self.positions, node.settings.gravity_mps2, node.param('stand.max_rms_deg'),
                 self.reference(), node.param('stand.max_field_rms_deg'),
-                node.param('temperature.max_stage_difference_c'))
+                node.param('temperature.max_stage_difference_c'),
+                node.param('stand.attitude_sigma_deg'))
             self.collector.commit(with_stand(node.model, stand, field))
         except (StandFitRefused, CaptureRefused) as err:
             return self.collector.refuse(response, str(err))

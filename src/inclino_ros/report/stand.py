@@ -91,7 +91,18 @@ def plateau_lines(plateaus, unit='m/s^2', residual=None):
         f'  plateau {t:6.2f} C: {fit.attitude.size} positions, {name} {value:.5f} deg, '
         f'1 sigma of K elements <= {sigma[:9].max():.2g}, of b <= {sigma[9:].max():.2g} {unit}'
         for t, fit, sigma, value in zip(plateaus.plateaus_c, plateaus.fits,
-                                        plateaus.element_sigma, values)]
+                                        plateaus.element_sigma, values)] + [
+        "  the fit's own 1 sigma of K(T), b(T) (in every 1 sigma of the angles) at "
+        + '; '.join(f'{t:.1f} C: K <= {sigma[:9].max():.2g}, b <= {sigma[9:].max():.2g} {unit}'
+                    for t, sigma in ((t, plateaus.sigma_at(t)) for t in _plateaus_and_between(
+                        plateaus.plateaus_c)))]
+
+
+def _plateaus_and_between(plateaus_c):
+    """Return the plateaus' temperatures and the midpoints between them, in order."""
+    plateaus_c = np.sort(np.asarray(plateaus_c, dtype=float))
+    return np.insert(plateaus_c, np.arange(1, plateaus_c.size),
+                     0.5 * (plateaus_c[1:] + plateaus_c[:-1]))
 
 
 def geometry_lines(result):
