@@ -11,9 +11,9 @@ from the 1 sigma at the configured noise, independent of that estimate's error. 
 the physical simulator (``sim.sensor_model``, each capture its own record).
 """
 
+import coverage_sim
 from inclino_ros.calibration.model import CalibrationModel
 from inclino_ros.pipeline import capture_mean, Settings
-from inclino_ros.sim import sensor_model as sm
 import numpy as np
 import pytest
 
@@ -28,16 +28,9 @@ def test_near_vertical_toolface_published_for_every_capture_covers(rho):
     some defined (the bench: ~300 of 1000 at rho 0.73 covering 0.65 / 0.90, 0-1 at 0.9).
     """
     draws, samples, inclination_deg = 1000, 1000, 0.1
-    noise = 2e-3 * sm.STANDARD_GRAVITY_MPS2
-    tool = sm.Tool(accelerometer=sm.Triad(noise_std=noise, noise_rho=rho),
-                   magnetometer=sm.Triad(noise_std=100.0))
-    rng = np.random.default_rng(31)
-    toolface_deg = rng.uniform(0.0, 360.0, draws)
-    readings = sm.read(tool, inclination_deg, np.repeat(toolface_deg, samples), rng=rng,
-                       records=draws)
-    accel = readings.accel_mps2.reshape(draws, samples, 3)
-    times_s = np.arange(samples) / 100.0
-    settings = Settings(noise_std_mps2=noise)
+    accel, toolface_deg, times_s = coverage_sim.correlated_captures(
+        rho, inclination_deg, draws, samples, 31)
+    settings = Settings(noise_std_mps2=coverage_sim.MEMS_NOISE_MPS2)
     model = CalibrationModel(3)
     surveys = [capture_mean(accel[k], times_s, model, settings) for k in range(draws)]
     value = np.array([s.toolface_deg[0] for s in surveys])
