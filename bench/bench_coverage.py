@@ -32,12 +32,14 @@ Calibration cells (issue 19 item 2, ``test/coverage_sim``): each draw calibrates
 simulated tool (fit-magnetometer's 24 one-reading shots; a 12-position stand of both
 triads; fit-stand of the accelerometer alone; both triads' stand at 28, 44, 60 deg C of a
 tool whose mount turns with the temperature, K(T), b(T), K_m(T), b_m(T); a 36-reading
-rotation), then surveys one station at a random attitude (the plateau stand's at a
-temperature uniform over 28..60 deg C); the coverage of the azimuth, inclination and
-toolface sigma with the fits' parameter covariance, and without (``former``: files before
-schema 7, schema 9 for fit-stand, every plateau stand before its covariance).
-``--calibration-draws`` of them per cell (binomial 1 sigma 0.023 / 0.010 at the default
-400); ``--calibration-only`` runs just these, ``--calibrations`` only the cells named.
+rotation; a sphere fit then a level bench read through it, its stations also near the
+bench's attitude, ``NEAR_LEVEL_DEG``), then surveys one station at a random attitude (the
+plateau stand's at a temperature uniform over 28..60 deg C); the coverage of the azimuth,
+inclination and toolface sigma with the fits' parameter covariance, and without
+(``former``: files before schema 7, schema 9 for fit-stand, every plateau stand before its
+covariance).  ``--calibration-draws`` of them per cell (binomial 1 sigma 0.023 / 0.010 at
+the default 400); ``--calibration-only`` runs just these, ``--calibrations`` only the cells
+named.
 
 Usage: .venv/bin/python bench/bench_coverage.py [--draws 1000] [--samples 1000] [--seed 1]
        [--calibration-draws 400] [--calibration-only] [--calibrations plateau-stand]
@@ -150,24 +152,32 @@ def _pair(figures):
     return '-' if math.isnan(one) else f'{one:.2f}/{two:.2f}'
 
 
+#: The stations' inclinations of the extra ``sphere + level`` cell: near the level bench.
+NEAR_LEVEL_DEG = (0.5, 3.0)
+
+
 def calibration_table(draws, seed, kinds=coverage_sim.CALIBRATIONS):
     """Return the markdown lines of the calibration cells ``kinds`` (module docstring)."""
     rng = np.random.default_rng(seed)
     lines = [f'Calibration cells: {draws} calibrations per cell, seed {seed}, each then one '
              f'{coverage_sim.STATION_SAMPLES}-sample station ('
-             f'{coverage_sim.FIT_STAND_STATION_SAMPLES} after fit-stand; inclination 10-80 deg, '
-             "azimuth N/E/W); former: without the fits' parameter covariance (schema < 7, "
-             '< 9 for fit-stand); -: not read.', '',
+             f'{coverage_sim.FIT_STAND_STATION_SAMPLES} after fit-stand and sphere + level; '
+             'inclination 10-80 deg but where the row says, azimuth N/E/W); former: without '
+             "the fits' parameter covariance (schema < 7, < 9 for fit-stand); -: not read.", '',
              '| calibration | tool | azimuth 1s/2s | inclination 1s/2s | toolface 1s/2s | '
              'in band | former azimuth 1s/2s | former inclination 1s/2s | '
              'former toolface 1s/2s |', '|---|---|---|---|---|---|---|---|---|']
-    for kind in kinds:
+    cells = [(kind, coverage_sim.STATION_INCLINATION_DEG, kind) for kind in kinds]
+    if 'sphere + level' in kinds:
+        cells.append(('sphere + level', NEAR_LEVEL_DEG,
+                      'sphere + level, inclination {:g}-{:g} deg'.format(*NEAR_LEVEL_DEG)))
+    for kind, inclination_deg, label in cells:
         for name, preset, shot_samples in coverage_sim.TOOLS:
-            ratios = coverage_sim.ratios(kind, preset, shot_samples, draws, rng)
+            ratios = coverage_sim.ratios(kind, preset, shot_samples, draws, rng, inclination_deg)
             new = [coverage_sim.coverage(ratios[:, angle, 0]) for angle in (0, 1, 2)]
             old = [coverage_sim.coverage(ratios[:, angle, 1]) for angle in (0, 1, 2)]
             band = all(inside(*figures) for figures in new)
-            lines.append(f'| {kind} | {name} | ' + ' | '.join(
+            lines.append(f'| {label} | {name} | ' + ' | '.join(
                 _pair(figures) for figures in new) + f' | {"yes" if band else "no"} | '
                 + ' | '.join(_pair(figures) for figures in old) + ' |')
     return lines

@@ -31,6 +31,12 @@ Calibrations:
   PLATEAUS_C, STAND_SAMPLES readings a position (``solve_stand``, ``fit_field_stand``:
   K(T), b(T), K_m(T), b_m(T), issue 18), then the station at a temperature uniform over
   the plateaus' range, fed to ``pipeline.run`` (no drill-string field);
+- ``sphere + level``: the accelerometer's reference-free sphere fit (``fit-stand
+  --method sphere``: SPHERE_POSES still means of SPHERE_SAMPLES readings at attitudes
+  uniform over the sphere), then a level bench (seed 000 Eqs. 11-14: LEVEL_SAMPLES
+  readings of the vertical tool through the sphere's correction, ``solve_level_capture``),
+  then a station of FIT_STAND_STATION_SAMPLES, of ``shots_sim``'s tool; inclination
+  only (neither the sphere nor the bench sees the board's roll about the tool axis);
 - ``rotation``: 36 single readings of one rotation about the tool axis
   (inclination 30 deg, azimuth 45 deg) of a tool whose only magnetometer error is
   cross-axial hard and soft iron (det 1: the rotation fit's circle keeps the
@@ -44,11 +50,12 @@ before this covariance): the former sigma.
 from dataclasses import replace
 import math
 
+from inclino_ros.calibration.level_capture import LevelLimits, solve_level_capture
 from inclino_ros.calibration.magnetometer import calibrate_from_shots, fit_field_stand
 from inclino_ros.calibration.model import CalibrationModel
 from inclino_ros.calibration.rotation import solve_rotation
 from inclino_ros.calibration.stand_capture import solve_positions
-from inclino_ros.calibration.stand_fit import solve_stand
+from inclino_ros.calibration.stand_fit import solve_sphere, solve_stand
 from inclino_ros.pipeline import MagneticSettings, run, Settings
 from inclino_ros.sim import sensor_model as sm
 from inclino_ros.sim.bench import drifting_magnetometer_tool, FIELD_STAND_POSITIONS_DEG
@@ -57,13 +64,22 @@ import shots_sim
 from test_magnetometer_stand import POSITIONS_DEG, REFERENCE, stand_positions
 
 STATION_SAMPLES = 100
-CALIBRATIONS = ('fit-magnetometer', 'stand', 'fit-stand', 'plateau-stand', 'rotation')
+#: The range of the stations' inclinations [deg].
+STATION_INCLINATION_DEG = (10.0, 80.0)
+CALIBRATIONS = ('fit-magnetometer', 'stand', 'fit-stand', 'plateau-stand', 'rotation',
+                'sphere + level')
+#: The calibrations that read no field (inclination and toolface only).
+ACCELEROMETER_ONLY = ('fit-stand', 'sphere + level')
 #: Readings a stand position of ``fit-stand`` averages, and its station.
 STAND_SAMPLES = 50
 FIT_STAND_STATION_SAMPLES = 500
 #: (name, preset, readings a shot of fit-magnetometer).
 TOOLS = (('quartz', sm.QUARTZ_FLUXGATE, 1), ('MEMS', sm.MEMS, 1))
 ROTATION_SAMPLES = 36
+#: ``sphere + level``: poses of the sphere fit, readings a pose, readings of the level bench.
+SPHERE_POSES, SPHERE_SAMPLES, LEVEL_SAMPLES = 40, 50, 500
+LEVEL_LIMITS = LevelLimits(max_tilt_deg=5.0, gravity_mps2=sm.STANDARD_GRAVITY_MPS2,
+                           g_total_tolerance_mps2=0.3)
 #: The temperature plateaus of ``plateau-stand`` [deg C].
 PLATEAUS_C = (28.0, 44.0, 60.0)
 
@@ -125,11 +141,25 @@ def calibrate(kind, preset, shot_samples, rng):
     if kind == 'plateau-stand':
         tool = plateau_tool(preset)
         return tool, plateau_stand_model(tool, rng)[0]
+    if kind == 'sphere + level':
+        return sphere_level(shots_sim.tool(preset), rng)
     tool = rotation_tool(preset)
     toolface = np.arange(ROTATION_SAMPLES) * 360.0 / ROTATION_SAMPLES + rng.uniform(0.0, 10.0)
     readings = sm.read(tool, np.full(ROTATION_SAMPLES, 30.0), toolface,
                        np.full(ROTATION_SAMPLES, 45.0), field=shots_sim.FIELD, rng=rng)
     return tool, solve_rotation(CalibrationModel(3), readings.mag_nT).model
+
+
+def sphere_level(tool, rng, level_samples=LEVEL_SAMPLES):
+    """Return (tool, model) of a sphere fit of ``tool`` then a level bench (module docstring)."""
+    attitudes = shots_sim.random_attitudes(rng, SPHERE_POSES, min_inclination_deg=0.0)
+    means = shots_sim.read(tool, *attitudes, rng, SPHERE_SAMPLES)[0]
+    model = CalibrationModel(3, stand=solve_sphere(means, sm.STANDARD_GRAVITY_MPS2, 1.0).stage)
+    level = sm.read(tool, np.zeros(level_samples), np.full(level_samples, rng.uniform(0.0, 360.0)),
+                    np.zeros(level_samples), field=shots_sim.FIELD, rng=rng).accel_mps2
+    installation = solve_level_capture(model.apply(level, before='installation'), 3,
+                                       LEVEL_LIMITS)
+    return tool, replace(model, installation=installation)
 
 
 def without_covariance(model):
@@ -144,13 +174,14 @@ def without_covariance(model):
     return model
 
 
-def ratios(kind, preset, shot_samples, draws, rng):
+def ratios(kind, preset, shot_samples, draws, rng, inclination_deg=STATION_INCLINATION_DEG):
     """
     Return |error| / sigma (draws, 3, 2): [azimuth, inclination, toolface] x [with, without].
 
-    With and without the fits' covariance (``without_covariance``).  A NaN
+    With and without the fits' covariance (``without_covariance``); each station's
+    inclination uniform in ``inclination_deg`` (the module's 10-80 deg).  A NaN
     azimuth (beyond its sigma limit: none at these inclinations; every azimuth
-    of ``fit-stand``, which reads no field) gives NaN; so does the toolface of a
+    of ``ACCELEROMETER_ONLY``, which read no field) gives NaN; so does the toolface of a
     model whose zero is the board's (``toolface_zero``, issue 19 item 6: no stand)
     on a tool whose board is turned about the tool axis (``Mount.roll_deg``): its
     offset is the board's roll, which no 1 sigma claims to cover.
@@ -161,9 +192,9 @@ def ratios(kind, preset, shot_samples, draws, rng):
     out = np.full((draws, 3, 2), np.nan)
     for k in range(draws):
         tool, model = calibrate(kind, preset, shot_samples, rng)
-        incl, azim = rng.uniform(10.0, 80.0), rng.choice([0.0, 90.0, 270.0])
+        incl, azim = rng.uniform(*inclination_deg), rng.choice([0.0, 90.0, 270.0])
         toolface = rng.uniform(0.0, 360.0)
-        samples = FIT_STAND_STATION_SAMPLES if kind == 'fit-stand' else STATION_SAMPLES
+        samples = FIT_STAND_STATION_SAMPLES if kind in ACCELEROMETER_ONLY else STATION_SAMPLES
         temperature = (rng.uniform(min(PLATEAUS_C), max(PLATEAUS_C))
                        if kind == 'plateau-stand' else None)
         accel, field = shots_sim.read(
@@ -173,7 +204,8 @@ def ratios(kind, preset, shot_samples, draws, rng):
             temperature_c=25.0 if temperature is None else temperature)
         for column, used in enumerate((model, without_covariance(model))):
             survey = run(accel, used, settings, temperature,
-                         None if kind == 'fit-stand' else field, magnetic, averaged=samples)
+                         None if kind in ACCELEROMETER_ONLY else field, magnetic,
+                         averaged=samples)
             if survey.magnetic is not None:
                 out[k, 0, column] = abs(shots_sim.angle_error_deg(
                     survey.magnetic.defined_azimuth_deg[0], azim)

@@ -49,7 +49,7 @@ from inclino_ros.calibration.stages import (
 from inclino_ros.core.constants import STANDARD_GRAVITY_MPS2
 from inclino_ros.core.installation import to_tool_frame
 from inclino_ros.core.nonlinear import correction_jacobian
-from inclino_ros.core.uncertainty import affine_jacobian, tilt_jacobian
+from inclino_ros.core.uncertainty import affine_jacobian, level_angles_jacobian, tilt_jacobian
 import numpy as np
 
 #: The accelerometer's stages, in the order they are applied.
@@ -328,7 +328,8 @@ class CalibrationModel:
         when the magnetometer's does not cover it, K^-1 of the stand, the
         magnetometer's map into the accelerometer frame, the mount's C^-1,
         seed 002's W as 3x3, the tool axis's angles [rad], the rotation fit's
-        covariance).
+        covariance, and what the stand's error does to the installation angles:
+        ``_installation_response``).
         """
         soft_iron = self._mark.copy()   # what follows the mount: W, then the mark's turn
         if self.magnetic is not None:
@@ -356,7 +357,36 @@ class CalibrationModel:
             'angles': None if self.tool_axis is None else (
                 math.radians(self.tool_axis.gamma_deg), math.radians(self.tool_axis.beta_deg)),
             'rotation': (None if self.magnetic is None or self.magnetic.rotation_covariance is None
-                         else np.array(self.magnetic.rotation_covariance))}
+                         else np.array(self.magnetic.rotation_covariance)),
+            'installation': self._installation_response()}
+
+    def _installation_response(self):
+        """
+        Return (gamma, beta [rad], the mount after them, d(gamma, beta)/dp (2, 12)), or None.
+
+        A level bench measured after the stand (``solve_level_capture`` of
+        ``apply(before='installation')``; one carried into a new stand's frame,
+        ``magnetometer.installation_in_new_frame``, is the same reading through
+        it: ``with_stand`` drops the installation otherwise) reads the stand's
+        correction of the vertical tool's reading, ``v = |v| C e_z = K^-1 (a_L
+        - b)``: the stand's error there moves gamma and beta by
+        ``level_angles_jacobian`` times ``affine_jacobian(K v)`` (seed 000 Eqs.
+        11-14), so that both stages' errors are one block, correlated.  None
+        without an installation or a stand.
+        """
+        stage = self.installation
+        if stage is None or self.stand is None:
+            return None
+        gamma, beta = math.radians(stage.gamma_deg), math.radians(stage.beta_deg)
+        reading = stage.g_total_mps2 * stage.inverse_matrix.T[:, 2]     # C e_z |v|
+        # K(T), b(T) at the temperature the bench's readings stood for (None: the stand's).
+        held = self.stand.temperature_c if stage.temperature_c is None else stage.temperature_c
+        matrix, bias = self.stand.at(held) if held is not None else self.stand.arrays
+        inputs = (matrix @ reading + bias)[None]
+        response = level_angles_jacobian(gamma, beta, stage.g_total_mps2) @ (
+            self._stand_parameter_jacobian(inputs, stage.temperature_c)[0])
+        after = np.eye(3) if self.tool_axis is None else self.tool_axis.inverse_matrix
+        return gamma, beta, self._mark @ after, response
 
     def parameter_blocks(self, sensor, field_nT=None, temperature_c=None):
         """
@@ -431,15 +461,26 @@ class CalibrationModel:
 
         One temperature: (K^-1 row-major, b), p = 12.  K(T), b(T) of a stand
         at several plateaus: their coefficients, p = 12 (order + 1), at each
-        reading's temperature (``Stand.coefficient_jacobian``).
+        reading's temperature (``Stand.coefficient_jacobian``).  The stand's
+        own turn of the reading, and, after a level bench read through it, the
+        installation angles' response (``_installation_response``): at the
+        bench's attitude the two cancel across the tool axis.
         """
-        inputs = self.apply(sensor, temperature_c, before='stand')
         layout = self._fit_layout
-        if self.stand.temperature_dependent:
-            return layout['mark'] @ layout['mount'] @ self.stand.coefficient_jacobian(
-                inputs, temperature_c)
-        return layout['mark'] @ layout['mount'] @ affine_jacobian(
-            inputs - self.stand.arrays[1], layout['stand'])
+        jacobian = layout['mark'] @ layout['mount'] @ self._stand_parameter_jacobian(
+            self.apply(sensor, temperature_c, before='stand'), temperature_c)
+        if layout['installation'] is not None:
+            gamma, beta, after, response = layout['installation']
+            corrected = self.apply(sensor, temperature_c, before='installation')
+            jacobian = jacobian + after @ tilt_jacobian(corrected, gamma, beta) @ response
+        return jacobian
+
+    def _stand_parameter_jacobian(self, inputs, temperature_c):
+        """Return d(the stand's output) / d(its parameters) (N, 3, p) at its ``inputs`` (N, 3)."""
+        stand = self.stand
+        if stand.temperature_dependent:
+            return stand.coefficient_jacobian(inputs, temperature_c)
+        return affine_jacobian(inputs - stand.arrays[1], np.linalg.inv(stand.arrays[0]))
 
     def temperature_covariance(self, readings, temperature_c=None, triad='accelerometer'):
         """

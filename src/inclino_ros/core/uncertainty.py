@@ -40,7 +40,12 @@ covariance C_p (from the fit's Jacobian and residuals) with the Jacobians of
 the corrected vectors to those parameters: an affine stage ``y = M (x - o)``
 has ``dy = dM (x - o) - M do`` (``affine_jacobian``, M row-major then o), a
 seed-000 rotation ``y = C^-1(gamma, beta) x`` has ``dy = (dC^-1/dgamma x,
-dC^-1/dbeta x)`` (``tilt_jacobian``).  One parameter moves G and B together
+dC^-1/dbeta x)`` (``tilt_jacobian``).  A level bench read through a fitted
+stage (seed 000 Eqs. 11-14 of the corrected reading ``v = |v| C e_z``) takes
+that stage's error at vertical into gamma, beta: with ``n = v / |v| = (-sg,
+-sb cg, cb cg)`` and ``D = dn/d(gamma, beta)``, whose columns are orthogonal
+to n and to each other (``D^T D = diag(1, cg^2)``), ``d(gamma, beta) =
+diag(1, 1 / cg^2) D^T dv / |v|`` (``level_angles_jacobian``).  One parameter moves G and B together
 (a tool axis turns both), so the azimuth takes ``d^T C_p d`` with ``d =
 dA/dG J_G + dA/dB J_B`` (``azimuth_std_rad``'s ``parameter_blocks``), the
 inclination and toolface ``J_G C_p J_G^T`` added to the covariance of f.
@@ -131,6 +136,20 @@ def tilt_jacobian(vectors, gamma, beta):
     d_beta = np.array([[0.0, -cb * sg, -sg * sb], [0.0, -sb, cb], [0.0, -cb * cg, -sb * cg]])
     vectors = np.asarray(vectors, dtype=float)
     return np.stack([vectors @ d_gamma.T, vectors @ d_beta.T], axis=2)
+
+
+def level_angles_jacobian(gamma, beta, g):
+    """
+    Return d(gamma, beta) / dv (2, 3) [rad per unit of v] of seed 000 Eqs. 11-14.
+
+    At the level-bench reading ``v = g C e_z`` (``installation.installation_matrix``):
+    ``diag(1, 1 / cos^2 gamma) D^T / g`` with ``D = dn/d(gamma, beta)`` of the unit
+    reading ``n = (-sg, -sb cg, cb cg)`` (module docstring); the reading's length
+    moves neither angle.
+    """
+    cg, sg, cb, sb = math.cos(gamma), math.sin(gamma), math.cos(beta), math.sin(beta)
+    d_transposed = np.array([[-cg, sb * sg, -cb * sg], [0.0, -cb * cg, -sb * cg]])
+    return d_transposed / (np.array([[1.0], [cg * cg]]) * g)
 
 
 def parameter_covariance(blocks, which):
