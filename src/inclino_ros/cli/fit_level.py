@@ -52,8 +52,9 @@ def register(subparsers):
         'Input: a bag with the raw sensor on /imu/data_raw, the samples from --start-s to '
         '--end-s seconds after its first message, or a CSV with the columns ax, ay, az (m/s^2, '
         'optional time_s and temperature_c). Temperature and stand stages already in the file are '
-        'applied first, as the node does; the level-bench stage is replaced, every other '
-        'stage kept. The report, fit_level.png and fit_level.txt, goes beside the file or to '
+        'applied first, as the node does; the level-bench stage is replaced, a tool-axis stage '
+        'dropped (it would count the mount twice), and so is a high-side mark captured through '
+        'the old mount (said; capture it again); every other stage kept. The report, fit_level.png and fit_level.txt, goes beside the file or to '
         '--report-dir.',
         'Refused (exit 1, the file untouched): the tool moved or too few samples for the '
         'precision asked, an implausible G-total, a bench that is not level, or a temperature '
