@@ -54,8 +54,8 @@ def register(subparsers):
         'optional time_s and temperature_c). Temperature and stand stages already in the file are '
         'applied first, as the node does; the level-bench stage is replaced, a tool-axis stage '
         'dropped (it would count the mount twice), and so is a high-side mark captured through '
-        'the old mount (said; capture it again); every other stage kept. The report, fit_level.png and fit_level.txt, goes beside the file or to '
-        '--report-dir.',
+        'the old mount (said; capture it again); every other stage kept. The report, '
+        'fit_level.png and fit_level.txt, goes beside the file or to --report-dir.',
         'Refused (exit 1, the file untouched): the tool moved or too few samples for the '
         'precision asked, an implausible G-total, a bench that is not level, or a temperature '
         'far from that of the other stages. Exit 2: unusable input.')
