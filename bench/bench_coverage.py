@@ -8,7 +8,9 @@ record (``sm.read(records=...)``: its own AR(1) start and its own flicker), so t
 draws are independent and a coverage is a binomial proportion.  Its mean goes through the
 rule of ``pipeline.capture_mean`` (``effective_count``: the capture's own noise with its
 effective sample size, the configured noise its floor, the configured bias instability's
-flicker added; the angles of a cell's draws in one ``correct``) and, for comparison,
+flicker added; a toolface defined where its 1 sigma at the configured noise is within
+the limit, ``pipeline.toolface_defined``; the angles of a cell's draws in one
+``correct``) and, for comparison,
 through the former rule (configured noise / sqrt(samples), ``averaged`` = the samples).
 Per cell it counts the fraction of draws whose error lies within 1 and 2 published sigma,
 for the inclination, the toolface and the azimuth (a toolface or an azimuth the chain
@@ -43,8 +45,9 @@ named.
 
 Usage: .venv/bin/python bench/bench_coverage.py [--draws 1000] [--samples 1000] [--seed 1]
        [--calibration-draws 400] [--calibration-only] [--calibrations plateau-stand]
-       [--noises '1/f']
+       [--noises '1/f'] [--tools MEMS] [--inclinations 0.1 89.9] [--azimuths W]
        [--output bench/results/coverage.md]
+(--noises, --tools, --inclinations, --azimuths: only those cells, no calibration cells.)
 """
 
 import argparse
@@ -56,7 +59,8 @@ import time
 from _results import write_results
 from inclino_ros.calibration.model import CalibrationModel
 from inclino_ros.core.correlated_noise import FLICKER_BAND_RATIO
-from inclino_ros.pipeline import correct, effective_count, MagneticSettings, Settings
+from inclino_ros.pipeline import (correct, effective_count, MagneticSettings, Settings,
+                                  station_counts)
 from inclino_ros.sim import sensor_model as sm
 import numpy as np
 
@@ -116,8 +120,9 @@ def cell(tool, settings, magnetic, inclination_deg, azimuth_deg, draws, samples,
     mean_accel, mean_field = accel.mean(axis=1), field.mean(axis=1)
     truth = (np.full(draws, inclination_deg), toolface_deg, np.full(draws, azimuth_deg))
     ratios = {}
+    floor = np.full(draws, station_counts(samples, settings, magnetic)[0])
     surveys = (correct(mean_accel, model, settings, None, mean_field, magnetic,
-                       averaged=count, field_averaged=field_count),
+                       averaged=count, field_averaged=field_count, floor_averaged=floor),
                correct(mean_accel, model, settings, None, mean_field, magnetic,
                        averaged=np.full(draws, float(samples))))
     for name, true, column in zip(ANGLES, truth, range(3)):
@@ -196,11 +201,16 @@ def main():
                         help='only these calibration cells; default: all')
     parser.add_argument('--noises', nargs='*', default=None,
                         help="only these noise rows (e.g. '1/f'); default: all")
+    parser.add_argument('--tools', nargs='*', default=None, help="only these tools ('MEMS')")
+    parser.add_argument('--inclinations', nargs='*', type=float, default=None,
+                        help='only these inclinations [deg] (of INCLINATIONS_DEG)')
+    parser.add_argument('--azimuths', nargs='*', default=None, help="only these azimuths ('W')")
     parser.add_argument('--output', default=None, help='markdown file to write the tables to')
     args = parser.parse_args()
     started = time.process_time()
-    calibration = [] if args.noises else calibration_table(args.calibration_draws, args.seed,
-                                                           args.calibrations)
+    selected = args.noises or args.tools or args.inclinations or args.azimuths
+    calibration = [] if selected else calibration_table(args.calibration_draws, args.seed,
+                                                        args.calibrations)
     if args.calibration_only:
         text = '\n'.join(calibration + ['', f'CPU {time.process_time() - started:.0f} s.']) + '\n'
         print(text)
@@ -219,7 +229,8 @@ def main():
     summary = {}
     for tool_name, accel_noise, mag_noise in TOOLS:
         for noise_name, rho, flicker in NOISES:
-            if args.noises and noise_name not in args.noises:
+            if (args.noises and noise_name not in args.noises
+                    or args.tools and tool_name not in args.tools):
                 continue
             # The configured bias instability is the simulator's (0 but for 1/f).
             settings = Settings(noise_std_mps2=accel_noise,
@@ -230,6 +241,9 @@ def main():
                            magnetometer=triad(mag_noise, rho, flicker))
             for inclination_deg in INCLINATIONS_DEG:
                 for azimuth_name, azimuth_deg in AZIMUTHS:
+                    if (args.inclinations and inclination_deg not in args.inclinations
+                            or args.azimuths and azimuth_name not in args.azimuths):
+                        continue
                     ratios = cell(tool, settings, magnetic, inclination_deg, azimuth_deg,
                                   args.draws, args.samples, rng)
                     new = {name: coverage(ratios[name][0]) for name in ANGLES}

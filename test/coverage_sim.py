@@ -225,3 +225,25 @@ def coverage(values):
     if values.size == 0:
         return math.nan, math.nan
     return float(np.mean(values <= 1.0)), float(np.mean(values <= 2.0))
+
+
+#: MEMS accelerometer noise per sample [m/s^2] of ``correlated_captures`` (2 mg).
+MEMS_NOISE_MPS2 = 2e-3 * sm.STANDARD_GRAVITY_MPS2
+
+
+def correlated_captures(rho, inclination_deg, draws, samples, seed):
+    """
+    Return (accel (draws, samples, 3), toolface_deg (draws,), times_s (samples,)) of captures.
+
+    Still captures at 100 Hz of a MEMS accelerometer (MEMS_NOISE_MPS2) with AR(1)
+    noise of ``rho``, toolface uniform, each capture its own record of the physical
+    simulator (independent draws).
+    """
+    tool = sm.Tool(accelerometer=sm.Triad(noise_std=MEMS_NOISE_MPS2, noise_rho=rho),
+                   magnetometer=sm.Triad(noise_std=100.0))
+    rng = np.random.default_rng(seed)
+    toolface_deg = rng.uniform(0.0, 360.0, draws)
+    readings = sm.read(tool, inclination_deg, np.repeat(toolface_deg, samples), rng=rng,
+                       records=draws)
+    return (readings.accel_mps2.reshape(draws, samples, 3), toolface_deg,
+            np.arange(samples) / 100.0)

@@ -9,9 +9,9 @@ so the variogram's naive law ``sigma^2 (1 - rho^j)`` read rho low and F(200) at 
 the physical simulator (``sim.sensor_model``, each capture its own record), not the chain.
 """
 
+import coverage_sim
 from inclino_ros.calibration.model import CalibrationModel
 from inclino_ros.pipeline import correct, effective_count, Settings
-from inclino_ros.sim import sensor_model as sm
 import numpy as np
 import pytest
 
@@ -26,15 +26,8 @@ def test_short_correlated_capture_sigma_covers_its_error(rho):
     law (main): 0.54 / 0.835 at rho 0.9 and 0.66 / 0.926 at rho 0.73 (both failed).
     """
     draws, samples, inclination_deg = 2000, 200, 30.0
-    noise = 2e-3 * sm.STANDARD_GRAVITY_MPS2
-    tool = sm.Tool(accelerometer=sm.Triad(noise_std=noise, noise_rho=rho),
-                   magnetometer=sm.Triad(noise_std=100.0))
-    rng = np.random.default_rng(29)
-    toolface_deg = rng.uniform(0.0, 360.0, draws)
-    readings = sm.read(tool, inclination_deg, np.repeat(toolface_deg, samples), rng=rng,
-                       records=draws)
-    accel = readings.accel_mps2.reshape(draws, samples, 3)
-    times_s = np.arange(samples) / 100.0
+    noise = coverage_sim.MEMS_NOISE_MPS2
+    accel, _, times_s = coverage_sim.correlated_captures(rho, inclination_deg, draws, samples, 29)
     settings = Settings(noise_std_mps2=noise)
     count = [effective_count(accel[k], times_s, noise) for k in range(draws)]
     survey = correct(accel.mean(axis=1), CalibrationModel(3), settings, averaged=np.array(count))
