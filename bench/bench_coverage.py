@@ -56,6 +56,7 @@ import pathlib
 import sys
 import time
 
+from _results import write_results
 from inclino_ros.calibration.model import CalibrationModel
 from inclino_ros.core.correlated_noise import FLICKER_BAND_RATIO
 from inclino_ros.pipeline import (correct, effective_count, MagneticSettings, Settings,
@@ -214,9 +215,8 @@ def main():
         text = '\n'.join(calibration + ['', f'CPU {time.process_time() - started:.0f} s.']) + '\n'
         print(text)
         if args.output:
-            with open(args.output, 'w') as stream:
-                stream.write("# Coverage of the calibration fits' 1 sigma "
-                             '(bench/bench_coverage.py --calibration-only)\n\n' + text)
+            write_results(args.output, "# Coverage of the calibration fits' 1 sigma "
+                          '(bench/bench_coverage.py --calibration-only)\n\n' + text, echo=False)
         return
     rng = np.random.default_rng(args.seed)
     lines = [f'{args.draws} independent still captures of {args.samples} samples (100 Hz) '
@@ -279,9 +279,8 @@ def main():
                      + ['', f'CPU {cpu:.0f} s.', ''] + lines + [''] + calibration) + '\n'
     print(text)
     if args.output:
-        with open(args.output, 'w') as stream:
-            stream.write('# Coverage of the published 1 sigma (bench/bench_coverage.py)\n\n')
-            stream.write(text)
+        write_results(args.output, '# Coverage of the published 1 sigma '
+                      '(bench/bench_coverage.py)\n\n' + text, echo=False)
 
 
 if __name__ == '__main__':

@@ -72,6 +72,7 @@ import tempfile
 import threading
 import time
 
+from _results import write_results
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -887,9 +888,7 @@ def main(argv=None):
         print(cpu_table(stats), flush=True)
     text = report(runs, args, command, started, host, failures)
     if args.output != '-' and runs:
-        os.makedirs(os.path.dirname(os.path.abspath(args.output)), exist_ok=True)
-        with open(args.output, 'w') as out:
-            out.write(text)
+        write_results(args.output, text, echo=False)
         print(f'wrote {args.output}')
     return 1 if failures else 0
 

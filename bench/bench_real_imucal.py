@@ -17,6 +17,7 @@ import subprocess
 import sys
 import tempfile
 
+from _results import results_path, write_results
 from inclino_ros.calibration.model import load_model
 from inclino_ros.core.attitude import angle_between
 from inclino_ros.core.stand import correct_stand, stand_specific_force
@@ -153,10 +154,7 @@ def main():
               "peer's |G| is the closer. With the faces' attitudes stated uncertain "
               '(`--attitude-sigma-deg`), the fit weighs each reading across gravity by it: the '
               "peer's bias, and its held-out |G|.", '']
-    path = os.path.join(HERE, 'results', 'real_imucal.md')
-    with open(path, 'w') as out:
-        out.write('\n'.join(lines))
-    print('\n'.join(lines))
+    write_results(results_path('real_imucal.md'), '\n'.join(lines))
 
 
 if __name__ == '__main__':

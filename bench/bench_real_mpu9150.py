@@ -15,6 +15,7 @@ import subprocess
 import sys
 import tempfile
 
+from _results import results_path, write_results
 from inclino_ros.calibration.continuous_log import log_segments
 from inclino_ros.calibration.model import load_model
 from inclino_ros.core.stand import correct_stand
@@ -73,10 +74,7 @@ def main(folder=DEFAULT):
         '| unit | still segments | \\|G\\| - g RMS raw / ours [m/s^2] | b [m/s^2] | '
         'm_yz m_xy m_xz [deg] | s_x s_y s_z [%] |',
         '|---|---|---|---|---|---|', *rows, ''])
-    os.makedirs(os.path.join(HERE, 'results'), exist_ok=True)
-    with open(os.path.join(HERE, 'results', 'real_mpu9150.md'), 'w') as out:
-        out.write(text)
-    print(text)
+    write_results(results_path('real_mpu9150.md'), text)
 
 
 if __name__ == '__main__':

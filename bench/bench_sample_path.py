@@ -25,6 +25,7 @@ import os
 import platform
 import time
 
+from _results import write_results
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -169,9 +170,7 @@ def main():
     node.destroy_node()
     rclpy.shutdown()
     text = report(results, args.repeats)
-    print(text)
-    with open(args.output, 'w') as out:
-        out.write(text)
+    write_results(args.output, text)
 
 
 if __name__ == '__main__':

@@ -42,6 +42,7 @@ import subprocess
 import sys
 import tempfile
 
+from _results import results_path, write_results
 from inclino_ros.calibration.model import CalibrationModel, load_model
 from inclino_ros.core import magnetics
 import numpy as np
@@ -260,10 +261,7 @@ def main():
         'ours linear (= gated) held-out | ours forced held-out | peer axis held-out | '
         'peer non-linear held-out | held-out ours - peer best +- SE |',
         '|---|' + '---|' * 12, *rows, ''])
-    os.makedirs(os.path.join(HERE, 'results'), exist_ok=True)
-    with open(os.path.join(HERE, 'results', 'sap6_peer.md'), 'w') as out:
-        out.write(text)
-    print(text)
+    write_results(results_path('sap6_peer.md'), text)
 
 
 if __name__ == '__main__':

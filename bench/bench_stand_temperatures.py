@@ -23,6 +23,7 @@ import subprocess
 import sys
 import tempfile
 
+from _results import results_path, write_results
 from inclino_ros.calibration.model import load_model
 from inclino_ros.core.stand import fit_stand_plateaus, stand_specific_force
 from inclino_ros.sim.bench import (
@@ -31,7 +32,6 @@ from inclino_ros.sim.bench import (
     simulate_stand, StandRun, TURNED_OVER_HEATING_ATTITUDES_DEG)
 import numpy as np
 
-HERE = os.path.dirname(os.path.abspath(__file__))
 G = 9.80665
 TOOL = drifting_mount_tool()
 MAG_TOOL = drifting_magnetometer_tool()
@@ -158,10 +158,7 @@ def main():
         '',
         '| calibration | ' + ' | '.join(f'{t:g} C' for t in TEMPERATURES_C) + ' |',
         '|---|' + '---|' * len(TEMPERATURES_C), *mag_rows, ''])
-    os.makedirs(os.path.join(HERE, 'results'), exist_ok=True)
-    with open(os.path.join(HERE, 'results', 'stand_temperatures.md'), 'w') as out:
-        out.write(text)
-    print(text)
+    write_results(results_path('stand_temperatures.md'), text)
 
 
 if __name__ == '__main__':

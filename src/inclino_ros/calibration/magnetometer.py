@@ -13,6 +13,7 @@ comes after, for both triads.
 from dataclasses import dataclass, replace
 import math
 
+from inclino_ros.calibration.invalidation import replace_stages
 from inclino_ros.calibration.model import (
     Magnetometer, MagnetometerAlignment, readings_temperature_c, Stand, ToolAxis, utc_now_iso)
 from inclino_ros.calibration.stages import MagnetometerNonlinear
@@ -293,7 +294,9 @@ def calibrate_from_shots(existing, accel_mps2, field_nT, roll_group=None, temper
     accelerometer frame then drops the installation.  Without roll groups an
     installation is kept, carried into a new accelerometer frame
     (``installation_in_new_frame``), and a model with no mount stage at all
-    gets MOUNT_WARNING in its notes.  Every other stage is kept.  Raises
+    gets MOUNT_WARNING in its notes.  Every other stage is kept, but a high-side mark
+    captured through a stand or mount this fit replaces (``invalidation.replace_stages``,
+    noted).  Raises
     ShotFitRefused with the reason.  Without ``roll_group`` the roll sets among
     shots taken in order are found (``core.shots.find_roll_groups``) and the
     fit repeated with them.  Then the non-linear stage (``nonlinear_stage``,
@@ -392,9 +395,10 @@ def calibrate_from_shots(existing, accel_mps2, field_nT, roll_group=None, temper
     if existing.magnetic is not None:
         notes.append('magnetic (seed 002) stage kept: it was fitted on the previous '
                      'magnetometer correction; fit the rotation and MSA again')
-    model = replace(existing, stand=stand, installation=installation, tool_axis=tool_axis,
-                    magnetometer=magnetometer, magnetometer_alignment=alignment,
-                    magnetometer_nonlinear=None)
+    model, dropped = replace_stages(existing, stand=stand, installation=installation,
+                                    tool_axis=tool_axis, magnetometer=magnetometer,
+                                    magnetometer_alignment=alignment, magnetometer_nonlinear=None)
+    notes.extend(dropped)
     labels = np.asarray(-1 if roll_group is None else roll_group)
     roll_sets = [np.flatnonzero((labels == k) & fit.used) for k in fit.groups]
     stage, verdict, note = nonlinear_stage(model, accel_mps2, field_nT, roll_sets, temperature_c,

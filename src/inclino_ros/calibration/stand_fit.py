@@ -23,6 +23,7 @@ The stand stage from stand positions or free readings: one rule for the node and
 
 from dataclasses import dataclass, replace
 
+from inclino_ros.calibration.invalidation import replace_stages
 from inclino_ros.calibration.provenance import readings_temperature_c, utc_now_iso
 from inclino_ros.calibration.stages import Stand
 from inclino_ros.calibration.still_capture import CaptureRefused, require_still_vectors
@@ -337,12 +338,10 @@ def with_stand(model, stand, field=None):
     magnetometer's non-linear stage, fitted in the tool frame of the previous
     chain, is dropped too (``inclino fit-magnetometer`` fits it again), and so
     is a high-side mark: it was captured through the old stages (a stand ties
-    the toolface itself; after a sphere fit capture the mark again).
+    the toolface itself; after a sphere fit capture the mark again): the one
+    rule, ``invalidation.replace_stages``.
     ``field``: a ``magnetometer.FieldStandFit`` or None.
     """
-    model = replace(model, stand=stand, installation=None, tool_axis=None,
-                    magnetometer_nonlinear=None, toolface_mark=None)
-    if field is not None:
-        model = replace(model, magnetometer=field.magnetometer,
-                        magnetometer_alignment=field.alignment)
-    return model
+    fields = {} if field is None else {'magnetometer': field.magnetometer,
+                                       'magnetometer_alignment': field.alignment}
+    return replace_stages(model, stand=stand, installation=None, tool_axis=None, **fields)[0]

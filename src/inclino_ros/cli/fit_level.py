@@ -12,19 +12,20 @@ and ``temperature_c``.  A CSV with ``time_s`` that moves is a continuous
 log (optionally with the gyro, ``wx, wy, wz`` rad/s): its longest still
 segment is the capture (``continuous_log.longest_still_part``), said.
 The stages already in the file (temperature, stand) are applied first, as
-the node does; the installation stage is replaced, every other stage kept,
-the file written atomically.
+the node does; the installation stage is replaced, a tool-axis stage dropped, every other
+stage kept but a high-side mark captured through the old mount
+(``invalidation.replace_stages``, said), the file written atomically.
 
 Refused (exit 1, the calibration file untouched): the tool moved or the mean
 is not precise enough (``still_capture``), an implausible G-total, a bench
 that is not level, or a temperature far from the stand stage's.
 """
 
-from dataclasses import replace
 import sys
 
 from inclino_ros.calibration.continuous_log import segment_limits
 from inclino_ros.calibration.inputs import level_input
+from inclino_ros.calibration.invalidation import replace_stages
 from inclino_ros.calibration.level_capture import CaptureRefused, LevelLimits, solve_level_capture
 from inclino_ros.calibration.model import readings_temperature_c, temperature_conflict
 from inclino_ros.cli.fitting import (
@@ -51,9 +52,10 @@ def register(subparsers):
         'Input: a bag with the raw sensor on /imu/data_raw, the samples from --start-s to '
         '--end-s seconds after its first message, or a CSV with the columns ax, ay, az (m/s^2, '
         'optional time_s and temperature_c). Temperature and stand stages already in the file are '
-        'applied first, as the node does; the level-bench stage is replaced, every other '
-        'stage kept. The report, fit_level.png and fit_level.txt, goes beside the file or to '
-        '--report-dir.',
+        'applied first, as the node does; the level-bench stage is replaced, a tool-axis stage '
+        'dropped (it would count the mount twice), and so is a high-side mark captured through '
+        'the old mount (said; capture it again); every other stage kept. The report, '
+        'fit_level.png and fit_level.txt, goes beside the file or to --report-dir.',
         'Refused (exit 1, the file untouched): the tool moved or too few samples for the '
         'precision asked, an implausible G-total, a bench that is not level, or a temperature '
         'far from that of the other stages. Exit 2: unusable input.')
@@ -111,8 +113,9 @@ def fit(args, lines, outputs):
     png, txt = report_paths(args, REPORT_NAME)
     plot_level(outputs.path(png), level, installation, g_mps2)
     # The level bench measures the whole mount: a tool axis on top would count twice.
-    model = save(args, replace(existing, installation=installation, tool_axis=None), outputs,
-                 lines)
+    model, dropped = replace_stages(existing, installation=installation, tool_axis=None)
+    lines += dropped
+    model = save(args, model, outputs, lines)
     lines += [f'wrote {args.calibration}: installation stage'
               + (f', {" and ".join(applied)} stage kept' if applied else ''),
               f'report: {png}, {txt}']

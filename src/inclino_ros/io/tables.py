@@ -246,6 +246,6 @@ def write_csv(path, columns, mode='x'):
     items = list(columns.items() if isinstance(columns, dict) else columns)
     cells = [_cells(values) for _, values in items]
     with open(path, mode, newline='') as stream:
-        writer = csv.writer(stream)
+        writer = csv.writer(stream, lineterminator='\n')   # not the module's CRLF
         writer.writerow([name for name, _ in items])
         writer.writerows(zip(*cells))

@@ -12,6 +12,7 @@ as they were.
 from dataclasses import replace
 import math
 
+from inclino_ros.calibration.invalidation import replace_stages
 from inclino_ros.calibration.level_capture import CaptureRefused, LevelLimits, solve_level_capture
 from inclino_ros.calibration.model import readings_temperature_c, temperature_conflict
 from inclino_ros.calibration.plausibility import Implausible
@@ -87,7 +88,9 @@ class CalibrationServices:
                 node.model.apply(captured.raw, captured.temperatures_c, before='installation'),
                 node.settings.accelerometer_axes, limits, captured.times_s, temperature_c)
             # The level bench measures the whole mount: a tool axis on top would count twice.
-            self.collector.commit(replace(node.model, installation=installation, tool_axis=None))
+            model, dropped = replace_stages(node.model, installation=installation,
+                                            tool_axis=None)
+            self.collector.commit(model)
         except CaptureRefused as err:
             return self.collector.refuse(response, str(err))
         return self.collector.answer(response, (
@@ -95,7 +98,8 @@ class CalibrationServices:
             f'gamma_deg={installation.gamma_deg:.4f} beta_deg={installation.beta_deg:.4f} '
             f'theta_deg={installation.theta_deg:.4f} (noise {installation.std_deg:.4f} deg per '
             f'sample, 1 sigma of the angles '
-            f'{math.degrees(installation.tilt_std_rad):.4f} deg)'))
+            f'{math.degrees(installation.tilt_std_rad):.4f} deg)'
+            + ''.join(f'; {note}' for note in dropped)))
 
     async def capture_high_side_mark(self, request, response):
         """
