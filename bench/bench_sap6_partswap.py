@@ -202,44 +202,6 @@ def v_peer(a, m, labels, sets):
     return Cal(fa, fm, ua, um)
 
 
-def v_peer_ell_common_axis_acc(a, m, labels, sets):
-    """Peer ellipsoids+axes, but the accel's axis for both (our single-axis idea)."""
-    fa, fm = peer_ellipsoids(a, m)
-    ua, um = peer_axes(fa, fm, a, m, sets)
-    return Cal(fa, fm, ua, um)
-
-
-def v_our_ell_peer_axis(a, m, labels, sets):
-    f, fa, fm, _ = ours_fit(a, m, labels)
-    ua, um = peer_axes(fa, fm, a, m, sets)
-    return Cal(fa, fm, ua, um)
-
-
-def v_our_ell_peer_axis_noR(a, m, labels, sets):
-    f, fa, _, fm0 = ours_fit(a, m, labels)
-    ua, um = peer_axes(fa, fm0, a, m, sets)
-    return Cal(fa, fm0, ua, um)
-
-
-def v_our_ell_peer_accaxis(a, m, labels, sets):
-    """Our ellipsoids + R, axis = the peer's plane normal of the accel only (common)."""
-    f, fa, fm, _ = ours_fit(a, m, labels)
-    ua, um = peer_axes(fa, fm, a, m, sets)
-    return Cal(fa, fm, ua, None)
-
-
-def v_our_ell_peer_magaxis(a, m, labels, sets):
-    f, fa, fm, _ = ours_fit(a, m, labels)
-    ua, um = peer_axes(fa, fm, a, m, sets)
-    return Cal(fa, fm, um, None)
-
-
-def v_peer_ell_our_axis(a, m, labels, sets):
-    fa, fm = peer_ellipsoids(a, m)
-    fa2, fm2, u = our_axis_fixed(fa, fm, a, m, labels)
-    return Cal(fa2, fm2, u, None)
-
-
 def v_our_fit_on_peer_ell(a, m, labels, sets):
     """Our whole joint fit on the peer-corrected vectors (it may refit the ellipsoids)."""
     fa, fm = peer_ellipsoids(a, m)
@@ -251,11 +213,6 @@ def v_our_fit_on_peer_ell(a, m, labels, sets):
 VARIANTS = dict(ours=v_ours, peer_exact=v_peer_exact,  # noqa: C408
                 our_ell_peer_exact=v_our_ell_peer_exact, ours_norobust=v_ours_norobust,
                 peer=v_peer,
-                our_ell_peer_axis=v_our_ell_peer_axis,
-                our_ell_peer_axis_noR=v_our_ell_peer_axis_noR,
-                our_ell_peer_accaxis=v_our_ell_peer_accaxis,
-                our_ell_peer_magaxis=v_our_ell_peer_magaxis,
-                peer_ell_our_axis=v_peer_ell_our_axis,
                 our_fit_on_peer_ell=v_our_fit_on_peer_ell)
 INSTRUMENTS = [('sap6', n) for n in ('BB', 'CF', 'FG', 'HC', 'IB', 'JG')] + [
     ('mag_cal_cal_data', n) for n in ('ab', 'ai', 'bh', 'bi', 'ee', 'fb', 'hj', 'hj2', 'jd')]
