@@ -313,7 +313,7 @@ def test_a_plateau_stand_fitted_in_the_same_second_is_not_the_covered_stand():
     _, plateau = coverage_sim.calibrate('plateau-stand', coverage_sim.TOOLS[0][1], 1,
                                         np.random.default_rng(6))
     stand = replace(plateau.stand, fitted_at=shots.magnetometer.fitted_at)
-    model = with_stand(shots, stand)
+    model = with_stand(shots, stand)[0]
     assert model.covariance_stages == ('magnetometer',)
     own, covered = model.parameter_blocks(np.full((1, 3), 5.0), np.full((1, 3), 2e4), 25.0)
     assert np.array_equal(own[0], np.array(stand.parameter_covariance))
