@@ -46,7 +46,7 @@ import os
 
 from inclino_ros.calibration.level_capture import LevelLimits, solve_level_capture
 from inclino_ros.calibration.model import (
-    CalibrationModel, Installation, load_model, save_model, Stand, Temperature, ToolfaceMark)
+    CalibrationModel, Installation, load_model, save_model, Stand, Temperature)
 from inclino_ros.cli.main import main as inclino
 from inclino_ros.cli.simulate import write_bag
 from inclino_ros.core.attitude import inclination
@@ -333,19 +333,12 @@ def test_fit_stand_from_csv_equals_bag_and_keeps_temperature(runs, tmp_path):
     """Per-sample CSV = bag; averaged CSV works; temperature kept, installation dropped."""
     calibration = tmp_path / 'cal.json'
     installation = Installation(0.8, -1.2, NOW, 100, 0.01, G)
-    mark = ToolfaceMark(1.5, 0.01, 30.0, 'seed000', 100, NOW)
     save_model(calibration, CalibrationModel(3, installation=installation,
-                                             temperature=scale_drift_stage(),
-                                             toolface_mark=mark))
+                                             temperature=scale_drift_stage()))
     code, stdout, stderr = quiet(['fit-stand', runs['stand.csv'], '--calibration', calibration,
                                   '--report-dir', tmp_path / 'report'])
     assert code == 0, stderr
     assert 'installation stage dropped' in stdout and 'mounting misalignment' in stdout
-    # The mark, captured through the old stand and mount, dropped as fit-level says it
-    # (invalidation.replace_stages's note; before: dropped without a word, failed first).
-    assert ('toolface_mark stage dropped: it was measured through the stand and installation '
-            'stages this fit replaced; capture the high-side mark again') in stdout
-    assert load_model(calibration).toolface_mark is None
     assert 'temperature stage of the file applied' in stdout
     model = load_model(calibration)
     assert model.installation is None and model.temperature == scale_drift_stage()
