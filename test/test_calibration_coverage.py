@@ -296,7 +296,6 @@ def test_file_keeps_the_covariance_and_older_files_say_they_lack_it():
     assert np.array_equal(block, covariance[12:, 12:]) and j_f.shape == j_b.shape == (1, 3, 14)
 
 
-
 def test_a_plateau_stand_fitted_in_the_same_second_is_not_the_covered_stand():
     """
     A stand at plateaus with the shot fit's ``fitted_at`` is not the 12 rows it covers.
@@ -321,6 +320,7 @@ def test_a_plateau_stand_fitted_in_the_same_second_is_not_the_covered_stand():
     covariance = np.array(shots.magnetometer.parameter_covariance)
     assert np.array_equal(covered[0], covariance[12:24, 12:24])
     assert covered[1].shape == covered[2].shape == (1, 3, 12)
+
 
 @pytest.mark.parametrize('edit, reason', [
     (lambda section: section.update(covariance_stages=None), 'both be null'),

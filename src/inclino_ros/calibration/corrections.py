@@ -510,5 +510,5 @@ class CalibrationModel:
 
 
 def _parameter_count(stage):
-    """Return the parameters a stage has in a magnetometer fit's covariance (its K, b; 2 angles)."""
+    """Return a stage's parameters in a magnetometer fit's covariance (its K, b; 2 angles)."""
     return getattr(stage, 'coefficient_count', 2)

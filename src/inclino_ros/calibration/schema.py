@@ -18,7 +18,7 @@ from inclino_ros.calibration.corrections import CalibrationModel
 from inclino_ros.calibration.migrations import (
     READABLE_VERSIONS, SCHEMA_VERSION, SECTIONS, upgraded)
 from inclino_ros.calibration.stages import (
-    COVARIANCE_STAGE_SIZES, covariance_sizes, Installation, Magnetic, Magnetometer,
+    covariance_sizes, COVARIANCE_STAGE_SIZES, Installation, Magnetic, Magnetometer,
     MagnetometerAlignment, MagnetometerNonlinear, MagnetometerTemperature, Stand, Temperature,
     ToolAxis, ToolfaceMark)
 from inclino_ros.core.attitude import TOOLFACE_CONVENTIONS
