@@ -348,6 +348,10 @@ class CalibrationModel:
             covariance = np.array(self.magnetometer.parameter_covariance)[np.ix_(index, index)]
         own_stand = (None if self.stand is None or self.stand.parameter_covariance is None
                      or 'stand' in names else np.array(self.stand.parameter_covariance))
+        stand_covariance = own_stand
+        if 'stand' in names:
+            offset = sum(sizes[name] for name in names[:names.index('stand')])
+            stand_covariance = covariance[offset:offset + 12, offset:offset + 12]
         return {
             'names': names, 'covariance': covariance, 'own_stand': own_stand,
             'soft_iron': soft_iron, 'mount': mount, 'mark': self._mark,
@@ -358,7 +362,27 @@ class CalibrationModel:
                 math.radians(self.tool_axis.gamma_deg), math.radians(self.tool_axis.beta_deg)),
             'rotation': (None if self.magnetic is None or self.magnetic.rotation_covariance is None
                          else np.array(self.magnetic.rotation_covariance)),
-            'installation': self._installation_response()}
+            'installation': self._installation_response(), 'stand_covariance': stand_covariance}
+
+    @property
+    def installation_std_deg(self):
+        """
+        Return the 1 sigma (gamma, beta) [deg] of the level bench's angles, or None without one.
+
+        The capture's standard error (``Installation.tilt_std_rad``) and the
+        stand fit's error through them (``_installation_response`` times the
+        stand's parameter covariance): what ``parameter_blocks`` propagates,
+        the one sigma every output of the angles quotes.
+        """
+        stage = self.installation
+        if stage is None:
+            return None
+        variance = np.full(2, stage.tilt_std_rad ** 2)
+        layout = self._fit_layout
+        if layout['installation'] is not None and layout['stand_covariance'] is not None:
+            response = layout['installation'][3]
+            variance = variance + np.diag(response @ layout['stand_covariance'] @ response.T)
+        return tuple(float(value) for value in np.degrees(np.sqrt(variance)))
 
     def _installation_response(self):
         """
@@ -408,13 +432,14 @@ class CalibrationModel:
         soft_iron, mount = layout['soft_iron'], layout['mount']
         if layout['own_stand'] is not None:
             blocks.append((layout['own_stand'], self._stand_jacobian(sensor, temperature_c),
-                           None))
+                           self._stand_field_jacobian(field_nT, temperature_c)))
         if layout['names']:
             j_f, j_b = [], []
             for name in layout['names']:
                 if name == 'stand':
                     j_f.append(self._stand_jacobian(sensor, temperature_c))
-                    j_b.append(np.zeros((count, 3, 12)))
+                    j_b.append(self._stand_field_jacobian(field_nT, temperature_c,
+                                                          np.zeros((count, 3, 12))))
                 elif name == 'magnetometer':
                     stage = self.magnetometer
                     j_f.append(np.zeros((count, 3, stage.coefficient_count)))
@@ -474,6 +499,24 @@ class CalibrationModel:
             corrected = self.apply(sensor, temperature_c, before='installation')
             jacobian = jacobian + after @ tilt_jacobian(corrected, gamma, beta) @ response
         return jacobian
+
+    def _stand_field_jacobian(self, field_nT, temperature_c, otherwise=None):
+        """
+        Return d B / d(the stand's parameters) (M, 3, p) of the corrected field, or ``otherwise``.
+
+        The stand does not correct the field, but a level bench read through
+        it turns both triads by its gamma, beta (seed 000 Eq. 9): the stand's
+        error moves them (``_installation_response``) and so the field.
+        ``otherwise`` without a field or without that response.
+        """
+        response = self._fit_layout['installation']
+        if field_nT is None or response is None:
+            return otherwise
+        gamma, beta, _, response = response
+        after = np.eye(3) if self.tool_axis is None else self.tool_axis.inverse_matrix
+        return self._fit_layout['soft_iron'] @ after @ tilt_jacobian(
+            self.apply_magnetic(field_nT, temperature_c, before='installation'),
+            gamma, beta) @ response
 
     def _stand_parameter_jacobian(self, inputs, temperature_c):
         """Return d(the stand's output) / d(its parameters) (N, 3, p) at its ``inputs`` (N, 3)."""

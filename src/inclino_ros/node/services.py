@@ -10,7 +10,6 @@ as they were.
 """
 
 from dataclasses import replace
-import math
 
 from inclino_ros.calibration.invalidation import replace_stages
 from inclino_ros.calibration.level_capture import CaptureRefused, LevelLimits, solve_level_capture
@@ -22,6 +21,7 @@ from inclino_ros.calibration.stand_fit import with_stand
 from inclino_ros.calibration.toolface_mark import MarkLimits, solve_toolface_mark
 from inclino_ros.core.stand import StandFitRefused
 from inclino_ros.core.stillness import StillLimits
+from inclino_ros.report.level import angles_line
 import numpy as np
 from rclpy.callback_groups import ReentrantCallbackGroup
 
@@ -95,11 +95,7 @@ class CalibrationServices:
             return self.collector.refuse(response, str(err))
         return self.collector.answer(response, (
             f'calibrated from {installation.sample_count} samples: '
-            f'gamma_deg={installation.gamma_deg:.4f} beta_deg={installation.beta_deg:.4f} '
-            f'theta_deg={installation.theta_deg:.4f} (noise {installation.std_deg:.4f} deg per '
-            f'sample, 1 sigma of the angles '
-            f'{math.degrees(installation.tilt_std_rad):.4f} deg)'
-            + ''.join(f'; {note}' for note in dropped)))
+            f'{angles_line(model)})' + ''.join(f'; {note}' for note in dropped)))
 
     async def capture_high_side_mark(self, request, response):
         """
