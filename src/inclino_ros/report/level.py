@@ -12,11 +12,11 @@ BLOCKS = 5
 
 
 def angles_line(model):
-    """Return the level bench's angles and their 1 sigma (``installation_std_deg``) of ``model``."""
+    """Return ``model``'s level-bench angles and their 1 sigma (``installation_std_deg``)."""
     installation = model.installation
     gamma_std_deg, beta_std_deg = model.installation_std_deg
     sigma = (f'1 sigma of the angles {gamma_std_deg:.4f} deg' if gamma_std_deg == beta_std_deg
-             else f'1 sigma with the stand\'s error: gamma {gamma_std_deg:.4f} deg, beta '
+             else f"1 sigma with the stand's error: gamma {gamma_std_deg:.4f} deg, beta "
              f'{beta_std_deg:.4f} deg')
     return (f'gamma_deg={installation.gamma_deg:.4f} beta_deg={installation.beta_deg:.4f} '
             f'theta_deg={installation.theta_deg:.4f} (noise {installation.std_deg:.4f} deg per '
