@@ -16,14 +16,12 @@ failed first.
 
 from dataclasses import replace
 import json
-import re
 
 import coverage_sim
 from inclino_ros.calibration.level_capture import solve_level_capture
 from inclino_ros.calibration.model import CalibrationModel
 from inclino_ros.calibration.schema import model_from_dict
 from inclino_ros.calibration.stand_fit import solve_sphere
-from inclino_ros.calibration.store import load_model, save_model
 from inclino_ros.core.installation import (
     correct_installation, installation_angles, level_axis_angles)
 from inclino_ros.core.stand import fit_sphere
@@ -32,8 +30,6 @@ from inclino_ros.sim import sensor_model as sm
 import numpy as np
 import pytest
 import shots_sim
-from test_msa_cli import quiet
-from test_toolface_mark import write_rows
 
 DRAWS = 300
 
@@ -315,51 +311,6 @@ def test_a_wrong_covariance_is_refused(edit, reason):
     edit(doc['magnetometer'])
     with pytest.raises(ValueError, match=reason):
         model_from_dict(doc)
-
-
-def test_fit_level_prints_the_sigma_the_file_propagates(tmp_path):
-    """
-    ``inclino fit-level`` after a sphere stand prints gamma's and beta's 1 sigma with its error.
-
-    Independent of the code's Jacobian: gamma, beta of the bench's raw mean through the sphere's
-    ``K^-1 (a - b)`` (seed 000 Eqs. 11-14), central differences over the 12 stand parameters,
-    ``J C J^T`` plus the capture's standard error squared.  The printed 4 decimals must match
-    (half a unit of the last).  Main printed the capture's noise alone, 0.0047 deg for both,
-    where the stand's error brings them to 0.0109 and 0.0141 deg (failed first).
-    """
-    rng = np.random.default_rng(2)
-    tool = shots_sim.tool(sm.MEMS)
-    _, model = coverage_sim.sphere_level(tool, rng)
-    model = replace(model, installation=None)
-    save_model(tmp_path / 'cal.json', model)
-    level = sm.read(tool, np.zeros(600), np.full(600, 40.0), np.zeros(600),
-                    field=shots_sim.FIELD, rng=rng).accel_mps2
-    write_rows(tmp_path / 'level.csv', ['time_s', 'ax', 'ay', 'az'],
-               [[k * 0.01, *a] for k, a in enumerate(level)])
-    code, out, err = quiet(['fit-level', tmp_path / 'level.csv', '--calibration',
-                            tmp_path / 'cal.json'])
-    assert code == 0, err
-    printed = re.search(r"1 sigma with the stand's error: gamma ([0-9.]+) deg, beta ([0-9.]+) "
-                        'deg', out)
-    assert printed, out
-    matrix, bias = model.stand.arrays
-    mean = level.mean(axis=0)
-
-    def angles(parameters):
-        reading = parameters[:9].reshape(3, 3) @ (mean - parameters[9:])
-        tilts = level_axis_angles(reading, np.linalg.norm(reading))
-        return np.array(installation_angles(*tilts))
-
-    start = np.concatenate([np.linalg.inv(matrix).ravel(), bias])
-    jacobian = np.stack([(angles(start + step) - angles(start - step)) / 2e-6
-                         for step in np.eye(12) * 1e-6], axis=1)
-    saved = load_model(tmp_path / 'cal.json').installation
-    variance = (np.diag(jacobian @ np.array(model.stand.parameter_covariance) @ jacobian.T)
-                + saved.tilt_std_rad ** 2)
-    expected = np.degrees(np.sqrt(variance))
-    assert np.allclose([float(printed[1]), float(printed[2])], expected, atol=5.1e-5), (
-        printed.group(0), expected)
-    assert expected.min() > 1.5 * np.degrees(saved.tilt_std_rad)
 
 
 def test_a_level_bench_after_the_sphere_turns_the_field_by_the_stands_error():

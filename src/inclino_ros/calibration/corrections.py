@@ -319,6 +319,29 @@ class CalibrationModel:
                      if getattr(self, name) is not None
                      and getattr(self, name).fitted_at == stage.fitted_at)
 
+    def installation_std_deg(self):
+        """
+        Return the 1 sigma [deg] of the installation's gamma and beta (2,); NaN without one.
+
+        The capture's noise (``Installation.tilt_std_rad``) and, after a stand
+        with a known covariance, the stand's error read through the level bench
+        (``_installation_response``, seed 000 Eqs. 11-14): the variance every
+        1 sigma of the pipeline takes for them, the one a fit reports.
+        """
+        stage = self.installation
+        if stage is None:
+            return np.full(2, math.nan)
+        variance = np.full(2, stage.tilt_std_rad ** 2)
+        layout = self._fit_layout
+        covariance = layout['own_stand']
+        if covariance is None and 'stand' in layout['names']:
+            size = COVARIANCE_STAGE_SIZES['stand']    # the first of the covered stages
+            covariance = layout['covariance'][:size, :size]
+        if layout['installation'] is not None and covariance is not None:
+            response = layout['installation'][3]
+            variance = variance + np.einsum('ij,jk,ik->i', response, covariance, response)
+        return np.degrees(np.sqrt(variance))
+
     @cached_property
     def _fit_layout(self):
         """
@@ -348,10 +371,6 @@ class CalibrationModel:
             covariance = np.array(self.magnetometer.parameter_covariance)[np.ix_(index, index)]
         own_stand = (None if self.stand is None or self.stand.parameter_covariance is None
                      or 'stand' in names else np.array(self.stand.parameter_covariance))
-        stand_covariance = own_stand
-        if 'stand' in names:
-            offset = sum(sizes[name] for name in names[:names.index('stand')])
-            stand_covariance = covariance[offset:offset + 12, offset:offset + 12]
         return {
             'names': names, 'covariance': covariance, 'own_stand': own_stand,
             'soft_iron': soft_iron, 'mount': mount, 'mark': self._mark,
@@ -362,27 +381,7 @@ class CalibrationModel:
                 math.radians(self.tool_axis.gamma_deg), math.radians(self.tool_axis.beta_deg)),
             'rotation': (None if self.magnetic is None or self.magnetic.rotation_covariance is None
                          else np.array(self.magnetic.rotation_covariance)),
-            'installation': self._installation_response(), 'stand_covariance': stand_covariance}
-
-    @property
-    def installation_std_deg(self):
-        """
-        Return the 1 sigma (gamma, beta) [deg] of the level bench's angles, or None without one.
-
-        The capture's standard error (``Installation.tilt_std_rad``) and the
-        stand fit's error through them (``_installation_response`` times the
-        stand's parameter covariance): what ``parameter_blocks`` propagates,
-        the one sigma every output of the angles quotes.
-        """
-        stage = self.installation
-        if stage is None:
-            return None
-        variance = np.full(2, stage.tilt_std_rad ** 2)
-        layout = self._fit_layout
-        if layout['installation'] is not None and layout['stand_covariance'] is not None:
-            response = layout['installation'][3]
-            variance = variance + np.diag(response @ layout['stand_covariance'] @ response.T)
-        return tuple(float(value) for value in np.degrees(np.sqrt(variance)))
+            'installation': self._installation_response()}
 
     def _installation_response(self):
         """

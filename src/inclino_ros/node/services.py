@@ -12,7 +12,8 @@ as they were.
 from dataclasses import replace
 
 from inclino_ros.calibration.invalidation import replace_stages
-from inclino_ros.calibration.level_capture import CaptureRefused, LevelLimits, solve_level_capture
+from inclino_ros.calibration.level_capture import (
+    angles_sigma_text, CaptureRefused, LevelLimits, solve_level_capture)
 from inclino_ros.calibration.model import readings_temperature_c, temperature_conflict
 from inclino_ros.calibration.plausibility import Implausible
 from inclino_ros.calibration.stand_capture import (
@@ -21,7 +22,6 @@ from inclino_ros.calibration.stand_fit import with_stand
 from inclino_ros.calibration.toolface_mark import MarkLimits, solve_toolface_mark
 from inclino_ros.core.stand import StandFitRefused
 from inclino_ros.core.stillness import StillLimits
-from inclino_ros.report.level import angles_line
 import numpy as np
 from rclpy.callback_groups import ReentrantCallbackGroup
 
@@ -95,7 +95,10 @@ class CalibrationServices:
             return self.collector.refuse(response, str(err))
         return self.collector.answer(response, (
             f'calibrated from {installation.sample_count} samples: '
-            f'{angles_line(model)})' + ''.join(f'; {note}' for note in dropped)))
+            f'gamma_deg={installation.gamma_deg:.4f} beta_deg={installation.beta_deg:.4f} '
+            f'theta_deg={installation.theta_deg:.4f} (noise {installation.std_deg:.4f} deg per '
+            f'sample, {angles_sigma_text(model)})'
+            + ''.join(f'; {note}' for note in dropped)))
 
     async def capture_high_side_mark(self, request, response):
         """

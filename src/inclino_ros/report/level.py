@@ -2,6 +2,7 @@
 
 import math
 
+from inclino_ros.calibration.level_capture import angles_sigma_text
 from inclino_ros.core.installation import level_axis_angles
 from inclino_ros.io.report import Residual
 from inclino_ros.report.common import finish_figure, new_figure
@@ -11,25 +12,16 @@ import numpy as np
 BLOCKS = 5
 
 
-def angles_line(model):
-    """Return ``model``'s level-bench angles and their 1 sigma (``installation_std_deg``)."""
-    installation = model.installation
-    gamma_std_deg, beta_std_deg = model.installation_std_deg
-    sigma = (f'1 sigma of the angles {gamma_std_deg:.4f} deg' if gamma_std_deg == beta_std_deg
-             else f"1 sigma with the stand's error: gamma {gamma_std_deg:.4f} deg, beta "
-             f'{beta_std_deg:.4f} deg')
-    return (f'gamma_deg={installation.gamma_deg:.4f} beta_deg={installation.beta_deg:.4f} '
-            f'theta_deg={installation.theta_deg:.4f} (noise {installation.std_deg:.4f} deg per '
-            f'sample, {sigma}')
-
-
 def capture_lines(model, applied):
     """Return the summary lines of ``model``'s level capture; ``applied``: stages used first."""
     installation = model.installation
     return [
         f'level capture: {installation.sample_count} samples'
         + (f' after the {" and ".join(applied)} stage of the file' if applied else ''),
-        f'{angles_line(model)}, G-total {installation.g_total_mps2:.4f} m/s^2)']
+        f'gamma_deg={installation.gamma_deg:.4f} beta_deg={installation.beta_deg:.4f} '
+        f'theta_deg={installation.theta_deg:.4f} (noise {installation.std_deg:.4f} deg per '
+        f'sample, {angles_sigma_text(model)}, '
+        f'G-total {installation.g_total_mps2:.4f} m/s^2)']
 
 
 def axis_tilts_deg(level, two_axis_g):
