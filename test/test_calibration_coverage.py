@@ -369,3 +369,22 @@ def test_a_level_bench_after_the_sphere_turns_the_field_by_the_stands_error():
     assert j_b is not None
     assert np.allclose(j_b, numeric, rtol=1e-5, atol=1e-5 * np.abs(numeric).max())
     assert np.abs(numeric).max() > 100.0   # nT per unit of K^-1: not a vanishing term
+
+
+def test_after_fit_magnetometer_the_level_angles_sigma_has_the_stand_block():
+    """
+    fit-magnetometer then a level bench: gamma, beta's 1 sigma read the sphere's block.
+
+    The stand is then a block of the magnetometer fit's covariance; main raised NameError
+    (``COVARIANCE_STAGE_SIZES`` not imported in corrections) on this path (failed first).
+    The 1 sigma must exceed the capture's noise alone (the sphere's share is not zero).
+    """
+    rng = np.random.default_rng(3)
+    tool, model = coverage_sim.calibrate('fit-magnetometer', sm.QUARTZ_FLUXGATE, 1, rng)
+    level = sm.read(tool, np.zeros(500), np.full(500, 40.0), np.zeros(500),
+                    field=shots_sim.FIELD, rng=rng).accel_mps2
+    model = replace(model, installation=solve_level_capture(
+        model.apply(level, before='installation'), 3, coverage_sim.LEVEL_LIMITS))
+    assert 'stand' in model.covariance_stages
+    noise_deg = np.degrees(model.installation.tilt_std_rad)
+    assert np.all(np.array(model.installation_std_deg()) > 1.05 * noise_deg)

@@ -44,7 +44,7 @@ from functools import cached_property
 import math
 
 from inclino_ros.calibration.stages import (
-    Installation, Magnetic, Magnetometer, MagnetometerAlignment,
+    COVARIANCE_STAGE_SIZES, Installation, Magnetic, Magnetometer, MagnetometerAlignment,
     MagnetometerNonlinear, MagnetometerTemperature, Stand, Temperature, ToolAxis, ToolfaceMark)
 from inclino_ros.core.constants import STANDARD_GRAVITY_MPS2
 from inclino_ros.core.installation import to_tool_frame
