@@ -44,7 +44,7 @@ from functools import cached_property
 import math
 
 from inclino_ros.calibration.stages import (
-    Installation, Magnetic, Magnetometer, MagnetometerAlignment,
+    COVARIANCE_STAGE_SIZES, Installation, Magnetic, Magnetometer, MagnetometerAlignment,
     MagnetometerNonlinear, MagnetometerTemperature, Stand, Temperature, ToolAxis, ToolfaceMark)
 from inclino_ros.core.constants import STANDARD_GRAVITY_MPS2
 from inclino_ros.core.installation import to_tool_frame
@@ -436,13 +436,15 @@ class CalibrationModel:
         soft_iron, mount = layout['soft_iron'], layout['mount']
         if layout['own_stand'] is not None:
             blocks.append((layout['own_stand'], self._stand_jacobian(sensor, temperature_c),
-                           None))
+                           self._stand_field_jacobian(field_nT, temperature_c)))
         if layout['names']:
             j_f, j_b = [], []
             for name in layout['names']:
                 if name == 'stand':
                     j_f.append(self._stand_jacobian(sensor, temperature_c))
-                    j_b.append(np.zeros((count, 3, self.stand.coefficient_count)))
+                    j_b.append(self._stand_field_jacobian(
+                        field_nT, temperature_c,
+                        np.zeros((count, 3, self.stand.coefficient_count))))
                 elif name == 'magnetometer':
                     stage = self.magnetometer
                     j_f.append(np.zeros((count, 3, stage.coefficient_count)))
@@ -502,6 +504,24 @@ class CalibrationModel:
             corrected = self.apply(sensor, temperature_c, before='installation')
             jacobian = jacobian + after @ tilt_jacobian(corrected, gamma, beta) @ response
         return jacobian
+
+    def _stand_field_jacobian(self, field_nT, temperature_c, otherwise=None):
+        """
+        Return d B / d(the stand's parameters) (M, 3, p) of the corrected field, or ``otherwise``.
+
+        The stand does not correct the field, but a level bench read through
+        it turns both triads by its gamma, beta (seed 000 Eq. 9): the stand's
+        error moves them (``_installation_response``) and so the field.
+        ``otherwise`` without a field or without that response.
+        """
+        response = self._fit_layout['installation']
+        if field_nT is None or response is None:
+            return otherwise
+        gamma, beta, _, response = response
+        after = np.eye(3) if self.tool_axis is None else self.tool_axis.inverse_matrix
+        return self._fit_layout['soft_iron'] @ after @ tilt_jacobian(
+            self.apply_magnetic(field_nT, temperature_c, before='installation'),
+            gamma, beta) @ response
 
     def _stand_parameter_jacobian(self, inputs, temperature_c):
         """Return d(the stand's output) / d(its parameters) (N, 3, p) at its ``inputs`` (N, 3)."""
