@@ -64,9 +64,6 @@ RHO_GRID = np.linspace(0.0, 0.99, 991)
 #: to the segments' lines (on the simulator at rho 0.9, 500 samples: lags 1-2 spread F
 #: over 9-70 for 18.6, 1-5 over 11-29, 1-12 and 1-25 sink it to 15 and 10).
 LAGS = 5
-#: A segment of m samples tells correlation times up to m / CORRELATION_SPAN samples
-#: (``identifiable_rho``).
-CORRELATION_SPAN = 2.0
 #: Longest segment whose detrended variogram law is computed (``detrended_shape``).
 DETRENDED_MAX_SIZE = 1000
 
@@ -91,6 +88,21 @@ class CorrelatedNoise:
     def effective_samples(self, samples):
         """Return n_eff = n / F(n): the white-noise samples a mean of n is worth."""
         return np.asarray(samples, dtype=float) / self.inflation(samples)
+
+    def contrast_variance(self, weights):
+        """
+        Return var(sum_i w_i x_i) of consecutive samples x, ``weights`` w (N,).
+
+        ``sigma^2 w^T S w``, S_ab = rho^|a - b|: S w is the AR(1) filter run
+        forwards and backwards over w, less w (as in ``detrended_shape``);
+        white: ``sigma^2 sum w^2``.  A mean's weights 1 / n give ``mean_variance``.
+        """
+        w = np.asarray(weights, dtype=float)
+        if self.rho == 0.0:
+            return self.variance * float(w @ w)
+        forward = lfilter([1.0], [1.0, -self.rho], w)
+        backward = lfilter([1.0], [1.0, -self.rho], w[::-1])[::-1]
+        return self.variance * float(w @ (forward + backward - w))
 
     def mean_variance(self, samples):
         """Return the variance of the mean of ``samples`` consecutive samples."""
@@ -159,19 +171,6 @@ def detrended_shape(size, lags):
     return shape
 
 
-def identifiable_rho(size):
-    """
-    Return the largest rho a segment of ``size`` samples tells: correlation time size / CORRELATION_SPAN.
-
-    A correlation time ``tau = -1 / ln rho`` samples beyond a fraction of the
-    segment is mostly taken out by the segment's line: g_j(rho, m) of
-    ``detrended_shape`` flattens in rho and sigma^2 with it, so that the fit
-    wanders up to the grid's end and F(N) with it (at rho 0.9 and 10 segments of
-    30 samples: 10 % of the captures at rho 0.99, F(N) 1400 for 18).
-    """
-    return min(math.exp(-CORRELATION_SPAN / float(size)), RHO_GRID[-1])
-
-
 def estimate(values, segments):
     """
     Return the CorrelatedNoise of ``values`` (N,) or (N, k) within ``segments``.
@@ -196,9 +195,7 @@ def estimate(values, segments):
     # Least squares of V_j = sigma^2 g_j(rho, m) over a grid of rho: sigma^2 is linear.
     shape = detrended_shape(int(np.median(sizes)), tuple(int(lag) for lag in lags))
     variance = (shape @ variogram) / np.sum(shape * shape, axis=1)
-    misfit = np.sum((variogram - variance[:, None] * shape) ** 2, axis=1)
-    misfit[RHO_GRID > identifiable_rho(sizes.min())] = np.inf
-    best = int(np.argmin(misfit))
+    best = int(np.argmin(np.sum((variogram - variance[:, None] * shape) ** 2, axis=1)))
     if not RHO_GRID[best] > THRESHOLD / math.sqrt(count):
         return white
     return CorrelatedNoise(variance=float(variance[best]), rho=float(RHO_GRID[best]), dof=dof)

@@ -242,13 +242,16 @@ def assess(angles_rad, times_s=None):
     s_tt = np.sum(n_b * t_b ** 2)
     slope = (n_b * t_b) @ (means - a_mean) / s_tt
     slope_norm = float(np.linalg.norm(slope))
+    # The slope is sum_i t_b(i) x_i / s_tt: its variance per component, the block means'
+    # correlation with their neighbours counted (white: noise_var / s_tt, the F law).
+    slope_var = noise.contrast_variance(t_b[block] / s_tt)
     off_line = means - a_mean - np.outer(t_b, slope)
     scatter = float(np.sum(n_b * np.sum(off_line ** 2, axis=1)))
     dof = k * (blocks - 2)
     sigma = math.sqrt(noise_var)
     block_var = noise_var * inflation
     with np.errstate(divide='ignore', invalid='ignore'):
-        drift_f = slope_norm ** 2 * s_tt / (k * block_var) if sigma > 0 else (
+        drift_f = slope_norm ** 2 / (k * slope_var) if sigma > 0 else (
             math.inf if slope_norm > 0 else 0.0)
         ratio = scatter / block_var / dof if sigma > 0 else (math.inf if scatter > 0 else 0.0)
     motion_var = np.mean(np.sum(off_line ** 2, axis=1) / k - noise.mean_variance(n_b))
@@ -269,7 +272,7 @@ def assess(angles_rad, times_s=None):
         motion_deg=math.degrees(math.sqrt(max(motion_var, 0.0))),
         part_offset_deg=math.degrees(math.sqrt(max(float(offset.max()), 0.0))),
         turn_deg=math.degrees(slope_norm * half_span),
-        turn_sigma_deg=math.degrees(math.sqrt(block_var / s_tt) * half_span), components=k)
+        turn_sigma_deg=math.degrees(math.sqrt(slope_var) * half_span), components=k)
 
 
 def motion(stillness, limits, steady=True):
