@@ -142,3 +142,28 @@ def test_fit_level_and_rotation_keep_the_nonlinear_stage_harmlessly():
     solution = solve_rotation(model, ring)
     assert solution.model.magnetometer_nonlinear is stage
     np.testing.assert_allclose(solution.readings_nT, model.apply_magnetic(ring, before='magnetic'))
+
+
+def test_fit_stand_says_the_mark_it_drops(tmp_path):
+    """
+    ``inclino fit-stand`` drops a high-side mark like every fit (``with_stand``) and says so.
+
+    main dropped it silently: the report named only the installation stage.
+    """
+    rng = np.random.default_rng(2)
+    write_rows(tmp_path / 'mark.csv', ['time_s', 'ax', 'ay', 'az'],
+               [[k * 0.01, *a] for k, a in enumerate(capture(QUARTZ, 30.0, rng, 600))])
+    calibration = tmp_path / 'cal.json'
+    code, _, err = quiet(['fit-toolface-mark', tmp_path / 'mark.csv', '--calibration',
+                          calibration])
+    assert code == 0, err
+    assert load_model(calibration).toolface_mark is not None
+    incl, tf, _ = shots_sim.random_attitudes(rng, 60)
+    readings = sensor_model.read(QUARTZ, incl, tf, rng=rng).accel_mps2
+    write_rows(tmp_path / 'sphere.csv', ['ax', 'ay', 'az'], readings.tolist())
+    code, out, err = quiet(['fit-stand', tmp_path / 'sphere.csv', '--method', 'sphere',
+                            '--calibration', calibration])
+    assert code == 0, err
+    assert load_model(calibration).toolface_mark is None
+    assert ('toolface_mark stage dropped: it was measured through the stand stage this fit '
+            'replaced; capture the high-side mark again') in out

@@ -44,8 +44,8 @@ from functools import cached_property
 import math
 
 from inclino_ros.calibration.stages import (
-    Installation, Magnetic, Magnetometer, MagnetometerAlignment, MagnetometerNonlinear,
-    MagnetometerTemperature, Stand, Temperature, ToolAxis, ToolfaceMark)
+    COVARIANCE_STAGE_SIZES, Installation, Magnetic, Magnetometer, MagnetometerAlignment,
+    MagnetometerNonlinear, MagnetometerTemperature, Stand, Temperature, ToolAxis, ToolfaceMark)
 from inclino_ros.core.constants import STANDARD_GRAVITY_MPS2
 from inclino_ros.core.installation import to_tool_frame
 from inclino_ros.core.nonlinear import correction_jacobian
@@ -340,8 +340,8 @@ class CalibrationModel:
                 mount = stage.inverse_matrix @ mount
         names, covariance = self.covariance_stages, None
         if names:
-            sizes = {'stand': 12, 'magnetometer': self.magnetometer.coefficient_count,
-                     'tool_axis': 2}
+            sizes = dict(COVARIANCE_STAGE_SIZES,
+                         magnetometer=self.magnetometer.coefficient_count)
             covered = self.magnetometer.covariance_stages
             start = dict(zip(covered, np.cumsum([0] + [sizes[n] for n in covered])))
             index = np.concatenate([np.arange(start[n], start[n] + sizes[n]) for n in names])
@@ -480,6 +480,7 @@ class CalibrationModel:
         stand = self.stand
         if stand.temperature_dependent:
             return stand.coefficient_jacobian(inputs, temperature_c)
+        # K^-1 again, not ``_fit_layout``'s: the layout's installation response calls this.
         return affine_jacobian(inputs - stand.arrays[1], np.linalg.inv(stand.arrays[0]))
 
     def temperature_covariance(self, readings, temperature_c=None, triad='accelerometer'):

@@ -18,8 +18,8 @@ from inclino_ros.calibration.corrections import CalibrationModel
 from inclino_ros.calibration.migrations import (
     READABLE_VERSIONS, SCHEMA_VERSION, SECTIONS, upgraded)
 from inclino_ros.calibration.stages import (
-    Installation, Magnetic, Magnetometer, MagnetometerAlignment, MagnetometerNonlinear,
-    MagnetometerTemperature, Stand, Temperature, ToolAxis, ToolfaceMark)
+    COVARIANCE_STAGE_SIZES, Installation, Magnetic, Magnetometer, MagnetometerAlignment,
+    MagnetometerNonlinear, MagnetometerTemperature, Stand, Temperature, ToolAxis, ToolfaceMark)
 from inclino_ros.core.attitude import TOOLFACE_CONVENTIONS
 from inclino_ros.core.mounting import axes_map_matrix
 import numpy as np
@@ -216,11 +216,6 @@ def _covariance(section, name, key, size):
             and np.linalg.eigvalsh(0.5 * (value + value.T)).min() >= -1e-9 * scale):
         raise ValueError(f'{name}.{key} is not a symmetric positive semi-definite matrix')
     return tuple(map(tuple, value.tolist()))
-
-
-#: The stages a magnetometer fit's covariance may cover, in its order, with their sizes
-#: (the magnetometer's times the terms of K_m(T), b_m(T): ``_coefficient_count``).
-COVARIANCE_STAGE_SIZES = {'stand': 12, 'magnetometer': 12, 'tool_axis': 2}
 
 
 def _magnetometer_covariance(values, name):

@@ -23,6 +23,13 @@ from inclino_ros.core.uncertainty import affine_jacobian, temperature_compensati
 import numpy as np
 
 
+#: The stages a magnetometer fit's covariance may cover, in its order, with their sizes
+#: (the magnetometer's times the terms of K_m(T), b_m(T): ``coefficient_count``; the stand
+#: it covers is the joint fit's sphere, one temperature): the one table of the file's reader
+#: (``schema``) and of the model's use of it (``CalibrationModel.parameter_blocks``).
+COVARIANCE_STAGE_SIZES = {'stand': 12, 'magnetometer': 12, 'tool_axis': 2}
+
+
 class _SeedZeroRotation:
     """A rotation of seed 000's form (gamma about Y, beta about X', Eq. 1) from sensor to tool."""
 

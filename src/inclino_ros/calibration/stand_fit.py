@@ -329,7 +329,7 @@ def solve_sphere(readings, gravity_mps2, max_rms_deg, temperature_c=None,
 
 def with_stand(model, stand, field=None):
     """
-    Return ``model`` with the new ``stand`` (and the magnetometer stages of ``field``).
+    Return (``model`` with the new ``stand`` and ``field``'s stages, notes on the stages dropped).
 
     The installation and tool-axis stages are dropped: a stand K, fitted
     against the tool's attitude, already holds the mounting misalignment (a
@@ -339,9 +339,10 @@ def with_stand(model, stand, field=None):
     chain, is dropped too (``inclino fit-magnetometer`` fits it again), and so
     is a high-side mark: it was captured through the old stages (a stand ties
     the toolface itself; after a sphere fit capture the mark again): the one
-    rule, ``invalidation.replace_stages``.
+    rule, ``invalidation.replace_stages``, whose notes (one per stage
+    dropped, with what to do) the node's answer and the command's report say.
     ``field``: a ``magnetometer.FieldStandFit`` or None.
     """
     fields = {} if field is None else {'magnetometer': field.magnetometer,
                                        'magnetometer_alignment': field.alignment}
-    return replace_stages(model, stand=stand, installation=None, tool_axis=None, **fields)[0]
+    return replace_stages(model, stand=stand, installation=None, tool_axis=None, **fields)

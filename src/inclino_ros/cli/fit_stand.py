@@ -132,7 +132,8 @@ def fit(args, lines, outputs):
         write_text(outputs.path(txt), lines + [f'REFUSED: {refusal}'])
         raise Refused(refusal)
     dropped = existing.installation is not None
-    model = save(args, with_stand(existing, stage, field), outputs, lines)
+    model, notes = with_stand(existing, stage, field)
+    model = save(args, model, outputs, lines)
     lines.append(f'wrote {args.calibration}: stand stage ({args.method}, {stage.positions} '
                  f'{"positions" if args.method == "stand" else "readings"})'
                  + (', temperature stage kept' if existing.temperature else ''))
@@ -144,6 +145,7 @@ def fit(args, lines, outputs):
     elif args.method == 'sphere':
         lines.append('a sphere fit cannot see the mounting rotation: calibrate the level bench '
                      '(inclino calibrate) next')
+    lines += notes
     write_text(outputs.path(txt), lines)
     return Fitted(model, tuple(rows))
 

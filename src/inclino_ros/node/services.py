@@ -192,7 +192,8 @@ class CalibrationServices:
                 self.reference(), node.param('stand.max_field_rms_deg'),
                 node.param('temperature.max_stage_difference_c'),
                 node.param('stand.attitude_sigma_deg'))
-            self.collector.commit(with_stand(node.model, stand, field))
+            model, dropped = with_stand(node.model, stand, field)
+            self.collector.commit(model)
         except (StandFitRefused, CaptureRefused) as err:
             return self.collector.refuse(response, str(err))
         k = np.array(stand.scale_matrix)
@@ -209,7 +210,7 @@ class CalibrationServices:
             f'({", ".join(f"{v:.5f}" for v in stand.bias_mps2)}) m/s^2, condition number '
             f'{stand.condition_number:.2f}, residual rms_inclination_deg='
             f'{stand.rms_inclination_deg:.4f}; {repeats}; {magnetometer}; installation '
-            'correction reset (K holds it)'))
+            'correction reset (K holds it)' + ''.join(f'; {note}' for note in dropped)))
 
     def clear_positions(self, request, response):
         """Forget the captured stand positions."""
