@@ -36,11 +36,15 @@ Correlated noise (a low-pass filter below the output rate, issue 19 item 4):
 the noise is measured from the capture's within-block residuals with its
 autocorrelation (``correlated_noise.estimate``): sigma^2 is the per-sample
 variance, a block mean's variance is ``sigma^2 F(n_b) / n_b`` and the mean's
-standard error ``sigma sqrt(F(N) / N)`` (``n_eff = N / F(N)``).  Both F
-ratios then take ``sigma^2 F(n_b)`` for the white ``sigma^2`` and the
-degrees of freedom of the estimate (``correlated_noise.dof``): approximate
-laws, exact again for white noise (rho = 0, which the estimate keeps in
-~98 % of white captures).
+standard error ``sigma sqrt(F(N) / N)`` (``n_eff = N / F(N)``).  The
+drift's slope ``d = sum_i w_i x_i``, ``w_i = (t_b(i) - t) / S``, has the
+variance ``sigma^2 w^T R w`` (R_ij = rho^|i - j|,
+``CorrelatedNoise.contrast_variance``; neighbouring block means correlate:
+at rho 0.9 and blocks of 30 samples 1.3 times ``sigma^2 F(n_b) / S``), which
+``F_drift`` takes for ``sigma^2 / S``; ``F_steady`` takes ``sigma^2 F(n_b)``
+for the white ``sigma^2``; both with the degrees of freedom of the estimate
+(``correlated_noise.dof``): approximate laws, exact again for white noise
+(rho = 0, which the estimate keeps in ~98 % of white captures).
 
 Slow turns (issue 19 item 5): one rule, timed or untimed, for every caller
 (``motion``, ``judge``, ``Stillness.stated_sem_deg``): the capture's mean
@@ -48,7 +52,7 @@ must lie within its stated precision of the attitude at every part of the
 capture.  A drift d puts the attitude at the capture's ends ``h = |d| H``
 from the mean (``turn_deg``; H = max |t_i - t|, half the capture for even
 sampling, the same in samples when the capture has no times), known to
-``sigma_h = H sqrt(sigma^2 F(n_b) / S)`` per component (``turn_sigma_deg``:
+``sigma_h = H sqrt(var(d))`` per component (``turn_sigma_deg``, var(d) above:
 sqrt(3) times the mean's standard error for white noise, evenly sampled).
 A turn too slow to be significant at FALSE_MOTION_P (a MEMS capture of 3 s
 cannot tell 0.015 deg/s from stillness: h = 0.02 deg, sigma_h = 0.012 deg)
