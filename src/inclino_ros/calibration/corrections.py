@@ -319,6 +319,29 @@ class CalibrationModel:
                      if getattr(self, name) is not None
                      and getattr(self, name).fitted_at == stage.fitted_at)
 
+    def installation_std_deg(self):
+        """
+        Return the 1 sigma [deg] of the installation's gamma and beta (2,); NaN without one.
+
+        The capture's noise (``Installation.tilt_std_rad``) and, after a stand
+        with a known covariance, the stand's error read through the level bench
+        (``_installation_response``, seed 000 Eqs. 11-14): the variance every
+        1 sigma of the pipeline takes for them, the one a fit reports.
+        """
+        stage = self.installation
+        if stage is None:
+            return np.full(2, math.nan)
+        variance = np.full(2, stage.tilt_std_rad ** 2)
+        layout = self._fit_layout
+        covariance = layout['own_stand']
+        if covariance is None and 'stand' in layout['names']:
+            size = COVARIANCE_STAGE_SIZES['stand']    # the first of the covered stages
+            covariance = layout['covariance'][:size, :size]
+        if layout['installation'] is not None and covariance is not None:
+            response = layout['installation'][3]
+            variance = variance + np.einsum('ij,jk,ik->i', response, covariance, response)
+        return np.degrees(np.sqrt(variance))
+
     @cached_property
     def _fit_layout(self):
         """

@@ -74,3 +74,19 @@ def solve_level_capture(samples, axes, limits, times_s=None, temperature_c=None)
         gamma_deg=math.degrees(float(gamma)), beta_deg=math.degrees(float(beta)),
         captured_at=utc_now_iso(), sample_count=int(samples.shape[0]),
         std_deg=stillness.white_noise_deg, g_total_mps2=g_total, temperature_c=temperature_c)
+
+
+def angles_sigma_text(model):
+    """
+    Return how a fit states the 1 sigma of ``model``'s installation angles (node and command).
+
+    ``CalibrationModel.installation_std_deg``: the capture's noise alone
+    ("1 sigma of the angles X deg"), or with a stand's fit read through the
+    bench, gamma's and beta's each, the noise's share said.
+    """
+    noise_deg = math.degrees(model.installation.tilt_std_rad)
+    gamma_deg, beta_deg = model.installation_std_deg()
+    if max(gamma_deg, beta_deg) <= noise_deg * (1.0 + 1e-9):
+        return f'1 sigma of the angles {noise_deg:.4f} deg'
+    return (f'1 sigma of the angles {gamma_deg:.4f} / {beta_deg:.4f} deg (gamma / beta: the '
+            f"capture's noise {noise_deg:.4f} deg and the stand's fit)")

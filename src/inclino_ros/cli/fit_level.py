@@ -105,15 +105,15 @@ def fit(args, lines, outputs):
     except CaptureRefused as err:
         raise Refused(str(err)) from None
     applied = [name for name in ('temperature', 'stand') if getattr(existing, name)]
-    lines += capture_lines(installation, applied)
+    # The level bench measures the whole mount: a tool axis on top would count twice.
+    model, dropped = replace_stages(existing, installation=installation, tool_axis=None)
+    lines += capture_lines(model, applied)
     g_mps2 = args.gravity_mps2 if axes == 2 else None
     rows = block_residuals(level, installation, g_mps2)
     lines += residual_lines(rows, f'tilt of each {BLOCKS}th of the capture minus the whole '
                                   "capture's")
     png, txt = report_paths(args, REPORT_NAME)
     plot_level(outputs.path(png), level, installation, g_mps2)
-    # The level bench measures the whole mount: a tool axis on top would count twice.
-    model, dropped = replace_stages(existing, installation=installation, tool_axis=None)
     lines += dropped
     model = save(args, model, outputs, lines)
     lines += [f'wrote {args.calibration}: installation stage'

@@ -10,10 +10,10 @@ as they were.
 """
 
 from dataclasses import replace
-import math
 
 from inclino_ros.calibration.invalidation import replace_stages
-from inclino_ros.calibration.level_capture import CaptureRefused, LevelLimits, solve_level_capture
+from inclino_ros.calibration.level_capture import (
+    angles_sigma_text, CaptureRefused, LevelLimits, solve_level_capture)
 from inclino_ros.calibration.model import readings_temperature_c, temperature_conflict
 from inclino_ros.calibration.plausibility import Implausible
 from inclino_ros.calibration.stand_capture import (
@@ -97,8 +97,7 @@ class CalibrationServices:
             f'calibrated from {installation.sample_count} samples: '
             f'gamma_deg={installation.gamma_deg:.4f} beta_deg={installation.beta_deg:.4f} '
             f'theta_deg={installation.theta_deg:.4f} (noise {installation.std_deg:.4f} deg per '
-            f'sample, 1 sigma of the angles '
-            f'{math.degrees(installation.tilt_std_rad):.4f} deg)'
+            f'sample, {angles_sigma_text(model)})'
             + ''.join(f'; {note}' for note in dropped)))
 
     async def capture_high_side_mark(self, request, response):

@@ -2,6 +2,7 @@
 
 import math
 
+from inclino_ros.calibration.level_capture import angles_sigma_text
 from inclino_ros.core.installation import level_axis_angles
 from inclino_ros.io.report import Residual
 from inclino_ros.report.common import finish_figure, new_figure
@@ -11,14 +12,15 @@ import numpy as np
 BLOCKS = 5
 
 
-def capture_lines(installation, applied):
-    """Return the summary lines of a level capture; ``applied``: the file's stages used first."""
+def capture_lines(model, applied):
+    """Return the summary lines of ``model``'s level capture; ``applied``: stages used first."""
+    installation = model.installation
     return [
         f'level capture: {installation.sample_count} samples'
         + (f' after the {" and ".join(applied)} stage of the file' if applied else ''),
         f'gamma_deg={installation.gamma_deg:.4f} beta_deg={installation.beta_deg:.4f} '
         f'theta_deg={installation.theta_deg:.4f} (noise {installation.std_deg:.4f} deg per '
-        f'sample, 1 sigma of the angles {math.degrees(installation.tilt_std_rad):.4f} deg, '
+        f'sample, {angles_sigma_text(model)}, '
         f'G-total {installation.g_total_mps2:.4f} m/s^2)']
 
 
