@@ -21,7 +21,7 @@ import coverage_sim
 from inclino_ros.calibration.level_capture import solve_level_capture
 from inclino_ros.calibration.model import CalibrationModel
 from inclino_ros.calibration.schema import model_from_dict
-from inclino_ros.calibration.stand_fit import solve_sphere
+from inclino_ros.calibration.stand_fit import solve_sphere, with_stand
 from inclino_ros.core.installation import (
     correct_installation, installation_angles, level_axis_angles)
 from inclino_ros.core.stand import fit_sphere
@@ -294,6 +294,32 @@ def test_file_keeps_the_covariance_and_older_files_say_they_lack_it():
     assert refitted.covariance_stages == ('magnetometer', 'tool_axis')
     (block, j_f, j_b), = refitted.parameter_blocks(np.ones((1, 3)), np.ones((1, 3)))
     assert np.array_equal(block, covariance[12:, 12:]) and j_f.shape == j_b.shape == (1, 3, 14)
+
+
+def test_a_plateau_stand_fitted_in_the_same_second_is_not_the_covered_stand():
+    """
+    A stand at plateaus with the shot fit's ``fitted_at`` is not the 12 rows it covers.
+
+    ``inclino fit-magnetometer`` without a stand covers the sphere stand's 12 parameters;
+    ``inclino fit-stand`` at three plateaus run in the same second (``fitted_at`` has a
+    resolution of 1 s) gives a stand of 12 (order + 1) parameters with the same time.
+    Before: the covered block (24 square) went with a Jacobian of 36 + 12 columns, the
+    1 sigma crashed (failed first).  Now the layout comes from the stages: a covered stage
+    counts only when its parameters are the block's, the stand's own covariance is used.
+    """
+    _, shots = coverage_sim.calibrate('fit-magnetometer', coverage_sim.TOOLS[0][1], 1,
+                                      np.random.default_rng(5))
+    _, plateau = coverage_sim.calibrate('plateau-stand', coverage_sim.TOOLS[0][1], 1,
+                                        np.random.default_rng(6))
+    stand = replace(plateau.stand, fitted_at=shots.magnetometer.fitted_at)
+    model = with_stand(shots, stand)[0]
+    assert model.covariance_stages == ('magnetometer',)
+    own, covered = model.parameter_blocks(np.full((1, 3), 5.0), np.full((1, 3), 2e4), 25.0)
+    assert np.array_equal(own[0], np.array(stand.parameter_covariance))
+    assert own[1].shape == (1, 3, stand.coefficient_count) and own[2] is None
+    covariance = np.array(shots.magnetometer.parameter_covariance)
+    assert np.array_equal(covered[0], covariance[12:24, 12:24])
+    assert covered[1].shape == covered[2].shape == (1, 3, 12)
 
 
 @pytest.mark.parametrize('edit, reason', [

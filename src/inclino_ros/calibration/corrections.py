@@ -44,7 +44,7 @@ from functools import cached_property
 import math
 
 from inclino_ros.calibration.stages import (
-    COVARIANCE_STAGE_SIZES, Installation, Magnetic, Magnetometer, MagnetometerAlignment,
+    Installation, Magnetic, Magnetometer, MagnetometerAlignment,
     MagnetometerNonlinear, MagnetometerTemperature, Stand, Temperature, ToolAxis, ToolfaceMark)
 from inclino_ros.core.constants import STANDARD_GRAVITY_MPS2
 from inclino_ros.core.installation import to_tool_frame
@@ -215,7 +215,7 @@ class CalibrationModel:
         """
         matrix = np.eye(3)
         if self.stand is not None:
-            matrix = np.linalg.inv(self.stand.arrays[0]) @ matrix
+            matrix = self._stand_inverse @ matrix
         for stage in (self.installation, self.tool_axis):
             if stage is not None:
                 matrix = stage.inverse_matrix @ matrix
@@ -309,15 +309,18 @@ class CalibrationModel:
         Return the stages the magnetometer fit's parameter covariance still covers (names).
 
         Those of ``Magnetometer.covariance_stages`` present and fitted with it
-        (the same ``fitted_at``): a stage fitted again since has its own error,
-        its rows are left out (the marginal of the rest is their sub-matrix).
+        (the same ``fitted_at``, and as many parameters as its block: a stand
+        at plateaus fitted in the same second is not the one covered): a stage
+        fitted again since has its own error, its rows are left out (the
+        marginal of the rest is their sub-matrix).
         """
         stage = self.magnetometer
         if stage is None or stage.parameter_covariance is None:
             return ()
-        return tuple(name for name in stage.covariance_stages
+        return tuple(name for name, rows in stage.covariance_blocks.items()
                      if getattr(self, name) is not None
-                     and getattr(self, name).fitted_at == stage.fitted_at)
+                     and getattr(self, name).fitted_at == stage.fitted_at
+                     and _parameter_count(getattr(self, name)) == rows.stop - rows.start)
 
     def installation_std_deg(self):
         """
@@ -363,18 +366,15 @@ class CalibrationModel:
                 mount = stage.inverse_matrix @ mount
         names, covariance = self.covariance_stages, None
         if names:
-            sizes = dict(COVARIANCE_STAGE_SIZES,
-                         magnetometer=self.magnetometer.coefficient_count)
-            covered = self.magnetometer.covariance_stages
-            start = dict(zip(covered, np.cumsum([0] + [sizes[n] for n in covered])))
-            index = np.concatenate([np.arange(start[n], start[n] + sizes[n]) for n in names])
+            rows = self.magnetometer.covariance_blocks
+            index = np.concatenate([np.arange(rows[n].start, rows[n].stop) for n in names])
             covariance = np.array(self.magnetometer.parameter_covariance)[np.ix_(index, index)]
         own_stand = (None if self.stand is None or self.stand.parameter_covariance is None
                      or 'stand' in names else np.array(self.stand.parameter_covariance))
         return {
             'names': names, 'covariance': covariance, 'own_stand': own_stand,
             'soft_iron': soft_iron, 'mount': mount, 'mark': self._mark,
-            'stand': None if self.stand is None else np.linalg.inv(self.stand.arrays[0]),
+            'stand': self._stand_inverse,
             'magnetometer': None if self.magnetometer is None else (
                 self.magnetometer_rotation @ np.linalg.inv(self.magnetometer.arrays[0])),
             'angles': None if self.tool_axis is None else (
@@ -382,6 +382,11 @@ class CalibrationModel:
             'rotation': (None if self.magnetic is None or self.magnetic.rotation_covariance is None
                          else np.array(self.magnetic.rotation_covariance)),
             'installation': self._installation_response()}
+
+    @cached_property
+    def _stand_inverse(self):
+        """Return K^-1 of the stand (None without one), inverted once."""
+        return None if self.stand is None else np.linalg.inv(self.stand.arrays[0])
 
     def _installation_response(self):
         """
@@ -437,7 +442,7 @@ class CalibrationModel:
             for name in layout['names']:
                 if name == 'stand':
                     j_f.append(self._stand_jacobian(sensor, temperature_c))
-                    j_b.append(np.zeros((count, 3, 12)))
+                    j_b.append(np.zeros((count, 3, self.stand.coefficient_count)))
                 elif name == 'magnetometer':
                     stage = self.magnetometer
                     j_f.append(np.zeros((count, 3, stage.coefficient_count)))
@@ -503,8 +508,7 @@ class CalibrationModel:
         stand = self.stand
         if stand.temperature_dependent:
             return stand.coefficient_jacobian(inputs, temperature_c)
-        # K^-1 again, not ``_fit_layout``'s: the layout's installation response calls this.
-        return affine_jacobian(inputs - stand.arrays[1], np.linalg.inv(stand.arrays[0]))
+        return affine_jacobian(inputs - stand.arrays[1], self._stand_inverse)
 
     def temperature_covariance(self, readings, temperature_c=None, triad='accelerometer'):
         """
@@ -526,3 +530,8 @@ class CalibrationModel:
         """Return the JSON-ready document of this model (``schema.model_to_dict``)."""
         from inclino_ros.calibration.schema import model_to_dict
         return model_to_dict(self)
+
+
+def _parameter_count(stage):
+    """Return a stage's parameters in a magnetometer fit's covariance (its K, b; 2 angles)."""
+    return getattr(stage, 'coefficient_count', 2)

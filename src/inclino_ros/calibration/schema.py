@@ -18,8 +18,9 @@ from inclino_ros.calibration.corrections import CalibrationModel
 from inclino_ros.calibration.migrations import (
     READABLE_VERSIONS, SCHEMA_VERSION, SECTIONS, upgraded)
 from inclino_ros.calibration.stages import (
-    COVARIANCE_STAGE_SIZES, Installation, Magnetic, Magnetometer, MagnetometerAlignment,
-    MagnetometerNonlinear, MagnetometerTemperature, Stand, Temperature, ToolAxis, ToolfaceMark)
+    covariance_sizes, COVARIANCE_STAGE_SIZES, Installation, Magnetic, Magnetometer,
+    MagnetometerAlignment, MagnetometerNonlinear, MagnetometerTemperature, Stand, Temperature,
+    ToolAxis, ToolfaceMark)
 from inclino_ros.core.attitude import TOOLFACE_CONVENTIONS
 from inclino_ros.core.mounting import axes_map_matrix
 import numpy as np
@@ -236,7 +237,7 @@ def _magnetometer_covariance(values, name):
                          'stand, before tool_axis, each once) with parameter_covariance, or '
                          'both be null')
     values['covariance_stages'] = tuple(stages)
-    sizes = dict(COVARIANCE_STAGE_SIZES, magnetometer=_coefficient_count(values))
+    sizes = covariance_sizes(_coefficient_count(values))
     size = sum(sizes[stage] for stage in stages)
     values['parameter_covariance'] = _covariance(values, name, 'parameter_covariance', size)
 

@@ -279,6 +279,11 @@ class Stand(_PolynomialOfTemperature):
         return rotation_part(np.linalg.inv(self.arrays[0]))
 
 
+def covariance_sizes(magnetometer_count):
+    """Return the size of each stage's block of a magnetometer fit's covariance (one place)."""
+    return dict(COVARIANCE_STAGE_SIZES, magnetometer=magnetometer_count)
+
+
 @dataclass(frozen=True)
 class Magnetometer(_PolynomialOfTemperature):
     """
@@ -319,6 +324,16 @@ class Magnetometer(_PolynomialOfTemperature):
     def bias_coefficients(self):
         """Return the coefficients of b_m(T) (None: constant)."""
         return self.bias_coefficients_nT
+
+    @property
+    def covariance_blocks(self):
+        """Return {covered stage: its rows' slice of ``parameter_covariance``} ({}: none)."""
+        if self.covariance_stages is None:
+            return {}
+        sizes = covariance_sizes(self.coefficient_count)
+        ends = np.cumsum([sizes[name] for name in self.covariance_stages])
+        return {name: slice(end - sizes[name], end)
+                for name, end in zip(self.covariance_stages, ends)}
 
     @cached_property
     def arrays(self):
