@@ -51,6 +51,17 @@ def toolface_bias_deg(model, tool, rng):
     return float(np.mean(angle_error_deg(np.degrees(toolface_seed000(model.apply(accel))), tf)))
 
 
+def file_with_mark(tmp_path, rng):
+    """Return a calibration file holding only a mark captured on a 30 deg bench (the command)."""
+    write_rows(tmp_path / 'mark.csv', ['time_s', 'ax', 'ay', 'az'],
+               [[k * 0.01, *a] for k, a in enumerate(capture(QUARTZ, 30.0, rng, 600))])
+    calibration = tmp_path / 'cal.json'
+    code, _, err = quiet(['fit-toolface-mark', tmp_path / 'mark.csv', '--calibration',
+                          calibration])
+    assert code == 0, err
+    return calibration
+
+
 def test_fit_level_drops_a_mark_captured_without_the_mount(tmp_path):
     """
     Kept, a mark captured before the level bench leaves every toolface 1.3 deg off (main did).
@@ -59,14 +70,9 @@ def test_fit_level_drops_a_mark_captured_without_the_mount(tmp_path):
     quartz sensor's own errors, no stand).  ``inclino fit-level`` drops it and says so.
     """
     rng = np.random.default_rng(1)
-    write_rows(tmp_path / 'mark.csv', ['time_s', 'ax', 'ay', 'az'],
-               [[k * 0.01, *a] for k, a in enumerate(capture(QUARTZ, 30.0, rng, 600))])
+    calibration = file_with_mark(tmp_path, rng)
     write_rows(tmp_path / 'level.csv', ['time_s', 'ax', 'ay', 'az'],
                [[k * 0.01, *a] for k, a in enumerate(capture(QUARTZ, 0.0, rng, 600))])
-    calibration = tmp_path / 'cal.json'
-    code, _, err = quiet(['fit-toolface-mark', tmp_path / 'mark.csv', '--calibration',
-                          calibration])
-    assert code == 0, err
     mark = load_model(calibration).toolface_mark
     code, out, err = quiet(['fit-level', tmp_path / 'level.csv', '--calibration', calibration])
     assert code == 0, err
@@ -151,12 +157,7 @@ def test_fit_stand_says_the_mark_it_drops(tmp_path):
     main dropped it silently: the report named only the installation stage.
     """
     rng = np.random.default_rng(2)
-    write_rows(tmp_path / 'mark.csv', ['time_s', 'ax', 'ay', 'az'],
-               [[k * 0.01, *a] for k, a in enumerate(capture(QUARTZ, 30.0, rng, 600))])
-    calibration = tmp_path / 'cal.json'
-    code, _, err = quiet(['fit-toolface-mark', tmp_path / 'mark.csv', '--calibration',
-                          calibration])
-    assert code == 0, err
+    calibration = file_with_mark(tmp_path, rng)
     assert load_model(calibration).toolface_mark is not None
     incl, tf, _ = shots_sim.random_attitudes(rng, 60)
     readings = sensor_model.read(QUARTZ, incl, tf, rng=rng).accel_mps2
