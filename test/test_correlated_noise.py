@@ -42,26 +42,3 @@ def test_estimate_recovers_the_simulated_noise(rho, variance_tolerance):
         assert noise.rho == 0.0
     turning = estimate(values + np.linspace(0.0, 50.0, 20000)[:, None], segments)
     assert turning.rho == pytest.approx(noise.rho, abs=1e-3)
-
-
-def test_contrast_variance_is_the_simulated_spread():
-    """
-    The variance of a weighted sum (a drift's slope over 10 blocks of 30 samples, rho 0.9).
-
-    4000 simulated captures: the empirical variance has a relative 1 sigma of
-    sqrt(2 / 4000) = 2.2 %; tolerance 8 % (3.6 sigma).  The block means' own variance
-    over s_tt (the still test's drift law before, blocks taken as independent) is 23 %
-    below: neighbouring block means correlate (0.23 at 30 samples, rho 0.9).
-    """
-    blocks, size, rho = 10, 30, 0.9
-    position = np.arange(blocks * size, dtype=float)
-    centre = position.reshape(blocks, size).mean(axis=1) - position.mean()
-    weights = np.repeat(centre, size) / (size * np.sum(centre ** 2))
-    truth = CorrelatedNoise(variance=1.0, rho=rho, dof=0)
-    triad = sensor_model.Triad(noise_std=1.0, noise_rho=rho)
-    captures = triad.read(np.zeros((4000 * position.size, 3)), 25.0, rng=5)[:, 0]
-    spread = np.var(captures.reshape(4000, position.size) @ weights)
-    assert truth.contrast_variance(weights) == pytest.approx(spread, rel=0.08)
-    assert float(truth.inflation(size)) / (size * np.sum(centre ** 2)) < 0.85 * spread
-    white = CorrelatedNoise(variance=2.0, rho=0.0, dof=10)
-    assert white.contrast_variance(weights) == pytest.approx(2.0 * weights @ weights, rel=1e-12)

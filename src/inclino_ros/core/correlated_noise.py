@@ -91,21 +91,6 @@ class CorrelatedNoise:
         """Return n_eff = n / F(n): the white-noise samples a mean of n is worth."""
         return np.asarray(samples, dtype=float) / self.inflation(samples)
 
-    def contrast_variance(self, weights):
-        """
-        Return var(sum_i w_i x_i) of consecutive samples x, ``weights`` w (N,).
-
-        ``sigma^2 w^T S w``, S_ab = rho^|a - b|: S w is the AR(1) filter run
-        forwards and backwards over w, less w (as in ``detrended_shape``);
-        white: ``sigma^2 sum w^2``.  A mean's weights 1 / n give ``mean_variance``.
-        """
-        w = np.asarray(weights, dtype=float)
-        if self.rho == 0.0:
-            return self.variance * float(w @ w)
-        forward = lfilter([1.0], [1.0, -self.rho], w)
-        backward = lfilter([1.0], [1.0, -self.rho], w[::-1])[::-1]
-        return self.variance * float(w @ (forward + backward - w))
-
     def mean_variance(self, samples):
         """Return the variance of the mean of ``samples`` consecutive samples."""
         return self.variance * self.inflation(samples) / np.asarray(samples, dtype=float)

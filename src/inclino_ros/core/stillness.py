@@ -36,15 +36,11 @@ Correlated noise (a low-pass filter below the output rate, issue 19 item 4):
 the noise is measured from the capture's within-block residuals with its
 autocorrelation (``correlated_noise.estimate``): sigma^2 is the per-sample
 variance, a block mean's variance is ``sigma^2 F(n_b) / n_b`` and the mean's
-standard error ``sigma sqrt(F(N) / N)`` (``n_eff = N / F(N)``).  The
-drift's slope ``d = sum_i w_i x_i``, ``w_i = (t_b(i) - t) / S``, has the
-variance ``sigma^2 w^T R w`` (R_ij = rho^|i - j|,
-``CorrelatedNoise.contrast_variance``; neighbouring block means correlate:
-at rho 0.9 and blocks of 30 samples 1.3 times ``sigma^2 F(n_b) / S``), which
-``F_drift`` takes for ``sigma^2 / S``; ``F_steady`` takes ``sigma^2 F(n_b)``
-for the white ``sigma^2``; both with the degrees of freedom of the estimate
-(``correlated_noise.dof``): approximate laws, exact again for white noise
-(rho = 0, which the estimate keeps in ~98 % of white captures).
+standard error ``sigma sqrt(F(N) / N)`` (``n_eff = N / F(N)``).  Both F
+ratios then take ``sigma^2 F(n_b)`` for the white ``sigma^2`` and the
+degrees of freedom of the estimate (``correlated_noise.dof``): approximate
+laws, exact again for white noise (rho = 0, which the estimate keeps in
+~98 % of white captures).
 
 Slow turns (issue 19 item 5): one rule, timed or untimed, for every caller
 (``motion``, ``judge``, ``Stillness.stated_sem_deg``): the capture's mean
@@ -52,7 +48,7 @@ must lie within its stated precision of the attitude at every part of the
 capture.  A drift d puts the attitude at the capture's ends ``h = |d| H``
 from the mean (``turn_deg``; H = max |t_i - t|, half the capture for even
 sampling, the same in samples when the capture has no times), known to
-``sigma_h = H sqrt(var(d))`` per component (``turn_sigma_deg``, var(d) above:
+``sigma_h = H sqrt(sigma^2 F(n_b) / S)`` per component (``turn_sigma_deg``:
 sqrt(3) times the mean's standard error for white noise, evenly sampled).
 A turn too slow to be significant at FALSE_MOTION_P (a MEMS capture of 3 s
 cannot tell 0.015 deg/s from stillness: h = 0.02 deg, sigma_h = 0.012 deg)
@@ -246,16 +242,13 @@ def assess(angles_rad, times_s=None):
     s_tt = np.sum(n_b * t_b ** 2)
     slope = (n_b * t_b) @ (means - a_mean) / s_tt
     slope_norm = float(np.linalg.norm(slope))
-    # The slope is sum_i t_b(i) x_i / s_tt: its variance per component, the block means'
-    # correlation with their neighbours counted (white: noise_var / s_tt, the F law).
-    slope_var = noise.contrast_variance(t_b[block] / s_tt)
     off_line = means - a_mean - np.outer(t_b, slope)
     scatter = float(np.sum(n_b * np.sum(off_line ** 2, axis=1)))
     dof = k * (blocks - 2)
     sigma = math.sqrt(noise_var)
     block_var = noise_var * inflation
     with np.errstate(divide='ignore', invalid='ignore'):
-        drift_f = slope_norm ** 2 / (k * slope_var) if sigma > 0 else (
+        drift_f = slope_norm ** 2 * s_tt / (k * block_var) if sigma > 0 else (
             math.inf if slope_norm > 0 else 0.0)
         ratio = scatter / block_var / dof if sigma > 0 else (math.inf if scatter > 0 else 0.0)
     motion_var = np.mean(np.sum(off_line ** 2, axis=1) / k - noise.mean_variance(n_b))
@@ -276,7 +269,7 @@ def assess(angles_rad, times_s=None):
         motion_deg=math.degrees(math.sqrt(max(motion_var, 0.0))),
         part_offset_deg=math.degrees(math.sqrt(max(float(offset.max()), 0.0))),
         turn_deg=math.degrees(slope_norm * half_span),
-        turn_sigma_deg=math.degrees(math.sqrt(slope_var) * half_span), components=k)
+        turn_sigma_deg=math.degrees(math.sqrt(block_var / s_tt) * half_span), components=k)
 
 
 def motion(stillness, limits, steady=True):
