@@ -440,21 +440,3 @@ def test_slow_turn_rule_is_one_for_timed_and_untimed_captures():
             assert (reason if reason is None else reason[:14]) == verdict, reason
             if verdict:
                 assert 'its ends' in reason and 'max_motion_deg 0.01 deg' in reason
-
-
-def test_correlated_tail_probabilities_follow_the_f_law():
-    """
-    Over 1000 still 500-sample captures of AR(1) rho 0.9 each gate's p < 0.01 in ~1 %.
-
-    Issue 19 item 4 (b): the estimated rho's spread makes the block-mean variance of a
-    capture far less certain than ``dof / (4 F)`` degrees of freedom said (its 5th
-    percentile 0.35 of the truth at 500 samples: ~6 degrees of freedom, not 13), so the
-    gates' tails were 3.3 % / 5.4 % below 0.01 and still captures were refused as moving
-    (bench/results/stillness.md, 0.1-0.5 %).  Binomial: 10 expected, 1 sigma 3.1; at most
-    25 (nominal + 5 sigma); the degrees of freedom are approximate, so the law is bounded
-    from above only (at least one).
-    """
-    results = [assess(tangent_angles(readings), times_s)
-               for readings, times_s, _ in correlated_captures(0.9, 1000, SAMPLES, 22)]
-    for p_values in ([r.drift_p for r in results], [r.scatter_p for r in results]):
-        assert 1 <= np.count_nonzero(np.array(p_values) < 0.01) <= 25

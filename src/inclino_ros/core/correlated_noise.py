@@ -51,10 +51,8 @@ from scipy.signal import lfilter
 KEPT = 0.9
 TRIMMED_MEAN = 0.6230154841346819
 #: Fewest degrees of freedom given a correlated noise (a capture of a few independent
-#: samples still tells a turn of millions of its sigma: F(2, 3) has finite tails).
-MIN_DOF = 3.0
-#: The correlated noise's degrees of freedom are ``dof / (DOF_DIVISOR F(N))`` (``dof``).
-DOF_DIVISOR = 10.0
+#: samples still tells a turn of millions of its sigma: F(2, 4) has finite tails).
+MIN_DOF = 4.0
 #: Fewest samples of a segment whose correlation is estimated (shorter: taken as white).
 MIN_SEGMENT = 8
 #: Significant correlation: above THRESHOLD / sqrt(N), N the capture's samples.
@@ -193,19 +191,16 @@ def dof(noise, samples):
     Return the degrees of freedom of a CorrelatedNoise's variance of a mean of ``samples``.
 
     White: the within-segment residuals' (the F laws of ``core.stillness`` are
-    exact).  Correlated: ``dof / (DOF_DIVISOR F(N))``, DOF_DIVISOR = 10, from
-    the spread of the estimated block-mean variance ``sigma^2 F(n_b)`` on the
-    simulator (AR(1) rho 0.9, 2 components, 400 captures, 10 blocks): its
-    median is the truth, its 5th percentile 0.24 of it at 300 samples and 0.35
-    at 500, the 5th percentile of chi-square / nu for nu ~ 3 and ~6, where
-    ``dof / (10 F)`` gives 3.2 and 5.3 (``dof / (4 F)`` gave 8 and 13: the
-    still test's tails below 0.01 came out 3.3 % / 5.4 % at 500 samples and
-    0.5 % of still 3 s captures were refused as moving; now 1.4 % / 0.8 %,
-    none of 1500).  At least MIN_DOF.
+    exact).  Correlated: ``dof / (4 F(N))``, from the spread measured on the
+    simulator (AR(1), 2 components, 300 captures each): the estimate of F
+    has a relative 1 sigma of ~0.4 at rho 0.9 and 500 samples, ~0.3 at 1000,
+    i.e. ``2 / 0.4^2 = 12`` and 22 degrees of freedom, where ``dof / (4 F)``
+    gives 13 and 26 (``dof / (2 F)`` refused 1 still capture in 300 at rho
+    0.9 and 500 samples, ``dof / F`` 2).  At least MIN_DOF.
     """
     if noise.rho == 0.0:
         return noise.dof
-    return max(noise.dof / (DOF_DIVISOR * float(noise.inflation(samples))), MIN_DOF)
+    return max(noise.dof / (4.0 * float(noise.inflation(samples))), MIN_DOF)
 
 
 #: The slowest flicker a capture's mean is exposed to has this many times the capture's
