@@ -135,18 +135,30 @@ class Probe:
             assert time.monotonic() < end, 'the awaited condition never came'
             self.executor.spin_once(timeout_sec=0.01)
 
-    def wait_for_node(self, timeout_s=20.0):
-        """Wait until the node's subscription, outputs and service are matched."""
+    def wait_for_node(self, timeout_s=20.0, both_ways=True):
+        """
+        Wait until the node's subscription, outputs and service are matched, both ways.
+
+        Matching is seen by each side on its own: the probe's publisher may know the
+        node's subscription before that subscription knows the publisher, and a
+        best-effort subscription drops what comes from a publisher it does not know
+        yet (the first samples of a test, on a loaded machine).  So the node's own
+        count is awaited too: its input diagnostics' ``imu_publishers`` (``both_ways``
+        False: not, for a node whose diagnostics cannot come, its ROS time standing).
+        """
         end = time.monotonic() + timeout_s
         while time.monotonic() < end:
             if (self.publisher.get_subscription_count() >= 1
                     and all(s.get_publisher_count() for s in self.subscriptions)
                     and all(c.service_is_ready() for c in self.services.values())
                     and self.parameters.services_are_ready()):
-                self.spin_for(0.2)
-                return
+                break
             self.executor.spin_once(timeout_sec=0.05)
-        raise TimeoutError('the node did not come up')
+        else:
+            raise TimeoutError('the node did not come up')
+        while both_ways and int(
+                self.wait_status(': input', end - time.monotonic())[1]['imu_publishers']) < 1:
+            pass
 
     def publish(self, acceleration):
         """Publish one raw sample; return its index."""

@@ -44,7 +44,7 @@ from functools import cached_property
 import math
 
 from inclino_ros.calibration.stages import (
-    COVARIANCE_STAGE_SIZES, Installation, Magnetic, Magnetometer, MagnetometerAlignment,
+    Installation, Magnetic, Magnetometer, MagnetometerAlignment,
     MagnetometerNonlinear, MagnetometerTemperature, Stand, Temperature, ToolAxis, ToolfaceMark)
 from inclino_ros.core.constants import STANDARD_GRAVITY_MPS2
 from inclino_ros.core.installation import to_tool_frame
@@ -336,10 +336,7 @@ class CalibrationModel:
             return np.full(2, math.nan)
         variance = np.full(2, stage.tilt_std_rad ** 2)
         layout = self._fit_layout
-        covariance = layout['own_stand']
-        if covariance is None and 'stand' in layout['names']:
-            size = COVARIANCE_STAGE_SIZES['stand']    # the first of the covered stages
-            covariance = layout['covariance'][:size, :size]
+        covariance = layout['stand_covariance']
         if layout['installation'] is not None and covariance is not None:
             response = layout['installation'][3]
             variance = variance + np.einsum('ij,jk,ik->i', response, covariance, response)
@@ -351,7 +348,8 @@ class CalibrationModel:
         Return what ``parameter_blocks`` needs of the stages, built once.
 
         (the covered stages, their covariance, the stand fit's own covariance
-        when the magnetometer's does not cover it, K^-1 of the stand, the
+        when the magnetometer's does not cover it, the stand's covariance
+        whichever fit holds it, K^-1 of the stand, the
         magnetometer's map into the accelerometer frame, the mount's C^-1,
         seed 002's W as 3x3, the tool axis's angles [rad], the rotation fit's
         covariance, and what the stand's error does to the installation angles:
@@ -371,8 +369,14 @@ class CalibrationModel:
             covariance = np.array(self.magnetometer.parameter_covariance)[np.ix_(index, index)]
         own_stand = (None if self.stand is None or self.stand.parameter_covariance is None
                      or 'stand' in names else np.array(self.stand.parameter_covariance))
+        if 'stand' in names:    # the first of the covered stages
+            size = self.magnetometer.covariance_blocks['stand']
+            stand_covariance = covariance[:size.stop - size.start, :size.stop - size.start]
+        else:
+            stand_covariance = own_stand
         return {
             'names': names, 'covariance': covariance, 'own_stand': own_stand,
+            'stand_covariance': stand_covariance,
             'soft_iron': soft_iron, 'mount': mount, 'mark': self._mark,
             'stand': self._stand_inverse,
             'magnetometer': None if self.magnetometer is None else (

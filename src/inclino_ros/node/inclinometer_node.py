@@ -359,7 +359,8 @@ class InclinometerNode(Node):
         array.status = [
             self._calibration_status(),
             self.stats.status(self.get_name(), now_s, self.settings.gravity_mps2,
-                              self.param('level_capture.g_total_tolerance_mps2')),
+                              self.param('level_capture.g_total_tolerance_mps2'),
+                              self._imu_subscription.get_publisher_count()),
             self.temperature.status(self.get_name(), now_s, self.param('temperature.max_age_s'),
                                     temperature_stage(self.model), self._missing_temperature()),
             self.magnetometer.status(self.get_name(), self.magnetic_settings,

@@ -65,8 +65,13 @@ class InputStats:
         """Count averaged windows not published: of a moving tool, and not gravity."""
         self.windows = [a + b for a, b in zip(self.windows or (0, 0), (moving, dropped))]
 
-    def status(self, node_name, now_s, gravity_mps2, g_tolerance_mps2):
-        """Return the input DiagnosticStatus for the period ending now; reset it."""
+    def status(self, node_name, now_s, gravity_mps2, g_tolerance_mps2, publishers):
+        """
+        Return the input DiagnosticStatus for the period ending now; reset it.
+
+        ``publishers``: the publishers matched to imu/data_raw now (a silent input is
+        told apart from no input at all: a driver not running, a topic not remapped).
+        """
         elapsed = None if self._period_start_s is None else now_s - self._period_start_s
         rate_hz = self._period_accepted / elapsed if elapsed else 0.0
         g_mean = (self._period_g_sum / self._period_accepted
@@ -83,7 +88,9 @@ class InputStats:
                    if REASONS[main] == 'dynamic' else ''))
         elif self._period_accepted == 0:
             status.level = DiagnosticStatus.WARN
-            status.message = 'no samples on imu/data_raw'
+            status.message = (f'no samples on imu/data_raw ({publishers} publishers matched'
+                              + (': is the driver running, the topic remapped?)'
+                                 if not publishers else ')'))
         elif self._period_dropped:
             status.level = DiagnosticStatus.WARN
             status.message = f'{self._period_dropped} samples dropped in the last period'
@@ -96,6 +103,7 @@ class InputStats:
             status.level = max(status.level, DiagnosticStatus.WARN)
             status.message = '; '.join([status.message, *self.noise_warnings.values()])
         values = {'rate_hz': f'{rate_hz:.2f}', 'g_total_mps2': f'{g_mean:.5f}',
+                  'imu_publishers': str(publishers),
                   'accepted_total': str(self.accepted_total),
                   'dropped_total': str(sum(self.dropped_total)),
                   'toolface_nan': str(self._period_toolface_nan)}
