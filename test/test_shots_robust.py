@@ -18,6 +18,7 @@ from inclino_ros.calibration.magnetometer import calibrate_from_shots
 from inclino_ros.calibration.model import CalibrationModel, load_model
 from inclino_ros.core import magnetics
 from inclino_ros.core.shots import fit_shots, ShotFitRefused, ShotLimits
+from inclino_ros.io import tables
 from inclino_ros.sim import sensor_model
 import numpy as np
 import pytest
@@ -331,3 +332,29 @@ def test_nine_more_real_instruments_are_calibrated(tmp_path, name):
     every = np.ones(24, dtype=bool)
     assert 20.0 < roll_set_rms_deg(CalibrationModel(3), CAL_DATA / f'{name}.csv', every) < 90.0
     assert roll_set_rms_deg(model, CAL_DATA / f'{name}.csv', every) < CAL_DATA_MAX_ROLL_RMS_DEG
+
+
+@pytest.mark.parametrize('roll_sets', [(0, 1), (0,), (1,)], ids=['both', 'first', 'second'])
+@pytest.mark.parametrize('path', sorted(SAP6.glob('*.csv')) + sorted(CAL_DATA.glob('*.csv')),
+                         ids=lambda path: path.stem)
+def test_real_roll_sets_are_found_on_a_tilted_mount(path, roll_sets):
+    """
+    The 15 real instruments without roll_group: the finder's sets are the file's, the fit too.
+
+    The 8 sphere shots with both roll sets, or one (the held-out protocol of
+    bench/bench_sap6_peer.py).  Their mounts tilt 1.2-3.6 deg, so before the tool axis is known
+    a set's z axes lie on a cone 2.4-7.2 deg across: main's one pass (5 deg about the running
+    mean) split or missed the sets of ab (3.55 deg: 8 sphere shots + its first set found none,
+    no tool axis, held-out azimuth 1.632 deg RMS vs 0.506 with the labels), fb, hj2, IB, JG
+    (failed first on 8 of these 45 cases).
+    """
+    accel, field, labels, _ = tables.read_shots(path)
+    shots = np.r_[0:8, np.concatenate([np.flatnonzero(labels == k) for k in roll_sets])]
+    accel, field, labels = accel[shots], field[shots], np.r_[[-1] * 8, np.repeat(
+        np.arange(len(roll_sets)), 8)]
+    found = calibrate_from_shots(CalibrationModel(3), accel, field, nonlinear='off')
+    given = calibrate_from_shots(CalibrationModel(3), accel, field, labels, nonlinear='off')
+    assert np.array_equal(found.roll_group, labels)
+    for angle in ('gamma_deg', 'beta_deg'):
+        assert getattr(found.model.tool_axis, angle) == pytest.approx(
+            getattr(given.model.tool_axis, angle), abs=1e-9)
