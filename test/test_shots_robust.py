@@ -10,6 +10,7 @@ random attitudes, 0.5 deg roll-group spread) hold here too: a pointing wander of
 moves each roll group's axis estimate by ~0.7 / sqrt(8) = 0.25 deg, within them.
 """
 
+from dataclasses import replace
 import math
 import pathlib
 
@@ -17,7 +18,8 @@ from inclino_ros.calibration.level_capture import LevelLimits, solve_level_captu
 from inclino_ros.calibration.magnetometer import calibrate_from_shots
 from inclino_ros.calibration.model import CalibrationModel, load_model
 from inclino_ros.core import magnetics
-from inclino_ros.core.shots import fit_shots, ShotFitRefused, ShotLimits
+from inclino_ros.core.shots import find_roll_groups, fit_shots, ShotFitRefused, ShotLimits
+from inclino_ros.io import tables
 from inclino_ros.sim import sensor_model
 import numpy as np
 import pytest
@@ -331,3 +333,52 @@ def test_nine_more_real_instruments_are_calibrated(tmp_path, name):
     every = np.ones(24, dtype=bool)
     assert 20.0 < roll_set_rms_deg(CalibrationModel(3), CAL_DATA / f'{name}.csv', every) < 90.0
     assert roll_set_rms_deg(model, CAL_DATA / f'{name}.csv', every) < CAL_DATA_MAX_ROLL_RMS_DEG
+
+
+@pytest.mark.parametrize('roll_sets', [(0, 1), (0,), (1,)], ids=['both', 'first', 'second'])
+@pytest.mark.parametrize('path', sorted(SAP6.glob('*.csv')) + sorted(CAL_DATA.glob('*.csv')),
+                         ids=lambda path: path.stem)
+def test_real_roll_sets_are_found_on_a_tilted_mount(path, roll_sets):
+    """
+    The 15 real instruments without roll_group: the finder's sets are the file's, the fit too.
+
+    The 8 sphere shots with both roll sets, or one (the held-out protocol of
+    bench/bench_sap6_peer.py).  Their mounts tilt 1.2-3.6 deg, so before the tool axis is known
+    a set's z axes lie on a cone 2.4-7.2 deg across: main's one pass (5 deg about the running
+    mean) split or missed the sets of ab (3.55 deg: 8 sphere shots + its first set found none,
+    no tool axis, held-out azimuth 1.632 deg RMS vs 0.506 with the labels), fb, hj2, IB, JG
+    (failed first on 8 of these 45 cases).
+    """
+    accel, field, labels, _ = tables.read_shots(path)
+    shots = np.r_[0:8, np.concatenate([np.flatnonzero(labels == k) for k in roll_sets])]
+    accel, field, labels = accel[shots], field[shots], np.r_[[-1] * 8, np.repeat(
+        np.arange(len(roll_sets)), 8)]
+    found = calibrate_from_shots(CalibrationModel(3), accel, field, nonlinear='off')
+    given = calibrate_from_shots(CalibrationModel(3), accel, field, labels, nonlinear='off')
+    assert np.array_equal(found.roll_group, labels)
+    for angle in ('gamma_deg', 'beta_deg'):
+        assert getattr(found.model.tool_axis, angle) == pytest.approx(
+            getattr(given.model.tool_axis, angle), abs=1e-9)
+
+
+@pytest.mark.parametrize('seed', range(4))
+def test_roll_sets_are_found_on_a_mount_tilted_4_5_deg(seed):
+    """
+    Simulated MEMS sets hand-held (0.7 deg wander) on a mount tilted 4.5 deg: the sets found.
+
+    The sensors' z axes trace a 9 deg cone in each set; main found the true sets in 0 of 100
+    draws at 4 deg (none at all in 51 of 100 at 5 deg), 99 of 100 now at 1.4-5 deg (the
+    miss: a sphere shot 3 deg from a set's direction, joined to it, as main did).  24 shots
+    over the sphere give no set (both: 0 of 100).
+    """
+    rng = np.random.default_rng(seed)
+    mount = replace(shots_sim.MOUNT, gamma_deg=4.5, beta_deg=0.0)
+    tool = replace(sensor_model.MEMS, mount=mount)
+    incl, tf, azim, group = shots_sim.shot_attitudes(rng)
+    incl, tf, azim = sensor_model.hand_held(incl, tf, azim, 0.7, rng)
+    fit = fit_shots(*shots_sim.read(tool, incl, tf, azim, rng, 100))
+    assert np.array_equal(find_roll_groups(fit.accel_corrected_mps2, fit.field_corrected_nT),
+                          group)
+    sphere = shots_sim.shot_attitudes(rng, free=24, axes_deg=())[:3]
+    fit = fit_shots(*shots_sim.read(tool, *sphere, rng, 100))
+    assert find_roll_groups(fit.accel_corrected_mps2, fit.field_corrected_nT).max() == -1

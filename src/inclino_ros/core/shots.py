@@ -100,8 +100,13 @@ class ShotLimits:
     set wanders 0.1-0.7 deg RMS).  ``min_group_shots``, ``min_roll_deg``: a
     roll group needs three shots spread over this arc about its axis.
     ``max_pointing_deg``: consecutive shots whose tool axes point within this
-    angle of their mean are one roll set (``find_roll_groups``): twice a
-    mount tilt of a few degrees, which a fit without roll sets leaves.
+    angle of their mean are one roll set (``find_roll_groups``; a hand-held
+    set wanders 0.1-0.7 deg RMS, an outlier shot 5).  ``max_mount_tilt_deg``:
+    the largest angle between the sensors' z axis and the tool axis the
+    finder allows for: before the tool axis is known, a roll set's z axes lie
+    on a cone of that half-angle about its direction, so its first pass joins
+    shots within ``max_pointing_deg`` plus twice this (15 real hand-held
+    instruments: 1.2-3.6 deg).
     """
 
     min_shots: int = 12
@@ -115,6 +120,7 @@ class ShotLimits:
     min_group_shots: int = 3
     min_roll_deg: float = 90.0
     max_pointing_deg: float = 5.0
+    max_mount_tilt_deg: float = 5.0
 
 
 @dataclass(frozen=True)
@@ -260,41 +266,59 @@ def tilt_angles(axis):
     return installation_angles(*level_axis_angles(axis, 1.0))
 
 
-def pointing(accel, field):
+def pointing(accel, field, axis=_Z):
     """
-    Return the tool's z axis in NED (N, 3) of shots in the tool frame (unit vectors).
+    Return the tool frame's unit ``axis`` (default z) in NED (N, 3) of shots in the tool frame.
 
     Down is against the specific force, east ``down x B``, north ``east x
-    down``; the tool axis's components on them are the third components.
+    down``; the axis's components on them are its NED components.
     """
     down = -accel / np.linalg.norm(accel, axis=1)[:, None]
     east = np.cross(down, field)
     east /= np.linalg.norm(east, axis=1)[:, None]
     north = np.cross(east, down)
-    return np.column_stack([north[:, 2], east[:, 2], down[:, 2]])
+    return np.column_stack([north @ axis, east @ axis, down @ axis])
 
 
 def find_roll_groups(accel, field, limits=ShotLimits()):
     """
     Return roll-group labels (N,) of shots taken in order: -1 for a free shot.
 
-    Consecutive shots whose tool axes (``pointing``) lie within
-    ``limits.max_pointing_deg`` of their running mean are one run; a run of
-    ``limits.min_group_shots`` or more turned over ``limits.min_roll_deg`` or
-    more about the axis (``_roll_span_of``, as the fit checks it) is a roll
-    group.  ``accel``, ``field``: corrected, in one frame whose z is near the
-    tool axis (a fit without roll groups).
+    Consecutive shots whose tool axes (``pointing``) lie within a tolerance
+    of their running mean are one run; a run of ``limits.min_group_shots``
+    or more turned over ``limits.min_roll_deg`` or more about the axis
+    (``_roll_span_of``, as the fit checks it) is a roll group.  ``accel``,
+    ``field``: corrected, in one frame whose z is within
+    ``limits.max_mount_tilt_deg`` of the tool axis (a fit without roll
+    groups).  Two passes: the sensors' z axis traces a cone of the mount
+    tilt about a roll set's direction, so the first pass allows
+    ``max_pointing_deg`` plus twice the tilt; the tool axis of the runs it
+    finds (``_group_axis``, the same for every set) then points each set's
+    shots within their wander, and the second pass, with that axis, allows
+    ``max_pointing_deg``.
     """
-    axes = pointing(accel, field)
+    labels = _roll_runs(accel, field, _Z,
+                        limits.max_pointing_deg + 2.0 * limits.max_mount_tilt_deg, limits)
+    if labels.max(initial=-1) < 0:
+        return labels
+    axis = _group_axis(accel, field, labels, int(labels.max()) + 1,
+                       float(np.mean(np.linalg.norm(accel, axis=1))),
+                       float(np.mean(np.linalg.norm(field, axis=1))))
+    return _roll_runs(accel, field, axis, limits.max_pointing_deg, limits)
+
+
+def _roll_runs(accel, field, axis, tolerance_deg, limits):
+    """Return the labels of ``find_roll_groups``'s runs of ``axis`` within ``tolerance_deg``."""
+    axes = pointing(accel, field, axis)
     labels = np.full(len(axes), -1)
     start, group = 0, 0
     for end in range(1, len(axes) + 1):
         if end < len(axes):
             mean = axes[start:end].sum(axis=0)
-            if math.degrees(float(angle_between(axes[end], mean))) <= limits.max_pointing_deg:
+            if math.degrees(float(angle_between(axes[end], mean))) <= tolerance_deg:
                 continue
         if (end - start >= limits.min_group_shots and _roll_span_of(
-                accel[start:end], field[start:end], _Z) >= limits.min_roll_deg):
+                accel[start:end], field[start:end], axis) >= limits.min_roll_deg):
             labels[start:end] = group
             group += 1
         start = end
