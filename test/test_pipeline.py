@@ -345,8 +345,9 @@ def test_settings_defaults():
     assert Settings(accelerometer_axes=2, toolface_convention='iscwsa_highside')
 
 
+@pytest.mark.filterwarnings('error::RuntimeWarning')
 def test_azimuth_is_not_trusted_near_vertical_or_without_a_field():
-    """A vertical tool or a dead magnetometer gives a NaN azimuth, never a number."""
+    """A vertical tool or a dead magnetometer: a NaN azimuth, never a number (nor a warning)."""
     from inclino_ros.core.magnetics import forward, iscwsa_from_tool
     settings = MagneticSettings()   # 0.2 deg: 1 sigma ~16 deg at the default noise
     rows = []

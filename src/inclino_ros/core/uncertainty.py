@@ -268,6 +268,9 @@ def dip_std_rad(G, B, g_std, b_std_nT):
 
     The dip is 90 deg less the angle between G and B; each vector's noise
     across the plane they span turns it by noise / |vector|:
-    ``var = (g_std / |G|)^2 + (b_std / |B|)^2``.
+    ``var = (g_std / |G|)^2 + (b_std / |B|)^2``; infinite for a zero vector (a
+    dead magnetometer: no dip), without a warning.
     """
-    return np.hypot(g_std / np.linalg.norm(G, axis=-1), b_std_nT / np.linalg.norm(B, axis=-1))
+    with np.errstate(divide='ignore'):
+        return np.hypot(g_std / np.linalg.norm(G, axis=-1),
+                        b_std_nT / np.linalg.norm(B, axis=-1))
