@@ -238,7 +238,7 @@ def assess(angles_rad, times_s=None):
     # in samples of the still test's per-sample noise.
     mean_var = float(correlated_noise.estimate(angles, block, correlated_noise.MEAN_LAGS)
                      .mean_variance(count))
-    effective = count * noise_var / mean_var if mean_var > 0.0 else float(count)
+    effective = noise_var / mean_var if mean_var > 0.0 else float(count)
     # Correlated noise: a block mean varies F(n_b) times a white one (the mean over the
     # blocks, nearly equal); the noise is known to ``correlated_noise.dof``.
     inflation = float(np.mean(noise.inflation(n_b)))
