@@ -27,7 +27,9 @@ basis U of a constant and a slope), so ``E[r r^T] = sigma^2 P S P``, S_ab =
 rho^|a - b| (``detrended_shape``), and ``E[V_j] = sigma^2 g_j(rho, m)``, g_j
 half the mean of ``C_aa + C_bb - 2 C_ab`` (b = a + j) of C = P S P over a
 segment of m samples.  rho and sigma^2 are the least-squares fit of that
-law over the lags 1 to LAGS, the best measured.
+law over the lags 1 to LAGS (the still test's noise: short lags, which a
+motion left in the segments hardly reaches) or to MEAN_LAGS (the variance of
+the capture's mean: long lags tell a rho near 1 from 0.9).
 
 A rho below ``THRESHOLD / sqrt(N)`` (N the samples: two standard errors of
 a white noise's lag-1 correlation) is taken as white: rho = 0 and sigma^2 the
@@ -60,10 +62,22 @@ THRESHOLD = 2.0
 #: The rho tried, to the largest (a correlation time of 100 samples: beyond, a capture
 #: holds almost no independent samples), in steps of 0.001.
 RHO_GRID = np.linspace(0.0, 0.99, 991)
-#: Lags of the variogram fitted (at most a quarter of a segment): longer ones lose more
-#: to the segments' lines (on the simulator at rho 0.9, 500 samples: lags 1-2 spread F
-#: over 9-70 for 18.6, 1-5 over 11-29, 1-12 and 1-25 sink it to 15 and 10).
+#: Lags of the variogram fitted for the still test's noise (at most 1 / LAG_SPAN of a
+#: segment): longer ones see more of a motion the segments' lines leave (a capture spanning
+#: a level bench and the stations fits as a noise of rho near 1 with lags 1-25, and its
+#: drift is then no longer significant: test_magnetic_cli), on the simulator at rho 0.9,
+#: 500 samples: lags 1-2 spread F over 9-70 for 18.6, 1-5 over 11-29.
 LAGS = 5
+#: Lags fitted for the variance of a capture's mean (``estimate(..., MEAN_LAGS)``, the
+#: mean's 1 sigma and n_eff of ``core.stillness``).  The law of the detrended variogram is
+#: exact (``detrended_shape``), so longer lags add what tells a rho near 1 (``1 - rho^j``
+#: linear in j) from 0.9 (it bends over): on the simulator at rho 0.9, 1000 samples
+#: (segments of 100, 1000 captures, two components), sigma^2 F(N) / N came out above 3
+#: times the truth in 7.4 % of captures with lags 1-5 (mean of its square root 1.12-1.16
+#: times the truth), 1.5 % with lags 1-25 (1.02-1.04; median unchanged, 0.97-0.99).
+#: Segments of 20-30 samples (captures of 200-300) keep lags 1-5 to 1-7: they hold no more.
+MEAN_LAGS = 25
+LAG_SPAN = 4
 #: Longest segment whose detrended variogram law is computed (``detrended_shape``).
 DETRENDED_MAX_SIZE = 1000
 
@@ -156,13 +170,14 @@ def detrended_shape(size, lags):
     return shape
 
 
-def estimate(values, segments):
+def estimate(values, segments, max_lag=LAGS):
     """
     Return the CorrelatedNoise of ``values`` (N,) or (N, k) within ``segments``.
 
     ``segments`` (N,) integers 0 .. S-1, each a run of consecutive samples
     (the still test's blocks) of at least two samples.  ``dof``: the
-    within-segment residuals' degrees of freedom, ``k (N - S)``.
+    within-segment residuals' degrees of freedom, ``k (N - S)``.  ``max_lag``:
+    the longest lag fitted (LAGS or MEAN_LAGS; at most 1 / LAG_SPAN of a segment).
     """
     segments = np.asarray(segments)
     values = np.asarray(values, dtype=float).reshape(len(segments), -1)
@@ -175,7 +190,7 @@ def estimate(values, segments):
     if sizes.min() < MIN_SEGMENT or white.variance == 0.0:
         return white
     residual = _residuals(values, segments, sizes, 1)
-    lags = np.arange(1, max(min(LAGS, int(sizes.min()) // 4), 2) + 1)
+    lags = np.arange(1, max(min(max_lag, int(sizes.min()) // LAG_SPAN), 2) + 1)
     variogram = np.array([_variogram(residual, segments, lag) for lag in lags])
     # Least squares of V_j = sigma^2 g_j(rho, m) over a grid of rho: sigma^2 is linear.
     shape = detrended_shape(int(np.median(sizes)), tuple(int(lag) for lag in lags))

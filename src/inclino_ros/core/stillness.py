@@ -36,7 +36,9 @@ Correlated noise (a low-pass filter below the output rate, issue 19 item 4):
 the noise is measured from the capture's within-block residuals with its
 autocorrelation (``correlated_noise.estimate``): sigma^2 is the per-sample
 variance, a block mean's variance is ``sigma^2 F(n_b) / n_b`` and the mean's
-standard error ``sigma sqrt(F(N) / N)`` (``n_eff = N / F(N)``).  Both F
+standard error ``sigma sqrt(F(N) / N)`` (``n_eff = N / F(N)``; the mean's from
+the fit over longer lags, ``correlated_noise.MEAN_LAGS``, n_eff in samples of
+the still test's sigma).  Both F
 ratios then take ``sigma^2 F(n_b)`` for the white ``sigma^2`` and the
 degrees of freedom of the estimate (``correlated_noise.dof``): approximate
 laws, exact again for white noise (rho = 0, which the estimate keeps in
@@ -232,6 +234,11 @@ def assess(angles_rad, times_s=None):
     means /= n_b[:, None]
     noise = correlated_noise.estimate(angles, block)
     noise_var = noise.variance
+    # The mean's variance from the longer lags (``correlated_noise.MEAN_LAGS``), its n_eff
+    # in samples of the still test's per-sample noise.
+    mean_var = float(correlated_noise.estimate(angles, block, correlated_noise.MEAN_LAGS)
+                     .mean_variance(count))
+    effective = noise_var / mean_var if mean_var > 0.0 else float(count)
     # Correlated noise: a block mean varies F(n_b) times a white one (the mean over the
     # blocks, nearly equal); the noise is known to ``correlated_noise.dof``.
     inflation = float(np.mean(noise.inflation(n_b)))
@@ -261,8 +268,7 @@ def assess(angles_rad, times_s=None):
     return Stillness(
         samples=count, duration_s=float(np.ptp(t)) if timed else math.nan,
         noise_deg=math.degrees(sigma),
-        sem_deg=math.degrees(math.sqrt(float(noise.mean_variance(count)))),
-        effective_samples=float(noise.effective_samples(count)),
+        sem_deg=math.degrees(math.sqrt(mean_var)), effective_samples=effective,
         drift_deg_per_s=math.degrees(slope_norm), drift_sigma=math.sqrt(k * drift_f),
         drift_p=float(fisher_f.sf(drift_f, k, noise_dof)), scatter_ratio=float(ratio),
         scatter_p=float(fisher_f.sf(ratio, dof, noise_dof)),
