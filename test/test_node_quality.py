@@ -65,6 +65,32 @@ def test_a_still_mems_is_captured_and_a_turning_tool_refused(start_node, probe):
     assert '1 positions kept' in answer.message
 
 
+def test_an_input_without_a_publisher_is_told_from_a_silent_one(start_node, probe):
+    """
+    No sample on imu/data_raw: the input status says how many publishers are matched.
+
+    With the probe's publisher (silent): ``imu_publishers`` 1 and "(1 publishers matched)";
+    once it is gone: 0, and the status asks whether the driver runs or the topic is remapped.
+    """
+    start_node()
+    probe.wait_for_node()
+    status, values = probe.wait_status(': input')
+    assert values['imu_publishers'] == '1'
+    assert status.message == 'no samples on imu/data_raw (1 publishers matched)'
+    probe.node.destroy_publisher(probe.publisher)
+
+    def unmatched():
+        return any({kv.key: kv.value for kv in s.values}.get('imu_publishers') == '0'
+                   for s in statuses(probe, ': input'))
+
+    probe.spin_until(unmatched)
+    status = next(s for s in statuses(probe, ': input')
+                  if {kv.key: kv.value for kv in s.values}['imu_publishers'] == '0')
+    assert status.level == DiagnosticStatus.WARN
+    assert status.message == ('no samples on imu/data_raw (0 publishers matched: is the '
+                              'driver running, the topic remapped?)')
+
+
 def test_gravity_removed_stream_gives_no_angle_and_says_so(start_node, probe):
     """
     An IMU that publishes gravity-removed acceleration (|a| ~ 0.6 m/s^2): nothing published.
