@@ -118,6 +118,30 @@ def test_level_calibration_with_play_calibrate_monitor_param(start_node, probe, 
     assert 'worst station mean error: inclination 0.00' in out
 
 
+def test_monitor_counts_its_views_from_the_first_survey(start_node, probe, bench):
+    """
+    A monitor started beside play counts the views of play's input, however late it comes.
+
+    The walkthrough's `monitor --count 4` printed four views before a play started on a
+    loaded host had reached the node: none showed an angle (CI, stop 28).
+    """
+    start_node()
+    probe.wait_for_node()
+    monitor = start('monitor', '--count', 1, '--period-s', 0.5, '--wait-s', 60, cwd=bench)
+    first_view = ''
+    while 'angles        no survey yet' not in first_view:   # the node has no input yet
+        line = monitor.stdout.readline()
+        assert line, f'the monitor ended before its first view: {finish(monitor)}'
+        first_view += line
+    player = start('play', 'bench_bag', '--start-s', 3, cwd=bench)
+    code, out, err = finish(monitor)
+    finish(player, signal.SIGTERM)
+    assert code == 0, err
+    views = (first_view + out).split('\n\n')
+    assert 'angles        inclination' in views[-2], views   # the last view (then a blank)
+    assert all('angles        no survey yet' in view for view in views[:-2])
+
+
 def sensor_bag(path):
     """Write 200 Imu, 200 MagneticField (0.5 ms later) and 5 Temperature messages (1 s)."""
     stamps = 1_000_000_000 + np.arange(200) * 5_000_000

@@ -6,7 +6,9 @@ the input rate and the accepted and dropped totals and the level and message
 of each diagnostics status (``/diagnostics``), the calibration in use
 (``~/calibration``) and a capture's progress or the last service answer
 (``~/capture_progress``).  On a terminal the view is redrawn in place;
-otherwise (a pipe, a log file) one block is printed per period.  What
+otherwise (a pipe, a log file) one block is printed per period.  ``--count``
+counts the views from the first that shows a survey (or from ``--wait-s`` on,
+when none comes): started beside its input, it shows that input.  What
 ``ros2 topic echo`` of those topics shows on a full ROS 2 install, in one place.
 """
 
@@ -34,12 +36,15 @@ def register(subparsers):
         'progress of a capture or the last answer of a service. What ros2 topic echo of those '
         'topics shows on a full ROS 2 install, in one place.',
         'On a terminal the view is redrawn in place; otherwise one block is printed per '
-        'period. Ends on Ctrl-C (exit 0) or after --count views.')
+        'period. Ends on Ctrl-C (exit 0) or after --count views, counted from the first one '
+        'that shows a survey (or, when none comes, from --wait-s on): a monitor started '
+        'with the input it is to show counts the views of that input.')
     add_node_arguments(parser)
     parser.add_argument('--period-s', type=between(0.01, 3600.0), default=1.0, metavar='S',
                         help='seconds between two views, 0.01 .. 3600 (default: %(default)s)')
     parser.add_argument('--count', type=between(1, None, int), metavar='N',
-                        help='stop after N views (default: run until Ctrl-C)')
+                        help='stop after N views showing a survey, or after N views from '
+                             '--wait-s on when none comes (default: run until Ctrl-C)')
     parser.set_defaults(func=run)
 
 
@@ -75,10 +80,11 @@ def run(args):
                       + session.not_found('still listening'), file=sys.stderr)
             while args.count is None or shown < args.count:
                 session.spin(args.period_s)
-                text = '\n'.join(view.lines(args.period_s, time.monotonic() - started,
-                                            args.wait_s, domain_hint))
+                waited_s = time.monotonic() - started
+                text = '\n'.join(view.lines(args.period_s, waited_s, args.wait_s, domain_hint))
                 print(f'{CLEAR}{text}' if redraw else f'{text}\n', flush=True)
-                shown += 1
+                # Views before the input's first survey are shown, not counted (until --wait-s).
+                shown += view.survey is not None or waited_s >= args.wait_s
         except KeyboardInterrupt:
             print()
     return 0
