@@ -179,6 +179,16 @@ def estimate(values, segments, max_lag=LAGS):
     within-segment residuals' degrees of freedom, ``k (N - S)``.  ``max_lag``:
     the longest lag fitted (LAGS or MEAN_LAGS; at most 1 / LAG_SPAN of a segment).
     """
+    return estimate_spans(values, segments, (max_lag,))[0]
+
+
+def estimate_spans(values, segments, max_lags):
+    """
+    Return ``estimate(values, segments, max_lag)`` for each of ``max_lags``, as a tuple.
+
+    The residuals and the variogram are computed once, to the longest lag;
+    each span fits its own first lags of it.
+    """
     segments = np.asarray(segments)
     values = np.asarray(values, dtype=float).reshape(len(segments), -1)
     count, k = values.shape
@@ -188,17 +198,29 @@ def estimate(values, segments, max_lag=LAGS):
         variance=float(np.sum(_residuals(values, segments, sizes, 0) ** 2)) / dof, rho=0.0,
         dof=dof)
     if sizes.min() < MIN_SEGMENT or white.variance == 0.0:
-        return white
+        return tuple(white for _ in max_lags)
     residual = _residuals(values, segments, sizes, 1)
-    lags = np.arange(1, max(min(max_lag, int(sizes.min()) // LAG_SPAN), 2) + 1)
-    variogram = np.array([_variogram(residual, segments, lag) for lag in lags])
-    # Least squares of V_j = sigma^2 g_j(rho, m) over a grid of rho: sigma^2 is linear.
-    shape = detrended_shape(int(np.median(sizes)), tuple(int(lag) for lag in lags))
+    spans = [max(min(max_lag, int(sizes.min()) // LAG_SPAN), 2) for max_lag in max_lags]
+    variogram = np.array([_variogram(residual, segments, lag) for lag in range(1, max(spans) + 1)])
+    size = int(np.median(sizes))
+    return tuple(_fitted(variogram[:span], size, count, white) for span in spans)
+
+
+def _fitted(variogram, size, count, white):
+    """
+    Return the AR(1) CorrelatedNoise whose detrended variogram law fits ``variogram``.
+
+    Least squares of V_j = sigma^2 g_j(rho, m), j = 1 .. len(variogram), over
+    a grid of rho (sigma^2 is linear), for segments of ``size`` samples;
+    ``white`` where rho is not significant over the ``count`` samples.
+    """
+    shape = detrended_shape(size, tuple(range(1, len(variogram) + 1)))
     variance = (shape @ variogram) / np.sum(shape * shape, axis=1)
     best = int(np.argmin(np.sum((variogram - variance[:, None] * shape) ** 2, axis=1)))
     if not RHO_GRID[best] > THRESHOLD / math.sqrt(count):
         return white
-    return CorrelatedNoise(variance=float(variance[best]), rho=float(RHO_GRID[best]), dof=dof)
+    return CorrelatedNoise(variance=float(variance[best]), rho=float(RHO_GRID[best]),
+                           dof=white.dof)
 
 
 def dof(noise, samples):

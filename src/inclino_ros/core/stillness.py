@@ -232,12 +232,12 @@ def assess(angles_rad, times_s=None):
     n_b = np.bincount(block).astype(float)
     means = np.stack([np.bincount(block, weights=angles[:, j]) for j in range(k)], axis=1)
     means /= n_b[:, None]
-    noise = correlated_noise.estimate(angles, block)
+    # The still test's noise (short lags), and the mean's variance from the longer lags
+    # (``correlated_noise.MEAN_LAGS``), its n_eff in samples of that per-sample noise.
+    noise, mean_noise = correlated_noise.estimate_spans(
+        angles, block, (correlated_noise.LAGS, correlated_noise.MEAN_LAGS))
     noise_var = noise.variance
-    # The mean's variance from the longer lags (``correlated_noise.MEAN_LAGS``), its n_eff
-    # in samples of the still test's per-sample noise.
-    mean_var = float(correlated_noise.estimate(angles, block, correlated_noise.MEAN_LAGS)
-                     .mean_variance(count))
+    mean_var = float(mean_noise.mean_variance(count))
     effective = noise_var / mean_var if mean_var > 0.0 else float(count)
     # Correlated noise: a block mean varies F(n_b) times a white one (the mean over the
     # blocks, nearly equal); the noise is known to ``correlated_noise.dof``.
