@@ -347,9 +347,9 @@ class CalibrationModel:
         """
         Return what ``parameter_blocks`` needs of the stages, built once.
 
-        (the covered stages, their covariance, the stand fit's own covariance
-        when the magnetometer's does not cover it, the stand's covariance
-        whichever fit holds it, K^-1 of the stand, the
+        (the covered stages, their covariance, the stand's covariance whichever
+        fit holds it (its own block when the magnetometer's does not cover it),
+        K^-1 of the stand, the
         magnetometer's map into the accelerometer frame, the mount's C^-1,
         seed 002's W as 3x3, the tool axis's angles [rad], the rotation fit's
         covariance, and what the stand's error does to the installation angles:
@@ -367,16 +367,15 @@ class CalibrationModel:
             rows = self.magnetometer.covariance_blocks
             index = np.concatenate([np.arange(rows[n].start, rows[n].stop) for n in names])
             covariance = np.array(self.magnetometer.parameter_covariance)[np.ix_(index, index)]
-        own_stand = (None if self.stand is None or self.stand.parameter_covariance is None
-                     or 'stand' in names else np.array(self.stand.parameter_covariance))
         if 'stand' in names:    # the first of the covered stages
             size = self.magnetometer.covariance_blocks['stand']
             stand_covariance = covariance[:size.stop - size.start, :size.stop - size.start]
         else:
-            stand_covariance = own_stand
+            stand_covariance = (None if self.stand is None
+                                or self.stand.parameter_covariance is None
+                                else np.array(self.stand.parameter_covariance))
         return {
-            'names': names, 'covariance': covariance, 'own_stand': own_stand,
-            'stand_covariance': stand_covariance,
+            'names': names, 'covariance': covariance, 'stand_covariance': stand_covariance,
             'soft_iron': soft_iron, 'mount': mount, 'mark': self._mark,
             'stand': self._stand_inverse,
             'magnetometer': None if self.magnetometer is None else (
@@ -438,8 +437,8 @@ class CalibrationModel:
         blocks = []
         count = np.shape(sensor)[0]
         soft_iron, mount = layout['soft_iron'], layout['mount']
-        if layout['own_stand'] is not None:
-            blocks.append((layout['own_stand'], self._stand_jacobian(sensor, temperature_c),
+        if layout['stand_covariance'] is not None and 'stand' not in layout['names']:
+            blocks.append((layout['stand_covariance'], self._stand_jacobian(sensor, temperature_c),
                            self._stand_field_jacobian(field_nT, temperature_c)))
         if layout['names']:
             j_f, j_b = [], []
