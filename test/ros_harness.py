@@ -156,9 +156,11 @@ class Probe:
             self.executor.spin_once(timeout_sec=0.05)
         else:
             raise TimeoutError('the node did not come up')
-        while both_ways and int(
-                self.wait_status(': input', end - time.monotonic())[1]['imu_publishers']) < 1:
-            pass
+        if both_ways:   # a status built from now on that counts the probe's publisher
+            self.received['/diagnostics'].clear()
+            self.spin_until(lambda: any(int(values['imu_publishers']) >= 1
+                                        for values in self.status_values(': input')),
+                            end - time.monotonic())
 
     def publish(self, acceleration):
         """Publish one raw sample; return its index."""
@@ -280,6 +282,12 @@ class Probe:
                 self.executor.spin_once(timeout_sec=0.01)
         raise AssertionError(f'no {"paired " if paired else ""}survey of the samples stamped '
                              f'{sorted(sent)} in {timeout_s} s')
+
+    def status_values(self, suffix):
+        """Return the values (dicts) of the diagnostics statuses named ``*suffix`` received."""
+        return [{kv.key: kv.value for kv in status.values}
+                for array in self.received['/diagnostics'] for status in array.status
+                if status.name.endswith(suffix)]
 
     def wait_status(self, suffix, timeout_s=30.0):
         """

@@ -93,9 +93,7 @@ def test_a_moving_tool_gives_no_station_and_the_diagnostics_say_so(start_node, p
     probe.stream(lambda i: turning[i], rate_hz=400.0, count=100)
 
     def windows_moving():
-        values = [{kv.key: kv.value for kv in status.values}
-                  for array in probe.received['/diagnostics'] for status in array.status
-                  if status.name.endswith(': input')]
+        values = probe.status_values(': input')
         return int(values[-1].get('windows_moving', -1)) if values else -1
 
     probe.spin_until(lambda: windows_moving() == 5)
