@@ -174,6 +174,32 @@ def test_play_replays_every_sensor_topic_with_its_stamps(start_node, probe, tmp_
     assert values['temperature_c'] == '34.00'
 
 
+def test_play_into_a_node_just_started_loses_nothing(start_node, probe, tmp_path):
+    """
+    Play started with the node: every message reaches it (accepted_total, its diagnostics).
+
+    The node's best-effort subscription drops what comes from a publisher it has not
+    matched yet, and play's publisher may see the subscription first: play waits until
+    the node has heard it (``LiveSession.wait_heard_by``) before the first message.
+    """
+    sensor_bag(tmp_path / 'sensors')
+    start_node()
+    code, out, err = inclino('play', 'sensors', '--topics', '/imu/data_raw', '--rate', 4,
+                             cwd=tmp_path)
+    assert code == 0, err
+    assert 'published 200 messages on /imu/data_raw' in out
+    totals = []
+
+    def all_accepted():
+        totals[:] = [int(values['accepted_total']) for values in probe.status_values(': input')]
+        return 200 in totals
+
+    try:
+        probe.spin_until(all_accepted, 30.0)
+    except AssertionError:
+        raise AssertionError(f'the node accepted {totals[-1:]} of 200 messages') from None
+
+
 def test_ctrl_c_never_prints_a_traceback(start_node, probe, bench):
     """Ctrl-C in play (stops, says how far), calibrate and call (say what goes on): clean."""
     start_node(**{'level_capture.timeout_s': 2.0, 'survey.timeout_s': 60.0})

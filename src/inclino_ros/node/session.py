@@ -126,7 +126,7 @@ class LiveSession:
             self.executor.spin_once(timeout_sec=step_s)
         return done()
 
-    def wait_heard_by(self, target, timeout_s):
+    def wait_heard_by(self, target, timeout_s, ready_s=None):
         """
         Wait until node ``target`` has discovered this session's endpoints; return whether it did.
 
@@ -142,14 +142,17 @@ class LiveSession:
         ``~/list_parameters`` to a client made after the caller's own proves
         the node has matched both endpoints of every client made before.
         That request is resent until answered, within ``timeout_s`` (the
-        node's name in the graph comes later still: not waited for).
+        node's name in the graph comes later still: not waited for).  A node
+        whose ``~/list_parameters`` is not seen within ``ready_s`` (None:
+        ``timeout_s``) has none (the ros2 CLI's): False at once.
         """
         from rcl_interfaces.srv import ListParameters
 
         end = time.monotonic() + timeout_s
         client = self.node.create_client(ListParameters, f'{node_name(target)}/list_parameters')
         try:
-            if not self.spin_until(client.service_is_ready, timeout_s):
+            if not self.spin_until(client.service_is_ready,
+                                   timeout_s if ready_s is None else min(ready_s, timeout_s)):
                 return False
             answered, _ = self.answer(
                 lambda: client.call_async(ListParameters.Request(
