@@ -135,7 +135,7 @@ class Probe:
             assert time.monotonic() < end, 'the awaited condition never came'
             self.executor.spin_once(timeout_sec=0.01)
 
-    def wait_for_node(self, timeout_s=20.0, both_ways=True):
+    def wait_for_node(self, timeout_s=20.0):
         """
         Wait until the node's subscription, outputs and service are matched, both ways.
 
@@ -143,8 +143,7 @@ class Probe:
         node's subscription before that subscription knows the publisher, and a
         best-effort subscription drops what comes from a publisher it does not know
         yet (the first samples of a test, on a loaded machine).  So the node's own
-        count is awaited too: its input diagnostics' ``imu_publishers`` (``both_ways``
-        False: not, for a node whose diagnostics cannot come, its ROS time standing).
+        count is awaited too: its input diagnostics' ``imu_publishers``.
         """
         end = time.monotonic() + timeout_s
         while time.monotonic() < end:
@@ -156,11 +155,10 @@ class Probe:
             self.executor.spin_once(timeout_sec=0.05)
         else:
             raise TimeoutError('the node did not come up')
-        if both_ways:   # a status built from now on that counts the probe's publisher
-            self.received['/diagnostics'].clear()
-            self.spin_until(lambda: any(int(values['imu_publishers']) >= 1
-                                        for values in self.status_values(': input')),
-                            end - time.monotonic())
+        self.received['/diagnostics'].clear()   # a status from now on counting the probe's
+        self.spin_until(lambda: any(int(values['imu_publishers']) >= 1
+                                    for values in self.status_values(': input')),
+                        end - time.monotonic())
 
     def publish(self, acceleration):
         """Publish one raw sample; return its index."""

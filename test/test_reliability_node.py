@@ -15,6 +15,7 @@ import os
 import subprocess
 import time
 
+from diagnostic_msgs.msg import DiagnosticStatus
 from hypothesis import given, HealthCheck, settings, strategies as st
 from inclino_ros.calibration.model import CalibrationModel, load_model, save_model
 from inclino_ros.node.capture import Capture, MAX_TIMED_ROWS
@@ -238,9 +239,18 @@ def fuzz_node(start_node, probe, tmp_path):
 
 
 def test_a_capture_under_sim_time_without_clock_ends(start_node, probe):
-    """use_sim_time and no /clock: the capture's progress froze for ever; refused, named."""
+    """
+    use_sim_time and no /clock: the capture's progress froze for ever; refused, named.
+
+    /diagnostics came never (a timer on ROS time): it comes on wall time, and the input
+    status says ROS time stood still, asking for /clock.
+    """
     start_node(use_sim_time=True)
-    probe.wait_for_node(both_ways=False)    # no /clock: no diagnostics either
+    probe.wait_for_node()
+    status, _ = probe.wait_status(': input')
+    assert status.level == DiagnosticStatus.WARN
+    assert status.message.startswith('ROS time stood still since the last status: use_sim_time '
+                                     'is set: does anything publish /clock?'), status.message
     started = time.monotonic()
     answer = probe.call('calibrate_level', timeout_s=60.0)
     assert answer is not None, 'no answer within 60 s'

@@ -52,6 +52,9 @@ PROGRESS_PERIOD_S = 0.2
 #: Wall seconds of ROS time standing still after which a capture is refused: /clock of a
 #: playing bag ticks many times a second; 5 s without a tick is no clock at all.
 STALLED_CLOCK_S = 5.0
+#: What a ROS time standing still under use_sim_time asks (a capture's refusal, diagnostics).
+CLOCK_HINT = ('use_sim_time is set: does anything publish /clock? (ros2 bag play --clock; '
+              'inclino play publishes none: set use_sim_time false)')
 
 #: Most samples a timed capture holds (even: halved when full).
 MAX_TIMED_ROWS = 65536
@@ -306,9 +309,7 @@ class Collector:
             self.publish_progress(service, 'collected', capture)
         if capture.stalled:
             raise CaptureRefused(
-                f'ROS time stood still for {STALLED_CLOCK_S:g} s of wall time: use_sim_time is '
-                'set and nothing publishes /clock (play the bag with its clock, e.g. inclino '
-                'play, or set use_sim_time false)')
+                f'ROS time stood still for {STALLED_CLOCK_S:g} s of wall time: {CLOCK_HINT}')
         if rows is None or rows.shape[0] == 0:
             dropped = {reason: after - before for reason, after, before in zip(
                 REASONS, node.stats.dropped_total, dropped_before) if after > before}

@@ -32,7 +32,7 @@ from inclino_ros.calibration.store import axes_refusal
 from inclino_ros.core.averaging import Averager
 from inclino_ros.core.magnetics import QcLimits
 from inclino_ros.io.bag import encode, encode_float64, IMU, MAGNETIC_FIELD
-from inclino_ros.node.capture import change_refusal, Collector, latched_qos
+from inclino_ros.node.capture import change_refusal, CLOCK_HINT, Collector, latched_qos
 from inclino_ros.node.executor import run_node
 from inclino_ros.node.magnetic_services import MagneticServices
 from inclino_ros.node.parameters import PARAMETERS, refusal
@@ -45,6 +45,7 @@ from inclino_ros.stream import correct_batch
 import numpy as np
 from rcl_interfaces.msg import (
     FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult)
+from rclpy.clock import Clock, ClockType
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.exceptions import NameValidationException, ParameterException
 from rclpy.node import Node
@@ -148,7 +149,10 @@ class InclinometerNode(Node):
         self.collector = Collector(self)
         self.calibration = CalibrationServices(self, self.collector)
         self.magnetic = MagneticServices(self, self.collector, stations)
-        self.create_timer(self.param('diagnostics_period_s'), self._publish_diagnostics)
+        # Wall time: under use_sim_time without /clock a ROS-time timer never fires.
+        self._diagnostics_ros_ns = None
+        self.create_timer(self.param('diagnostics_period_s'), self._publish_diagnostics,
+                          clock=Clock(clock_type=ClockType.STEADY_TIME))
         if self.averager is not None:
             self.stats.count_windows(0, 0)
         # The executor runs every callback holding callback_lock (node.executor.spin), and the
@@ -356,11 +360,18 @@ class InclinometerNode(Node):
         now_s = now.nanoseconds * 1e-9
         array = DiagnosticArray()
         array.header.stamp = now.to_msg()
+        inputs = self.stats.status(self.get_name(), now_s, self.settings.gravity_mps2,
+                                   self.param('level_capture.g_total_tolerance_mps2'),
+                                   self._imu_subscription.get_publisher_count())
+        stood_still = now.nanoseconds == self._diagnostics_ros_ns
+        self._diagnostics_ros_ns = now.nanoseconds
+        if stood_still and self.get_parameter('use_sim_time').value:
+            inputs.level = max(inputs.level, DiagnosticStatus.WARN)
+            inputs.message = (f'ROS time stood still since the last status: {CLOCK_HINT}; '
+                              + inputs.message)
         array.status = [
             self._calibration_status(),
-            self.stats.status(self.get_name(), now_s, self.settings.gravity_mps2,
-                              self.param('level_capture.g_total_tolerance_mps2'),
-                              self._imu_subscription.get_publisher_count()),
+            inputs,
             self.temperature.status(self.get_name(), now_s, self.param('temperature.max_age_s'),
                                     temperature_stage(self.model), self._missing_temperature()),
             self.magnetometer.status(self.get_name(), self.magnetic_settings,

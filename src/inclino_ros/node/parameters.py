@@ -123,7 +123,8 @@ PARAMETERS = (
               'every sample (not with output.average_samples); 0: every sample, else at least '
               '0.01 (a window of at most 100 s).', 0.0, 10000.0),
     Parameter('diagnostics_period_s', 1.0,
-              'Period of the /diagnostics report [s].', 0.1, 60.0),
+              'Period of the /diagnostics report [s], in wall time (under use_sim_time too: a '
+              'ROS time standing still is reported).', 0.1, 60.0),
     Parameter('still.max_drift_deg_per_s', 0.02,
               'Every capture: a drift of its mean faster than this [deg/s] and significant '
               'against its own noise (chance below 1e-6 for a still tool) is motion, and '
