@@ -135,7 +135,7 @@ class Probe:
             assert time.monotonic() < end, 'the awaited condition never came'
             self.executor.spin_once(timeout_sec=0.01)
 
-    def wait_for_node(self, timeout_s=20.0):
+    def wait_for_node(self, timeout_s=60.0):
         """
         Wait until the node's subscription, outputs and service are matched, both ways.
 
@@ -143,7 +143,8 @@ class Probe:
         node's subscription before that subscription knows the publisher, and a
         best-effort subscription drops what comes from a publisher it does not know
         yet (the first samples of a test, on a loaded machine).  So the node's own
-        count is awaited too: its input diagnostics' ``imu_publishers``.
+        count is awaited too: its input diagnostics' ``imu_publishers``.  ``timeout_s``
+        is a failsafe: 20 s ran out once on a 2-core host loaded three times over.
         """
         end = time.monotonic() + timeout_s
         while time.monotonic() < end:
