@@ -87,7 +87,7 @@ def wait_heard(session, publishers, wait_s):
     subscription before the subscription knows it, and a best-effort
     subscription (the node's, sensor data) drops what comes from a publisher
     it does not know yet: a play started with the node lost its first 18 of
-    200 messages in 1 of 8 runs on a loaded host.  So each subscribing node
+    200 messages in 2 of 14 runs on a loaded host.  So each subscribing node
     (once the graph names it) answers ``~/list_parameters`` first
     (``LiveSession.wait_heard_by``); one without parameter services (the
     ros2 CLI's) is not waited for beyond MATCH_GRACE_S.
