@@ -36,14 +36,32 @@ def ros():
     rclpy.shutdown()
 
 
+#: Characters of each node's log a failed test shows.
+LOG_TAIL_CHARS = 4000
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_makereport(item, call):
+    """Show, for a failed test, the end of each node's log and whether the node still ran."""
+    outcome = yield
+    report = outcome.get_result()
+    if report.when == 'call' and report.failed:
+        for node in getattr(item, 'inclino_nodes', ()):
+            code = node.process.poll()
+            report.sections.append((
+                f'{node.log_path} ({"running" if code is None else f"exited {code}"})',
+                node.log()[-LOG_TAIL_CHARS:]))
+
+
 @pytest.fixture
-def start_node(tmp_path, ros):
+def start_node(tmp_path, ros, request):
     """
     Return a starter of ``inclinometer_node`` processes, all stopped after the test.
 
-    Its files go to ``tmp_path``; diagnostics come every 0.5 s.
+    Its files go to ``tmp_path``; diagnostics come every 0.5 s.  A failed test
+    shows the end of each node's log (``pytest_runtest_makereport``).
     """
-    started = []
+    started = request.node.inclino_nodes = []
 
     def start(**parameters):
         parameters.setdefault('calibration_file', str(tmp_path / 'calibration.json'))
