@@ -43,8 +43,8 @@ def register(subparsers):
     parser.add_argument('--period-s', type=between(0.01, 3600.0), default=1.0, metavar='S',
                         help='seconds between two views, 0.01 .. 3600 (default: %(default)s)')
     parser.add_argument('--count', type=between(1, None, int), metavar='N',
-                        help='stop after N views showing a survey, or after N views from '
-                             '--wait-s on when none comes (default: run until Ctrl-C)')
+                        help='stop after N views, counted from the first that shows a survey '
+                             '(from --wait-s on, when none comes; default: run until Ctrl-C)')
     parser.set_defaults(func=run)
 
 
